@@ -1,0 +1,55 @@
+//! Helpers shared by the subcommands.
+
+use anyhow::{Context, Result};
+use lasercal::scenario::ScenarioFile;
+use std::path::Path;
+
+/// Load a scenario file with a clear error.
+pub fn load_scenario(path: &Path) -> Result<ScenarioFile> {
+    ScenarioFile::load(path).map_err(anyhow::Error::from)
+}
+
+/// A progress bar on stderr when it is a terminal and not under CI; hidden otherwise.
+pub fn progress(total: u64, what: &str) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    let quiet = std::env::var_os("CI").is_some() || !std::io::stderr().is_terminal();
+    if quiet {
+        return indicatif::ProgressBar::hidden();
+    }
+    let pb = indicatif::ProgressBar::new(total);
+    pb.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{msg} [{bar:40}] {pos}/{len} trials, {per_sec}, ETA {eta}",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+        .progress_chars("=> "),
+    );
+    pb.set_message(what.to_string());
+    pb
+}
+
+/// A 4x4 pose (mm) printed as rows.
+pub fn matrix_text(rows: &[[f64; 4]; 4]) -> String {
+    rows.iter()
+        .map(|r| {
+            format!(
+                "  [{:>11.6} {:>11.6} {:>11.6} {:>12.5}]",
+                r[0], r[1], r[2], r[3]
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// Parse "a,b,c" into n numbers.
+pub fn parse_list(s: &str, n: usize, what: &str) -> Result<Vec<f64>> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("{what}: '{s}' is not a comma-separated list of numbers"))?;
+    if v.len() != n || v.iter().any(|x| !x.is_finite()) {
+        anyhow::bail!("{what}: '{s}' must be {n} finite comma-separated numbers");
+    }
+    Ok(v)
+}

@@ -1,0 +1,46 @@
+//! The `lasercal` command line: one module per subcommand.
+
+mod common;
+mod fk;
+mod ik;
+mod run;
+mod sweep;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(
+    name = "lasercal",
+    version,
+    about = "Hand-eye calibration test bench for 2D laser profile scanners on robots"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Forward kinematics: tool0 pose in the base frame for six joint angles in degrees.
+    Fk(fk::Args),
+    /// Inverse kinematics: every joint solution (degrees) for a tool0 pose.
+    Ik(ik::Args),
+    /// Simulate a scenario once, calibrate, and print the recovered transform and its error.
+    Run(run::Args),
+    /// Run a scenario's sweep grid: trials.csv, summary.csv and plots.
+    Sweep(sweep::Args),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Fk(a) => fk::run(a),
+        Command::Ik(a) => ik::run(a),
+        Command::Run(a) => run::run(a),
+        Command::Sweep(a) => sweep::run(a),
+    };
+    if let Err(e) = result {
+        eprintln!("error: {e:#}");
+        std::process::exit(2);
+    }
+}

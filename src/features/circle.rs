@@ -1,0 +1,64 @@
+//! Circle fit in the profile plane: algebraic (Kasa) start, then Gauss-Newton on the geometric
+//! distances. Exact points give the exact circle.
+
+use nalgebra::{Matrix3, Vector2, Vector3};
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Circle {
+    pub centre: Vector2<f64>,
+    pub radius: f64,
+    /// RMS of the geometric residuals.
+    pub rms: f64,
+}
+
+/// Fit a circle to at least 3 points; None for degenerate (collinear) input.
+pub fn fit_circle(pts: &[Vector2<f64>]) -> Option<Circle> {
+    if pts.len() < 3 {
+        return None;
+    }
+    // Centre the data for conditioning.
+    let m = pts.iter().sum::<Vector2<f64>>() / pts.len() as f64;
+    let mut ata = Matrix3::zeros();
+    let mut atb = Vector3::zeros();
+    for p in pts {
+        let d = p - m;
+        let row = Vector3::new(d.x, d.y, 1.0);
+        ata += row * row.transpose();
+        atb += row * (d.x * d.x + d.y * d.y);
+    }
+    let sol = ata.lu().solve(&atb)?;
+    let mut c = Vector2::new(sol.x / 2.0, sol.y / 2.0);
+    let r2 = sol.z + c.norm_squared();
+    if !r2.is_finite() || r2 <= 0.0 {
+        return None;
+    }
+    let mut r = r2.sqrt();
+    // Gauss-Newton on f_i = |p_i - c| - r.
+    for _ in 0..50 {
+        let mut jtj = Matrix3::zeros();
+        let mut jtf = Vector3::zeros();
+        for p in pts {
+            let d = (p - m) - c;
+            let n = d.norm();
+            if n == 0.0 {
+                return None;
+            }
+            let f = n - r;
+            let j = Vector3::new(-d.x / n, -d.y / n, -1.0);
+            jtj += j * j.transpose();
+            jtf += j * f;
+        }
+        let step = jtj.lu().solve(&(-jtf))?;
+        c += Vector2::new(step.x, step.y);
+        r += step.z;
+        if step.norm() < 1e-15 * (1.0 + r) {
+            break;
+        }
+    }
+    let ss: f64 = pts.iter().map(|p| ((p - m - c).norm() - r).powi(2)).sum();
+    Some(Circle {
+        centre: c + m,
+        radius: r.abs(),
+        rms: (ss / pts.len() as f64).sqrt(),
+    })
+}

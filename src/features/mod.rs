@@ -1,0 +1,391 @@
+//! Features from one profile: disk chord endpoints, the ball's arc circle, and the straight-edge
+//! point. Each works in the profile plane (sensor x, z) and knows the sensor's column rays, so the
+//! ends of a surface are placed between columns at sub-sample precision.
+
+pub mod circle;
+pub mod lines;
+
+pub use circle::{Circle, fit_circle};
+pub use lines::{Line2, Segment, SplitMerge, split_and_merge};
+
+use crate::sensor::{Profile, SensorModel};
+use nalgebra::Vector2;
+use thiserror::Error;
+
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum FeatureError {
+    #[error("the profile has {found} valid points; at least {need} are needed")]
+    TooFewPoints { found: usize, need: usize },
+    #[error("no chord of the disk in this profile: {reason}")]
+    NoChord { reason: String },
+    #[error(
+        "the chord runs off the field of view at column {column}; move the sensor so the whole chord is seen"
+    )]
+    ChordTruncated { column: usize },
+    #[error("no arc of the ball in this profile: {reason}")]
+    NoArc { reason: String },
+    #[error("no edge in this profile: {reason}")]
+    NoEdge { reason: String },
+}
+
+/// A chord of the disk seen in one profile: endpoints (x, z) in the sensor frame, `a` at the
+/// lower column.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Chord {
+    pub a: Vector2<f64>,
+    pub b: Vector2<f64>,
+}
+
+/// Valid points with their column index.
+pub fn valid_points(profile: &Profile) -> Vec<(usize, Vector2<f64>)> {
+    profile
+        .points
+        .iter()
+        .enumerate()
+        .filter_map(|(k, p)| p.map(|p| (k, Vector2::new(p.x, p.z))))
+        .collect()
+}
+
+/// Where `line` crosses the ray midway between columns `k` and `k2` (a surface that ends between
+/// two columns is placed halfway: at most half a sample off).
+fn end_between(sensor: &SensorModel, line: &Line2, k: usize, k2: usize) -> Option<Vector2<f64>> {
+    let t = 0.5 * (sensor.column_tan(k) + sensor.column_tan(k2));
+    let ray = Line2 {
+        point: Vector2::new(0.0, sensor.apex_z),
+        dir: Vector2::new(t, sensor.dir_z).normalize(),
+    };
+    line.intersect(&ray)
+}
+
+/// End of segment `seg` on one side: the corner with a neighbouring segment that continues without a
+/// jump, or else halfway to the next column.
+
+/// True when the profile beyond end `forward` of segment `i` lies farther from the sensor than the
+/// segment's line continued (a step down or a convex corner), or nothing lies beyond.
+fn drops_away(
+    sensor: &SensorModel,
+    pts: &[(usize, Vector2<f64>)],
+    s: &Segment,
+    forward: bool,
+    tol: f64,
+) -> bool {
+    let idx = if forward {
+        s.last + 1
+    } else {
+        s.first.wrapping_sub(1)
+    };
+    let Some(&(k, p)) = pts.get(idx) else {
+        return true;
+    };
+    let ray = Line2 {
+        point: Vector2::new(0.0, sensor.apex_z),
+        dir: Vector2::new(sensor.column_tan(k), sensor.dir_z).normalize(),
+    };
+    match s.line.intersect(&ray) {
+        Some(on_line) => {
+            sensor.dir_z * (p.y - sensor.apex_z) >= sensor.dir_z * (on_line.y - sensor.apex_z) - tol
+        }
+        None => true,
+    }
+}
+
+/// Refit a segment's ends: split-and-merge decides with a coarse tolerance, so a wall point just off
+/// the face can join it, and a corner point goes to one side only. Fit the interior, then keep
+/// exactly the neighbouring points within 4 RMS of that line (at least 1 nm; at most `tol`).
+fn tighten(pts: &[(usize, Vector2<f64>)], s: &Segment, tol: f64) -> (usize, usize, Line2) {
+    let n = s.last + 1 - s.first;
+    let trim = if n > 8 { 2 } else { 0 };
+    let interior: Vec<Vector2<f64>> = pts[s.first + trim..=s.last - trim]
+        .iter()
+        .map(|p| p.1)
+        .collect();
+    let Some(line) = Line2::fit(&interior) else {
+        return (s.first, s.last, s.line);
+    };
+    let rms = (interior
+        .iter()
+        .map(|p| line.distance(p).powi(2))
+        .sum::<f64>()
+        / interior.len() as f64)
+        .sqrt();
+    let thr = (4.0 * rms).clamp(1e-9, tol);
+    let ok = |i: usize, j: usize| {
+        pts[j].0.abs_diff(pts[i].0) == 1 && line.distance(&pts[j].1).abs() <= thr
+    };
+    let (mut first, mut last) = (s.first + trim, s.last - trim);
+    while first > 0 && ok(first, first - 1) {
+        first -= 1;
+    }
+    while last + 1 < pts.len() && ok(last, last + 1) {
+        last += 1;
+    }
+    let all: Vec<Vector2<f64>> = pts[first..=last].iter().map(|p| p.1).collect();
+    (first, last, Line2::fit(&all).unwrap_or(line))
+}
+
+/// Chord of a disk on a cylinder (a step at the rim): split-and-merge; the chord is the segment, no
+/// longer than the disk's diameter, beyond both of whose ends the profile falls away from the
+/// sensor (the table and the cylinder wall lie below the disk); among several, the one with most
+/// points. Its ends are placed between columns.
+pub fn disk_chord_step(
+    profile: &Profile,
+    sensor: &SensorModel,
+    disk_radius: f64,
+    cfg: &SplitMerge,
+) -> Result<Chord, FeatureError> {
+    let pts = valid_points(profile);
+    if pts.len() < cfg.min_points {
+        return Err(FeatureError::TooFewPoints {
+            found: pts.len(),
+            need: cfg.min_points,
+        });
+    }
+    let segs = split_and_merge(&pts, cfg);
+    let max_len = 2.0 * disk_radius * 1.02 + 4.0 * sensor.x_step_at_depth(sensor.depth_far);
+    let best = segs
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| (pts[s.last].1 - pts[s.first].1).norm() <= max_len)
+        .filter(|(_, s)| {
+            drops_away(sensor, &pts, s, false, cfg.split_tol)
+                && drops_away(sensor, &pts, s, true, cfg.split_tol)
+        })
+        .max_by_key(|(_, s)| s.last - s.first)
+        .ok_or_else(|| FeatureError::NoChord {
+            reason: format!(
+                "none of {} line segments is a plateau shorter than the disk diameter",
+                segs.len()
+            ),
+        })?
+        .0;
+    // The rim lies between the last column on the disk and the next one, whatever is beyond (the
+    // cylinder wall is curved, so a corner with it would not be exact).
+    let (first, last, line) = tighten(&pts, &segs[best], cfg.split_tol);
+    let s = &Segment { first, last, line };
+    let end = |idx: usize, forward: bool| {
+        let k = pts[idx].0;
+        let k2 = if forward { k + 1 } else { k.wrapping_sub(1) };
+        if k2 >= sensor.columns {
+            return Err(FeatureError::ChordTruncated { column: k });
+        }
+        end_between(sensor, &s.line, k, k2).ok_or(FeatureError::ChordTruncated { column: k })
+    };
+    Ok(Chord {
+        a: end(first, false)?,
+        b: end(last, true)?,
+    })
+}
+
+/// Chord of a white disk on black paper: the longest run of bright points (intensity above the
+/// midpoint of the profile's range), ends placed between the last bright and first dark column.
+pub fn disk_chord_intensity(
+    profile: &Profile,
+    sensor: &SensorModel,
+    min_points: usize,
+) -> Result<Chord, FeatureError> {
+    let valid: Vec<(usize, f64)> = profile
+        .points
+        .iter()
+        .enumerate()
+        .filter_map(|(k, p)| p.map(|p| (k, p.intensity)))
+        .collect();
+    if valid.len() < min_points {
+        return Err(FeatureError::TooFewPoints {
+            found: valid.len(),
+            need: min_points,
+        });
+    }
+    let (lo, hi) = valid
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &(_, i)| {
+            (l.min(i), h.max(i))
+        });
+    if hi <= 2.0 * lo {
+        return Err(FeatureError::NoChord {
+            reason: format!("no contrast: intensities span {lo:.3}..{hi:.3}"),
+        });
+    }
+    let thr = 0.5 * (lo + hi);
+    let bright = |k: usize| profile.points[k].is_some_and(|p| p.intensity >= thr);
+    let mut best: Option<(usize, usize)> = None;
+    let mut k = 0;
+    while k < profile.points.len() {
+        if bright(k) {
+            let start = k;
+            while k + 1 < profile.points.len() && bright(k + 1) {
+                k += 1;
+            }
+            if best.is_none_or(|(a, b)| k - start > b - a) {
+                best = Some((start, k));
+            }
+        }
+        k += 1;
+    }
+    let (first, last) = best.ok_or_else(|| FeatureError::NoChord {
+        reason: "no bright run".into(),
+    })?;
+    if last + 1 - first < min_points {
+        return Err(FeatureError::NoChord {
+            reason: format!("the bright run has {} points", last + 1 - first),
+        });
+    }
+    if first == 0 || last + 1 >= sensor.columns {
+        return Err(FeatureError::ChordTruncated {
+            column: if first == 0 { 0 } else { last },
+        });
+    }
+    let pts: Vec<Vector2<f64>> = (first..=last)
+        .filter_map(|k| profile.points[k].map(|p| Vector2::new(p.x, p.z)))
+        .collect();
+    let line = Line2::fit(&pts).ok_or_else(|| FeatureError::NoChord {
+        reason: "degenerate run".into(),
+    })?;
+    let a = end_between(sensor, &line, first, first - 1)
+        .ok_or(FeatureError::ChordTruncated { column: first })?;
+    let b = end_between(sensor, &line, last, last + 1)
+        .ok_or(FeatureError::ChordTruncated { column: last })?;
+    Ok(Chord { a, b })
+}
+
+/// The ball's arc: among runs of neighbouring points, the one best fitted by a circle no larger than
+/// the ball; outliers beyond 4 RMS are dropped and the circle refitted.
+pub fn ball_arc(
+    profile: &Profile,
+    ball_radius: f64,
+    cfg: &SplitMerge,
+) -> Result<Circle, FeatureError> {
+    let pts = valid_points(profile);
+    if pts.len() < 5 {
+        return Err(FeatureError::TooFewPoints {
+            found: pts.len(),
+            need: 5,
+        });
+    }
+    let mut best: Option<(Circle, usize)> = None;
+    for (a, b) in lines::runs(&pts, cfg.jump * 3.0, 3) {
+        if b + 1 - a < 5 {
+            continue;
+        }
+        let v: Vec<Vector2<f64>> = pts[a..=b].iter().map(|p| p.1).collect();
+        let Some(c) = fit_circle(&v) else { continue };
+        if c.radius > ball_radius * 1.05 + 1e-3 || c.radius < 0.05 * ball_radius {
+            continue;
+        }
+        let c = trim_and_refit(&v, c);
+        if best.as_ref().is_none_or(|(_, n)| v.len() > *n) {
+            best = Some((c, v.len()));
+        }
+    }
+    best.map(|b| b.0).ok_or_else(|| FeatureError::NoArc {
+        reason: format!(
+            "no run of points fits a circle of radius at most {:.2} mm",
+            ball_radius * 1.05e3
+        ),
+    })
+}
+
+fn trim_and_refit(v: &[Vector2<f64>], mut c: Circle) -> Circle {
+    for _ in 0..3 {
+        let cut = 4.0 * c.rms.max(1e-9);
+        let kept: Vec<Vector2<f64>> = v
+            .iter()
+            .copied()
+            .filter(|p| ((p - c.centre).norm() - c.radius).abs() <= cut)
+            .collect();
+        if kept.len() == v.len() || kept.len() < 5 {
+            break;
+        }
+        match fit_circle(&kept) {
+            Some(n) => c = n,
+            None => break,
+        }
+    }
+    c
+}
+
+/// Which way the profile crosses the edge: `Rising` when the specimen lies at higher x than the
+/// edge, `Falling` when the profile runs over the specimen and drops off toward higher x.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EdgeSense {
+    Falling,
+    Rising,
+}
+
+/// The straight-edge point: from the segment nearest the sensor (the specimen's top face), walk
+/// toward the edge over shallow bevels; the edge is the corner with a steep side wall, or the end of
+/// the last face halfway to the next column where the profile jumps or ends.
+pub fn edge_point(
+    profile: &Profile,
+    sensor: &SensorModel,
+    sense: EdgeSense,
+    cfg: &SplitMerge,
+) -> Result<Vector2<f64>, FeatureError> {
+    let pts = valid_points(profile);
+    if pts.len() < cfg.min_points {
+        return Err(FeatureError::TooFewPoints {
+            found: pts.len(),
+            need: cfg.min_points,
+        });
+    }
+    let segs = split_and_merge(
+        &pts,
+        &SplitMerge {
+            min_points: 2,
+            ..*cfg
+        },
+    );
+    let depth = |s: &Segment| {
+        let mid = (pts[s.first].1 + pts[s.last].1) / 2.0;
+        sensor.dir_z * (mid.y - sensor.apex_z)
+    };
+    let mut i = segs
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.last + 1 - s.first >= cfg.min_points)
+        .min_by(|a, b| depth(a.1).total_cmp(&depth(b.1)))
+        .ok_or_else(|| FeatureError::NoEdge {
+            reason: format!("no face of {} points", cfg.min_points),
+        })?
+        .0;
+    let forward = sense == EdgeSense::Falling;
+    loop {
+        let s = &segs[i];
+        let idx = if forward { s.last } else { s.first };
+        let k = pts[idx].0;
+        let next = if forward {
+            segs.get(i + 1)
+        } else {
+            i.checked_sub(1).and_then(|j| segs.get(j))
+        };
+        if let Some(n) = next {
+            let nidx = if forward { n.first } else { n.last };
+            let connected = nidx.abs_diff(idx) == 1
+                && pts[nidx].0.abs_diff(k) == 1
+                && (pts[nidx].1 - pts[idx].1).norm() <= cfg.jump;
+            if connected {
+                let angle = s.line.angle_to(&n.line);
+                if angle > std::f64::consts::FRAC_PI_4 {
+                    return s
+                        .line
+                        .intersect(&n.line)
+                        .ok_or_else(|| FeatureError::NoEdge {
+                            reason: "parallel faces".into(),
+                        });
+                }
+                if angle > 0.02 {
+                    i = if forward { i + 1 } else { i - 1 };
+                    continue;
+                }
+            }
+        }
+        let k2 = if forward { k + 1 } else { k.wrapping_sub(1) };
+        if k2 >= sensor.columns {
+            return Err(FeatureError::NoEdge {
+                reason: "the face runs off the field of view".into(),
+            });
+        }
+        return end_between(sensor, &s.line, k, k2).ok_or_else(|| FeatureError::NoEdge {
+            reason: "face parallel to the ray".into(),
+        });
+    }
+}

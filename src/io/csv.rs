@@ -1,0 +1,129 @@
+//! CSV rows of sweeps. Numbers are printed in Rust's shortest round-trip form, so equal values
+//! always give equal bytes (merging shards reproduces an unsharded run exactly).
+
+use crate::sweep::{METRICS, SummaryRow, TrialRow};
+
+fn cell(v: &toml::Value) -> String {
+    match v {
+        toml::Value::String(s) => s.clone(),
+        toml::Value::Float(f) => format!("{f}"),
+        other => other.to_string(),
+    }
+}
+
+fn quote(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// Header of trials.csv.
+pub fn trials_header(grid_keys: &[String]) -> String {
+    let mut h = vec!["point".to_string()];
+    h.extend(grid_keys.iter().cloned());
+    h.extend(
+        [
+            "method",
+            "trial",
+            "ok",
+            "rotation_error_deg",
+            "translation_error_mm",
+            "frobenius_rotation",
+            "centre_error_mm",
+            "accuracy_mm",
+            "missed_profiles",
+            "error",
+        ]
+        .map(String::from),
+    );
+    h.join(",") + "\n"
+}
+
+/// One line of trials.csv.
+pub fn trial_line(r: &TrialRow) -> String {
+    let mut c = vec![r.point.to_string()];
+    c.extend(r.values.iter().map(|(_, v)| quote(&cell(v))));
+    c.push(r.outcome.method.clone());
+    c.push(r.outcome.trial.to_string());
+    match &r.outcome.result {
+        Ok(s) => {
+            c.push("true".into());
+            for x in [
+                s.error.rotation_error_deg,
+                s.error.translation_error_mm,
+                s.error.frobenius_rotation,
+                s.centre_error_mm,
+                s.accuracy_mm,
+            ] {
+                c.push(format!("{x}"));
+            }
+            c.push(r.outcome.missed_profiles.to_string());
+            c.push(String::new());
+        }
+        Err(e) => {
+            c.push("false".into());
+            c.extend(std::iter::repeat_n(String::new(), 5));
+            c.push(r.outcome.missed_profiles.to_string());
+            c.push(quote(e));
+        }
+    }
+    c.join(",") + "\n"
+}
+
+/// The whole summary.csv.
+pub fn summary(grid_keys: &[String], rows: &[SummaryRow]) -> String {
+    let mut h = vec!["point".to_string()];
+    h.extend(grid_keys.iter().cloned());
+    h.extend(["method", "trials", "failures"].map(String::from));
+    for m in METRICS {
+        for s in ["mean", "rms", "std", "p95"] {
+            h.push(format!("{m}_{s}"));
+        }
+    }
+    let mut out = h.join(",") + "\n";
+    for r in rows {
+        let mut c = vec![r.point.to_string()];
+        c.extend(r.values.iter().map(|(_, v)| quote(&cell(v))));
+        c.push(r.method.clone());
+        c.push(r.trials.to_string());
+        c.push(r.failures.to_string());
+        for s in &r.stats {
+            for x in [s.mean, s.rms, s.std, s.p95] {
+                c.push(format!("{x}"));
+            }
+        }
+        out += &(c.join(",") + "\n");
+    }
+    out
+}
+
+/// The value of a summary column for a row (grid keys, `trials`, `failures`, `<metric>_<stat>`).
+pub fn summary_value(r: &SummaryRow, column: &str) -> Option<f64> {
+    if let Some((_, v)) = r.values.iter().find(|(k, _)| k == column) {
+        return match v {
+            toml::Value::Float(f) => Some(*f),
+            toml::Value::Integer(i) => Some(*i as f64),
+            _ => None,
+        };
+    }
+    match column {
+        "trials" => return Some(r.trials as f64),
+        "failures" => return Some(r.failures as f64),
+        _ => {}
+    }
+    for (k, m) in METRICS.iter().enumerate() {
+        if let Some(stat) = column.strip_prefix(m).and_then(|s| s.strip_prefix('_')) {
+            let s = r.stats.get(k)?;
+            return match stat {
+                "mean" => Some(s.mean),
+                "rms" => Some(s.rms),
+                "std" => Some(s.std),
+                "p95" => Some(s.p95),
+                _ => None,
+            };
+        }
+    }
+    None
+}

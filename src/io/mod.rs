@@ -1,0 +1,29 @@
+//! Everything that touches files or formats: CSV rows, plots, and (feature `rerun`) Rerun
+//! recordings. The library's math never does I/O; these adapters do.
+
+pub mod csv;
+pub mod plot;
+
+use std::io::Write;
+use std::path::Path;
+
+/// Create (truncate) a file for writing, creating its folder; the error names the path.
+pub fn create(path: &Path) -> Result<std::io::BufWriter<std::fs::File>, String> {
+    if let Some(dir) = path.parent()
+        && !dir.as_os_str().is_empty()
+    {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| format!("{}: cannot create the folder: {e}", dir.display()))?;
+    }
+    let f = std::fs::File::create(path)
+        .map_err(|e| format!("{}: cannot create: {e}", path.display()))?;
+    Ok(std::io::BufWriter::new(f))
+}
+
+/// Write a whole file.
+pub fn write(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    let mut w = create(path)?;
+    w.write_all(bytes)
+        .and_then(|_| w.flush())
+        .map_err(|e| format!("{}: cannot write: {e}", path.display()))
+}

@@ -1,0 +1,62 @@
+//! Small geometry helpers shared by every module (pure math, no I/O).
+
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+
+/// R = Rz(rz) * Ry(ry) * Rx(rx): the "ZYX Euler" reading of the disk paper's Tables I and III
+/// (the same composition as URDF rpy).
+pub fn rot_zyx(rx: f64, ry: f64, rz: f64) -> Rotation3<f64> {
+    Rotation3::from_euler_angles(rx, ry, rz)
+}
+
+/// Pose from a position in metres and an R = Rz*Ry*Rx orientation in radians.
+pub fn pose_from_xyz_rpy(xyz: [f64; 3], rpy: [f64; 3]) -> Isometry3<f64> {
+    Isometry3::from_parts(
+        Translation3::new(xyz[0], xyz[1], xyz[2]),
+        UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]),
+    )
+}
+
+/// Quaternion as [w, x, y, z] with w >= 0 (the sign ABB RAPID and most tools print).
+pub fn quat_wxyz(q: &UnitQuaternion<f64>) -> [f64; 4] {
+    let c = q.coords; // x, y, z, w
+    let s = if c[3] < 0.0 { -1.0 } else { 1.0 };
+    [s * c[3], s * c[0], s * c[1], s * c[2]]
+}
+
+/// Angle in radians of the rotation that takes `a` to `b`.
+pub fn rotation_angle_between(a: &UnitQuaternion<f64>, b: &UnitQuaternion<f64>) -> f64 {
+    a.angle_to(b)
+}
+
+/// Nearest proper rotation to a 3x3 matrix (SVD with the determinant guard against reflections).
+pub fn nearest_rotation(m: &Matrix3<f64>) -> Rotation3<f64> {
+    let svd = m.svd(true, true);
+    let (u, v_t) = (svd.u.unwrap(), svd.v_t.unwrap());
+    let d = (u * v_t).determinant().signum();
+    let r = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * v_t;
+    Rotation3::from_matrix_unchecked(r)
+}
+
+/// Wrap an angle into (-pi, pi].
+pub fn wrap_pi(a: f64) -> f64 {
+    let two_pi = std::f64::consts::TAU;
+    let mut x = a % two_pi;
+    if x <= -std::f64::consts::PI {
+        x += two_pi;
+    } else if x > std::f64::consts::PI {
+        x -= two_pi;
+    }
+    x
+}
+
+/// Pose as a 4x4 row-major matrix with the translation in millimetres (the papers' unit).
+pub fn pose_to_rows_mm(p: &Isometry3<f64>) -> [[f64; 4]; 4] {
+    let m = p.to_homogeneous();
+    let mut out = [[0.0; 4]; 4];
+    for (r, row) in out.iter_mut().enumerate() {
+        for (c, v) in row.iter_mut().enumerate() {
+            *v = m[(r, c)] * if c == 3 && r < 3 { 1000.0 } else { 1.0 };
+        }
+    }
+    out
+}

@@ -1,0 +1,882 @@
+//! Scenario files (TOML): robot, sensor and true mounting, specimen and its pose, data-collection
+//! plan, noise, methods, sweep grid, trials and seed. Unknown keys and bad values are errors that
+//! name the file, the key and the value.
+
+use crate::calib::disk::DiskScan;
+use crate::math::{pose_from_xyz_rpy, rot_zyx};
+use crate::robot::Robot;
+use crate::scene::{Scene, Specimen, SpecimenKind, Table};
+use crate::sensor::{NoiseModel, SensorModel};
+use crate::sim::Rig;
+use crate::sim::disk::{Coverage, Direction, DiskPlanSpec, DiskScanPlan, DiskTarget, ScanRequest};
+use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
+use serde::Deserialize;
+use thiserror::Error;
+
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum ScenarioError {
+    #[error("{file}: cannot read: {message}")]
+    Io { file: String, message: String },
+    #[error("{file}: {message}")]
+    Syntax { file: String, message: String },
+    #[error("{file}: {key} = {value}: {reason}")]
+    BadValue {
+        file: String,
+        key: String,
+        value: String,
+        reason: String,
+    },
+}
+
+fn d_true() -> bool {
+    true
+}
+fn d_seed() -> u64 {
+    1
+}
+fn d_span() -> f64 {
+    0.9
+}
+fn d_min_angle() -> f64 {
+    5.0
+}
+fn d_reflectance() -> f64 {
+    0.3
+}
+fn d_coverage() -> String {
+    "whole".into()
+}
+fn d_source() -> String {
+    "analytic".into()
+}
+fn d_methods() -> Vec<String> {
+    vec!["disk".into()]
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    #[serde(default = "d_seed")]
+    pub seed: u64,
+    #[serde(default = "d_methods")]
+    pub methods: Vec<String>,
+    pub robot: RobotSection,
+    pub sensor: SensorSection,
+    pub specimen: SpecimenSection,
+    #[serde(default)]
+    pub table: Option<TableSection>,
+    #[serde(default)]
+    pub disk: Option<DiskSection>,
+    #[serde(default)]
+    pub sweep: Option<SweepSection>,
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RobotSection {
+    /// irb120, irb2600 or a path to a .urdf (relative to the scenario file).
+    pub name: String,
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SensorSection {
+    pub preset: String,
+    /// The true flange_to_sensor translation (mm).
+    pub mount_position_mm: [f64; 3],
+    /// The true flange_to_sensor rotation as a row-major matrix (made orthonormal)...
+    #[serde(default)]
+    pub mount_rotation: Option<[[f64; 3]; 3]>,
+    /// ...or as (rx, ry, rz) degrees, R = Rz Ry Rx.
+    #[serde(default)]
+    pub mount_rpy_deg: Option<[f64; 3]>,
+    /// Quantise z as the real sensor does.
+    #[serde(default = "d_true")]
+    pub quantise: bool,
+    #[serde(default)]
+    pub noise: NoiseSection,
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct NoiseSection {
+    #[serde(default)]
+    pub z_sigma_near_mm: f64,
+    #[serde(default)]
+    pub z_sigma_far_mm: f64,
+    #[serde(default)]
+    pub x_sigma_mm: f64,
+    #[serde(default)]
+    pub dropout: f64,
+    #[serde(default)]
+    pub outlier_rate: f64,
+    #[serde(default)]
+    pub outlier_amplitude_mm: f64,
+    #[serde(default)]
+    pub dark_threshold: f64,
+    #[serde(default)]
+    pub dark_noise_factor: f64,
+    #[serde(default)]
+    pub dark_dropout: f64,
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SpecimenSection {
+    /// disk-cylinder, disk-paper, ball, parallel-bar, scale, knife-blade.
+    pub kind: String,
+    pub position_mm: [f64; 3],
+    /// Orientation (rx, ry, rz) degrees, R = Rz Ry Rx; for a disk its z axis is the normal.
+    #[serde(default)]
+    pub rpy_deg: [f64; 3],
+    pub radius_mm: Option<f64>,
+    pub height_mm: Option<f64>,
+    pub paper_half_mm: Option<f64>,
+    pub post_radius_mm: Option<f64>,
+    pub post_height_mm: Option<f64>,
+    pub length_mm: Option<f64>,
+    pub width_mm: Option<f64>,
+    pub thickness_mm: Option<f64>,
+    pub bevel_mm: Option<f64>,
+    pub reflectance: Option<f64>,
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct TableSection {
+    pub height_mm: f64,
+    #[serde(default = "d_reflectance")]
+    pub reflectance: f64,
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DiskSection {
+    /// m: profiles (chords) per scan.
+    pub chords: usize,
+    /// "whole" or "half" (Fig. 4).
+    #[serde(default = "d_coverage")]
+    pub coverage: String,
+    #[serde(default = "d_span")]
+    pub span_fraction: f64,
+    /// "analytic" (exact chords + Eq. 52 noise) or "raycast" (sensor model + feature extraction).
+    #[serde(default = "d_source")]
+    pub source: String,
+    /// Eq. 52: Gaussian noise along each chord, mm (analytic source).
+    #[serde(default)]
+    pub sigma_mm: f64,
+    /// Eq. 2: least angle between the move and the disk plane or normal.
+    #[serde(default = "d_min_angle")]
+    pub min_angle_deg: f64,
+    /// R_tcp,i as (rx, ry, rz) radians, R = Rz Ry Rx (the disk paper's tables).
+    pub orientations_rpy_rad: Vec<[f64; 3]>,
+    /// Optional TCP positions where the laser plane crosses the disk centre (mm).
+    #[serde(default)]
+    pub centre_tcp_mm: Option<Vec<[f64; 3]>>,
+    /// Move directions in the base frame (the disk paper's D_i^b)...
+    #[serde(default)]
+    pub directions_in_base: Option<Vec<[f64; 3]>>,
+    /// ...or in the sensor frame (D_i^i); one list or the other, one entry per orientation.
+    #[serde(default)]
+    pub directions_in_sensor: Option<Vec<[f64; 3]>>,
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SweepSection {
+    pub trials: usize,
+    /// Dotted scenario keys and the values each takes; the sweep runs their Cartesian product.
+    pub grid: toml::Table,
+    #[serde(default)]
+    pub plot: Option<PlotSection>,
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PlotSection {
+    /// Grid key on the x axis.
+    pub x: String,
+    /// Grid key that makes one curve per value.
+    #[serde(default)]
+    pub series: Option<String>,
+    /// Summary column on the y axis, e.g. centre_error_std_mm.
+    pub y: String,
+    #[serde(default)]
+    pub log_x: bool,
+    #[serde(default)]
+    pub log_y: bool,
+    #[serde(default)]
+    pub title: Option<String>,
+}
+
+/// A scenario file: the parsed scenario plus its raw table, for grid overrides.
+#[derive(Debug, Clone)]
+pub struct ScenarioFile {
+    pub file: String,
+    pub raw: toml::Table,
+    pub scenario: Scenario,
+}
+
+/// One grid point: the (key, value) overrides and the scenario they give.
+#[derive(Debug, Clone)]
+pub struct GridPoint {
+    pub index: usize,
+    pub values: Vec<(String, toml::Value)>,
+    pub scenario: Scenario,
+}
+
+impl ScenarioFile {
+    /// Read and validate a scenario file (every grid point too).
+    pub fn load(path: &std::path::Path) -> Result<ScenarioFile, ScenarioError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| ScenarioError::Io {
+            file: file.clone(),
+            message: e.to_string(),
+        })?;
+        let mut s = ScenarioFile::parse(&text, &file)?;
+        // Resolve a relative URDF path against the scenario's folder.
+        let r = &s.scenario.robot.name;
+        if r.ends_with(".urdf")
+            && !std::path::Path::new(r).is_absolute()
+            && let Some(dir) = path.parent()
+        {
+            let p = dir.join(r).display().to_string();
+            s.scenario.robot.name = p.clone();
+            if let Some(toml::Value::Table(t)) = s.raw.get_mut("robot") {
+                t.insert("name".into(), toml::Value::String(p));
+            }
+        }
+        Ok(s)
+    }
+
+    /// Parse scenario text; `file` names it in errors.
+    pub fn parse(text: &str, file: &str) -> Result<ScenarioFile, ScenarioError> {
+        let raw: toml::Table =
+            text.parse()
+                .map_err(|e: toml::de::Error| ScenarioError::Syntax {
+                    file: file.to_string(),
+                    message: e.to_string().trim().to_string(),
+                })?;
+        let scenario: Scenario = toml::from_str(text).map_err(|e| ScenarioError::Syntax {
+            file: file.to_string(),
+            message: e.to_string().trim().to_string(),
+        })?;
+        let sf = ScenarioFile {
+            file: file.to_string(),
+            raw,
+            scenario,
+        };
+        sf.scenario.validate(file)?;
+        for p in sf.grid()? {
+            p.scenario.validate(file)?;
+        }
+        Ok(sf)
+    }
+
+    /// The sweep grid's points (one point, the base scenario, when there is no sweep).
+    pub fn grid(&self) -> Result<Vec<GridPoint>, ScenarioError> {
+        let Some(sweep) = &self.scenario.sweep else {
+            return Ok(vec![GridPoint {
+                index: 0,
+                values: vec![],
+                scenario: self.scenario.clone(),
+            }]);
+        };
+        let mut axes: Vec<(String, Vec<toml::Value>)> = Vec::new();
+        for (k, v) in &sweep.grid {
+            let vals = match v {
+                toml::Value::Array(a) if !a.is_empty() => a.clone(),
+                _ => {
+                    return Err(self.bad(
+                        &format!("sweep.grid.\"{k}\""),
+                        v,
+                        "give a non-empty list of values",
+                    ));
+                }
+            };
+            if k.starts_with("sweep") {
+                return Err(self.bad(
+                    &format!("sweep.grid.\"{k}\""),
+                    v,
+                    "the sweep cannot sweep itself",
+                ));
+            }
+            axes.push((k.clone(), vals));
+        }
+        let total: usize = axes.iter().map(|a| a.1.len()).product();
+        let mut out = Vec::with_capacity(total);
+        for index in 0..total {
+            let mut rem = index;
+            let mut values = Vec::new();
+            // Last axis varies fastest.
+            let mut picks = vec![0; axes.len()];
+            for (i, a) in axes.iter().enumerate().rev() {
+                picks[i] = rem % a.1.len();
+                rem /= a.1.len();
+            }
+            let mut table = self.raw.clone();
+            for (i, (k, vals)) in axes.iter().enumerate() {
+                let v = vals[picks[i]].clone();
+                set_dotted(&mut table, k)
+                    .map(|slot| *slot = v.clone())
+                    .ok_or_else(|| {
+                        self.bad(
+                            &format!("sweep.grid.\"{k}\""),
+                            &v,
+                            "this key does not name a scenario value",
+                        )
+                    })?;
+                values.push((k.clone(), v));
+            }
+            let scenario: Scenario =
+                toml::Value::Table(table)
+                    .try_into()
+                    .map_err(|e: toml::de::Error| ScenarioError::BadValue {
+                        file: self.file.clone(),
+                        key: values
+                            .iter()
+                            .map(|(k, _)| k.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                        value: values
+                            .iter()
+                            .map(|(_, v)| v.to_string())
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                        reason: e.to_string().trim().to_string(),
+                    })?;
+            out.push(GridPoint {
+                index,
+                values,
+                scenario,
+            });
+        }
+        Ok(out)
+    }
+
+    fn bad(&self, key: &str, v: &toml::Value, reason: &str) -> ScenarioError {
+        ScenarioError::BadValue {
+            file: self.file.clone(),
+            key: key.into(),
+            value: v.to_string(),
+            reason: reason.into(),
+        }
+    }
+}
+
+/// The slot a dotted key names, creating the last table entry if absent (validation happens when the
+/// table is deserialised with unknown keys denied).
+fn set_dotted<'a>(table: &'a mut toml::Table, key: &str) -> Option<&'a mut toml::Value> {
+    let parts: Vec<&str> = key.split('.').collect();
+    let (last, path) = parts.split_last()?;
+    let mut t = table;
+    for p in path {
+        t = match t.get_mut(*p)? {
+            toml::Value::Table(inner) => inner,
+            _ => return None,
+        };
+    }
+    Some(
+        t.entry(last.to_string())
+            .or_insert(toml::Value::Boolean(false)),
+    )
+}
+
+fn bad(
+    file: &str,
+    key: &str,
+    value: impl std::fmt::Display,
+    reason: impl Into<String>,
+) -> ScenarioError {
+    ScenarioError::BadValue {
+        file: file.into(),
+        key: key.into(),
+        value: value.to_string(),
+        reason: reason.into(),
+    }
+}
+
+/// The experiment a scenario describes, built once and shared by its trials.
+#[derive(Debug, Clone)]
+pub struct Setup {
+    pub rig: Rig,
+    pub scene: Scene,
+    pub specimen: Specimen,
+    pub base_to_specimen: Isometry3<f64>,
+    pub disk: Option<DiskSetup>,
+}
+
+#[derive(Debug, Clone)]
+pub struct DiskSetup {
+    pub target: DiskTarget,
+    pub plans: Vec<DiskScanPlan>,
+    pub raycast: bool,
+    /// Eq. 52 sigma, metres.
+    pub sigma: f64,
+    pub min_angle: f64,
+}
+
+pub const METHODS: &[&str] = &["disk"];
+
+impl Scenario {
+    /// Check values that deserialisation cannot.
+    pub fn validate(&self, file: &str) -> Result<(), ScenarioError> {
+        if self.methods.is_empty() {
+            return Err(bad(file, "methods", "[]", "name at least one method"));
+        }
+        for m in &self.methods {
+            if !METHODS.contains(&m.as_str()) {
+                return Err(bad(
+                    file,
+                    "methods",
+                    format!("\"{m}\""),
+                    format!("unknown method; known: {}", METHODS.join(", ")),
+                ));
+            }
+        }
+        SensorModel::preset(&self.sensor.preset).map_err(|e| {
+            bad(
+                file,
+                "sensor.preset",
+                format!("\"{}\"", self.sensor.preset),
+                e.to_string(),
+            )
+        })?;
+        match (&self.sensor.mount_rotation, &self.sensor.mount_rpy_deg) {
+            (Some(_), Some(_)) => {
+                return Err(bad(
+                    file,
+                    "sensor.mount_rpy_deg",
+                    "..",
+                    "give mount_rotation or mount_rpy_deg, not both",
+                ));
+            }
+            (None, None) => {
+                return Err(bad(
+                    file,
+                    "sensor.mount_rotation",
+                    "(missing)",
+                    "give the true mounting rotation as mount_rotation or mount_rpy_deg",
+                ));
+            }
+            (Some(m), None) => {
+                let r = Matrix3::from_fn(|i, j| m[i][j]);
+                let dev = (r.transpose() * r - Matrix3::identity()).norm();
+                if !dev.is_finite() || dev > 0.05 || r.determinant() <= 0.0 {
+                    return Err(bad(
+                        file,
+                        "sensor.mount_rotation",
+                        format!("{m:?}"),
+                        "not close to a rotation matrix (rows must be orthonormal, determinant +1)",
+                    ));
+                }
+            }
+            _ => {}
+        }
+        let n = &self.sensor.noise;
+        for (k, v) in [
+            ("z_sigma_near_mm", n.z_sigma_near_mm),
+            ("z_sigma_far_mm", n.z_sigma_far_mm),
+            ("x_sigma_mm", n.x_sigma_mm),
+            ("outlier_amplitude_mm", n.outlier_amplitude_mm),
+            ("dark_noise_factor", n.dark_noise_factor),
+        ] {
+            if !(v >= 0.0 && v.is_finite()) {
+                return Err(bad(
+                    file,
+                    &format!("sensor.noise.{k}"),
+                    v,
+                    "must be a finite number >= 0",
+                ));
+            }
+        }
+        for (k, v) in [
+            ("dropout", n.dropout),
+            ("outlier_rate", n.outlier_rate),
+            ("dark_threshold", n.dark_threshold),
+            ("dark_dropout", n.dark_dropout),
+        ] {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(bad(
+                    file,
+                    &format!("sensor.noise.{k}"),
+                    v,
+                    "must be a probability in 0..1",
+                ));
+            }
+        }
+        self.specimen_kind(file)?;
+        if let Some(t) = &self.table {
+            if !(0.0..=1.0).contains(&t.reflectance) {
+                return Err(bad(
+                    file,
+                    "table.reflectance",
+                    t.reflectance,
+                    "must be in 0..1",
+                ));
+            }
+        }
+        if self.methods.iter().any(|m| m == "disk") {
+            let d = self.disk.as_ref().ok_or_else(|| {
+                bad(
+                    file,
+                    "disk",
+                    "(missing)",
+                    "the disk method needs a [disk] section",
+                )
+            })?;
+            if !self.specimen_kind(file)?.is_disk_kind() {
+                return Err(bad(
+                    file,
+                    "specimen.kind",
+                    format!("\"{}\"", self.specimen.kind),
+                    "the disk method needs disk-cylinder or disk-paper",
+                ));
+            }
+            if d.chords < 3 {
+                return Err(bad(
+                    file,
+                    "disk.chords",
+                    d.chords,
+                    "at least 3 chords per scan are needed for the ellipse fit",
+                ));
+            }
+            if d.orientations_rpy_rad.len() < 4 {
+                return Err(bad(
+                    file,
+                    "disk.orientations_rpy_rad",
+                    format!("{} orientations", d.orientations_rpy_rad.len()),
+                    "the disk method needs at least 4 sensing data",
+                ));
+            }
+            if !["whole", "half"].contains(&d.coverage.as_str()) {
+                return Err(bad(
+                    file,
+                    "disk.coverage",
+                    format!("\"{}\"", d.coverage),
+                    "use \"whole\" or \"half\"",
+                ));
+            }
+            if !["analytic", "raycast"].contains(&d.source.as_str()) {
+                return Err(bad(
+                    file,
+                    "disk.source",
+                    format!("\"{}\"", d.source),
+                    "use \"analytic\" or \"raycast\"",
+                ));
+            }
+            if !(d.span_fraction > 0.0 && d.span_fraction < 1.0) {
+                return Err(bad(
+                    file,
+                    "disk.span_fraction",
+                    d.span_fraction,
+                    "must be in (0, 1)",
+                ));
+            }
+            if !(d.sigma_mm >= 0.0 && d.sigma_mm.is_finite()) {
+                return Err(bad(
+                    file,
+                    "disk.sigma_mm",
+                    d.sigma_mm,
+                    "must be a finite number >= 0",
+                ));
+            }
+            if !(d.min_angle_deg >= 0.0 && d.min_angle_deg < 45.0) {
+                return Err(bad(
+                    file,
+                    "disk.min_angle_deg",
+                    d.min_angle_deg,
+                    "must be in [0, 45)",
+                ));
+            }
+            match (&d.directions_in_base, &d.directions_in_sensor) {
+                (Some(_), Some(_)) => {
+                    return Err(bad(
+                        file,
+                        "disk.directions_in_sensor",
+                        "..",
+                        "give directions_in_base or directions_in_sensor, not both",
+                    ));
+                }
+                (None, None) => {
+                    return Err(bad(
+                        file,
+                        "disk.directions_in_base",
+                        "(missing)",
+                        "give the move direction of each scan as directions_in_base or directions_in_sensor",
+                    ));
+                }
+                _ => {}
+            }
+            for (k, list) in [
+                ("disk.centre_tcp_mm", &d.centre_tcp_mm),
+                ("disk.directions_in_base", &d.directions_in_base),
+                ("disk.directions_in_sensor", &d.directions_in_sensor),
+            ] {
+                if let Some(l) = list
+                    && l.len() != d.orientations_rpy_rad.len()
+                {
+                    return Err(bad(
+                        file,
+                        k,
+                        format!("{} entries", l.len()),
+                        format!(
+                            "give one per orientation ({})",
+                            d.orientations_rpy_rad.len()
+                        ),
+                    ));
+                }
+            }
+        }
+        if let Some(s) = &self.sweep {
+            if s.trials == 0 {
+                return Err(bad(file, "sweep.trials", 0, "at least one trial"));
+            }
+            if let Some(p) = &s.plot {
+                for k in std::iter::once(&p.x).chain(p.series.iter()) {
+                    if !s.grid.contains_key(k) {
+                        return Err(bad(
+                            file,
+                            "sweep.plot",
+                            format!("\"{k}\""),
+                            "not a key of sweep.grid",
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The specimen this scenario describes.
+    pub fn specimen_kind(&self, file: &str) -> Result<SpecimenKind, ScenarioError> {
+        let s = &self.specimen;
+        let need = |name: &str, v: Option<f64>| -> Result<f64, ScenarioError> {
+            match v {
+                Some(x) if x > 0.0 && x.is_finite() => Ok(x * 1e-3),
+                Some(x) => Err(bad(
+                    file,
+                    &format!("specimen.{name}"),
+                    x,
+                    "must be a positive length",
+                )),
+                None => Err(bad(
+                    file,
+                    &format!("specimen.{name}"),
+                    "(missing)",
+                    format!("a {} needs {name}", s.kind),
+                )),
+            }
+        };
+        let opt = |v: Option<f64>, default_mm: f64, name: &str| -> Result<f64, ScenarioError> {
+            need(name, Some(v.unwrap_or(default_mm)))
+        };
+        let kind = match s.kind.as_str() {
+            "disk-cylinder" => SpecimenKind::DiskOnCylinder {
+                radius: need("radius_mm", s.radius_mm)?,
+                height: opt(s.height_mm, 20.0, "height_mm")?,
+            },
+            "disk-paper" => SpecimenKind::DiskOnPaper {
+                radius: need("radius_mm", s.radius_mm)?,
+                paper_half: opt(s.paper_half_mm, 150.0, "paper_half_mm")?,
+            },
+            "ball" => SpecimenKind::BallOnPost {
+                radius: need("radius_mm", s.radius_mm)?,
+                post_radius: opt(s.post_radius_mm, 8.0, "post_radius_mm")?,
+                post_height: opt(s.post_height_mm, 80.0, "post_height_mm")?,
+            },
+            "parallel-bar" => SpecimenKind::ParallelBar {
+                length: opt(s.length_mm, 150.0, "length_mm")?,
+                width: opt(s.width_mm, 25.0, "width_mm")?,
+                height: opt(s.height_mm, 12.0, "height_mm")?,
+            },
+            "scale" => SpecimenKind::Scale {
+                length: opt(s.length_mm, 300.0, "length_mm")?,
+                width: opt(s.width_mm, 30.0, "width_mm")?,
+                thickness: opt(s.thickness_mm, 1.0, "thickness_mm")?,
+            },
+            "knife-blade" => SpecimenKind::KnifeBlade {
+                length: opt(s.length_mm, 60.0, "length_mm")?,
+                width: opt(s.width_mm, 18.0, "width_mm")?,
+                thickness: opt(s.thickness_mm, 0.6, "thickness_mm")?,
+                bevel: opt(s.bevel_mm, 1.0, "bevel_mm")?,
+            },
+            other => {
+                return Err(bad(
+                    file,
+                    "specimen.kind",
+                    format!("\"{other}\""),
+                    "use disk-cylinder, disk-paper, ball, parallel-bar, scale or knife-blade",
+                ));
+            }
+        };
+        if let Some(r) = s.reflectance
+            && !(0.0..=1.0).contains(&r)
+        {
+            return Err(bad(file, "specimen.reflectance", r, "must be in 0..1"));
+        }
+        Ok(kind)
+    }
+
+    /// The true flange_to_sensor.
+    pub fn mount(&self) -> Isometry3<f64> {
+        let t = Vector3::from(self.sensor.mount_position_mm) * 1e-3;
+        let rot = match (&self.sensor.mount_rotation, &self.sensor.mount_rpy_deg) {
+            (Some(m), _) => UnitQuaternion::from_rotation_matrix(&crate::math::nearest_rotation(
+                &Matrix3::from_fn(|i, j| m[i][j]),
+            )),
+            (None, Some(r)) => UnitQuaternion::from_euler_angles(
+                r[0].to_radians(),
+                r[1].to_radians(),
+                r[2].to_radians(),
+            ),
+            (None, None) => UnitQuaternion::identity(),
+        };
+        Isometry3::from_parts(Translation3::from(t), rot)
+    }
+
+    /// Build the rig, scene and plans (checking reachability).
+    pub fn build(&self, file: &str) -> Result<Setup, ScenarioError> {
+        self.validate(file)?;
+        let robot = Robot::resolve(&self.robot.name).map_err(|e| {
+            bad(
+                file,
+                "robot.name",
+                format!("\"{}\"", self.robot.name),
+                e.to_string(),
+            )
+        })?;
+        let mut sensor = SensorModel::preset(&self.sensor.preset)
+            .map_err(|e| bad(file, "sensor.preset", &self.sensor.preset, e.to_string()))?;
+        if !self.sensor.quantise {
+            sensor.z_quantum = None;
+        }
+        let n = &self.sensor.noise;
+        sensor.noise = NoiseModel {
+            z_sigma_near: n.z_sigma_near_mm * 1e-3,
+            z_sigma_far: n.z_sigma_far_mm * 1e-3,
+            x_sigma: n.x_sigma_mm * 1e-3,
+            dropout: n.dropout,
+            outlier_rate: n.outlier_rate,
+            outlier_amplitude: n.outlier_amplitude_mm * 1e-3,
+            dark_threshold: n.dark_threshold,
+            dark_noise_factor: n.dark_noise_factor,
+            dark_dropout: n.dark_dropout,
+        };
+        let rig = Rig {
+            robot,
+            sensor,
+            flange_to_sensor: self.mount(),
+        };
+        let kind = self.specimen_kind(file)?;
+        let mut specimen = Specimen::new(kind.clone());
+        if let Some(r) = self.specimen.reflectance {
+            specimen.reflectance = r;
+        }
+        let s = &self.specimen;
+        let base_to_specimen = pose_from_xyz_rpy(
+            [
+                s.position_mm[0] * 1e-3,
+                s.position_mm[1] * 1e-3,
+                s.position_mm[2] * 1e-3,
+            ],
+            [
+                s.rpy_deg[0].to_radians(),
+                s.rpy_deg[1].to_radians(),
+                s.rpy_deg[2].to_radians(),
+            ],
+        );
+        let mut scene = Scene::new(self.table.as_ref().map(|t| Table {
+            height_m: t.height_mm * 1e-3,
+            reflectance: t.reflectance,
+        }));
+        scene.add(&specimen, base_to_specimen);
+        let disk = match (&self.disk, specimen.disk_radius()) {
+            (Some(d), Some(radius)) if self.methods.iter().any(|m| m == "disk") => {
+                let target = DiskTarget::from_pose(&base_to_specimen, radius);
+                let scans = d
+                    .orientations_rpy_rad
+                    .iter()
+                    .enumerate()
+                    .map(|(i, r)| ScanRequest {
+                        r_tcp: rot_zyx(r[0], r[1], r[2]),
+                        centre_tcp: d.centre_tcp_mm.as_ref().map(|c| Vector3::from(c[i]) * 1e-3),
+                        direction: match (&d.directions_in_base, &d.directions_in_sensor) {
+                            (Some(b), _) => Direction::InBase(Vector3::from(b[i])),
+                            (None, Some(s)) => Direction::InSensor(Vector3::from(s[i])),
+                            (None, None) => Direction::InSensor(Vector3::y()),
+                        },
+                    })
+                    .collect();
+                let spec = DiskPlanSpec {
+                    scans,
+                    coverage: if d.coverage == "half" {
+                        Coverage::Half
+                    } else {
+                        Coverage::Whole
+                    },
+                    span_fraction: d.span_fraction,
+                    m: d.chords,
+                    min_angle: d.min_angle_deg.to_radians(),
+                };
+                let plans = crate::sim::disk::plan(&rig, &target, &spec)
+                    .map_err(|e| bad(file, "disk.orientations_rpy_rad", "..", e.to_string()))?;
+                Some(DiskSetup {
+                    target,
+                    plans,
+                    raycast: d.source == "raycast",
+                    sigma: d.sigma_mm * 1e-3,
+                    min_angle: d.min_angle_deg.to_radians(),
+                })
+            }
+            _ => None,
+        };
+        Ok(Setup {
+            rig,
+            scene,
+            specimen,
+            base_to_specimen,
+            disk,
+        })
+    }
+}
+
+impl SpecimenKind {
+    fn is_disk_kind(&self) -> bool {
+        matches!(
+            self,
+            SpecimenKind::DiskOnCylinder { .. } | SpecimenKind::DiskOnPaper { .. }
+        )
+    }
+}
+
+/// The disk scans of one trial (exact geometry plus the scenario's noise, drawn from `rng`).
+pub fn disk_scans(setup: &Setup, rng: &mut crate::rng::Rng) -> Option<(Vec<DiskScan>, usize)> {
+    let d = setup.disk.as_ref()?;
+    let mut missed = 0;
+    let scans = d
+        .plans
+        .iter()
+        .map(|p| {
+            if d.raycast {
+                let noisy = !setup.rig.sensor.noise.is_off();
+                let (scan, miss) = crate::sim::disk::raycast_scan(
+                    &setup.rig,
+                    &setup.scene,
+                    &setup.specimen.kind,
+                    p,
+                    noisy.then_some(&mut *rng),
+                    &Default::default(),
+                );
+                missed += miss;
+                scan
+            } else {
+                crate::sim::disk::analytic_scan(&setup.rig, &d.target, p, d.sigma, rng)
+            }
+        })
+        .collect();
+    Some((scans, missed))
+}

@@ -1,0 +1,222 @@
+//! Specimens placed anywhere (`base_to_specimen`), a table plane, and ray casts through parry.
+
+pub mod shapes;
+mod specimen;
+
+pub use shapes::{ConvexPlanes, CylinderZ, Sheet};
+pub use specimen::{Specimen, SpecimenKind};
+
+use nalgebra::{Isometry3, Point3, Vector3};
+use parry3d_f64::query::{Ray, RayCast, RayIntersection};
+use parry3d_f64::shape::Ball;
+
+/// One analytic shape of a specimen.
+#[derive(Debug, Clone)]
+pub enum PartShape {
+    Cylinder(CylinderZ),
+    Planes(ConvexPlanes),
+    Ball(Ball),
+    Sheet(Sheet),
+}
+
+impl RayCast for PartShape {
+    fn cast_local_ray_and_get_normal(
+        &self,
+        ray: &Ray,
+        max_toi: f64,
+        solid: bool,
+    ) -> Option<RayIntersection> {
+        match self {
+            PartShape::Cylinder(s) => s.cast_local_ray_and_get_normal(ray, max_toi, solid),
+            PartShape::Planes(s) => s.cast_local_ray_and_get_normal(ray, max_toi, solid),
+            PartShape::Ball(s) => s.cast_local_ray_and_get_normal(ray, max_toi, solid),
+            PartShape::Sheet(s) => s.cast_local_ray_and_get_normal(ray, max_toi, solid),
+        }
+    }
+}
+
+/// How bright a surface looks to the sensor (0 black .. 1 white).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Surface {
+    Uniform {
+        reflectance: f64,
+        specular: bool,
+    },
+    /// A white disk of `radius` printed on black paper (local z = 0 plane).
+    DiskOnPaper {
+        radius: f64,
+        disk: f64,
+        paper: f64,
+    },
+}
+
+impl Surface {
+    fn at(&self, p_in_part: &Point3<f64>) -> (f64, bool) {
+        match *self {
+            Surface::Uniform {
+                reflectance,
+                specular,
+            } => (reflectance, specular),
+            Surface::DiskOnPaper {
+                radius,
+                disk,
+                paper,
+            } => (
+                if p_in_part.x.hypot(p_in_part.y) <= radius {
+                    disk
+                } else {
+                    paper
+                },
+                false,
+            ),
+        }
+    }
+}
+
+/// A shape of a specimen, relative to the specimen frame.
+#[derive(Debug, Clone)]
+pub struct Part {
+    pub specimen_to_part: Isometry3<f64>,
+    pub shape: PartShape,
+    pub surface: Surface,
+    /// Radius of a sphere around the part's origin that contains it (for culling).
+    pub bound_radius: f64,
+}
+
+#[derive(Debug, Clone)]
+struct Placed {
+    base_to_part: Isometry3<f64>,
+    part: Part,
+    bound_centre: Point3<f64>,
+    specimen: usize,
+}
+
+/// What a ray hit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum HitWhat {
+    Specimen(usize),
+    Table,
+}
+
+#[derive(Debug, Clone, Copy)]
+pub struct Hit {
+    /// Distance along the (unit) ray, metres.
+    pub toi: f64,
+    pub p_in_base: Point3<f64>,
+    /// Outward unit normal at the hit, base frame.
+    pub normal_in_base: Vector3<f64>,
+    pub reflectance: f64,
+    pub specular: bool,
+    pub what: HitWhat,
+}
+
+/// The table: the plane z = `height_m` in the base frame, seen from above.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Table {
+    pub height_m: f64,
+    pub reflectance: f64,
+}
+
+/// Specimens and table. Placing computes every part's pose and bounding sphere once; each ray is
+/// then culled against the bounding spheres and transformed into a part's local frame only when it
+/// can hit it.
+#[derive(Debug, Clone, Default)]
+pub struct Scene {
+    placed: Vec<Placed>,
+    pub table: Option<Table>,
+    pub specimens: Vec<(Specimen, Isometry3<f64>)>,
+}
+
+impl Scene {
+    pub fn new(table: Option<Table>) -> Scene {
+        Scene {
+            placed: Vec::new(),
+            table,
+            specimens: Vec::new(),
+        }
+    }
+
+    /// Place a specimen; returns its index (reported in `HitWhat::Specimen`).
+    pub fn add(&mut self, specimen: &Specimen, base_to_specimen: Isometry3<f64>) -> usize {
+        let idx = self.specimens.len();
+        for part in specimen.parts() {
+            let base_to_part = base_to_specimen * part.specimen_to_part;
+            self.placed.push(Placed {
+                bound_centre: base_to_part * Point3::origin(),
+                base_to_part,
+                part,
+                specimen: idx,
+            });
+        }
+        self.specimens.push((specimen.clone(), base_to_specimen));
+        idx
+    }
+
+    /// First hit of the ray `origin + t * dir` (`dir` a unit vector) with `t` in [0, max_toi].
+    pub fn cast_ray(&self, origin: &Point3<f64>, dir: &Vector3<f64>, max_toi: f64) -> Option<Hit> {
+        let mut best: Option<Hit> = None;
+        let mut limit = max_toi;
+        if let Some(t) = self.table
+            && dir.z != 0.0
+        {
+            let toi = (t.height_m - origin.z) / dir.z;
+            if (0.0..=limit).contains(&toi) {
+                limit = toi;
+                let n = if dir.z < 0.0 {
+                    Vector3::z()
+                } else {
+                    -Vector3::z()
+                };
+                best = Some(Hit {
+                    toi,
+                    p_in_base: origin + dir * toi,
+                    normal_in_base: n,
+                    reflectance: t.reflectance,
+                    specular: false,
+                    what: HitWhat::Table,
+                });
+            }
+        }
+        for pl in &self.placed {
+            // Cull: distance from the bounding centre to the ray, and whether it lies ahead.
+            let oc = pl.bound_centre - origin;
+            let along = oc.dot(dir);
+            let r = pl.part.bound_radius;
+            if along < -r || along - r > limit || oc.norm_squared() - along * along > r * r {
+                continue;
+            }
+            let ray = Ray::new(*origin, *dir);
+            if let Some(hit) =
+                pl.part
+                    .shape
+                    .cast_ray_and_get_normal(&pl.base_to_part, &ray, limit, true)
+            {
+                let p = origin + dir * hit.time_of_impact;
+                let (reflectance, specular) = pl
+                    .part
+                    .surface
+                    .at(&pl.base_to_part.inverse_transform_point(&p));
+                limit = hit.time_of_impact;
+                best = Some(Hit {
+                    toi: hit.time_of_impact,
+                    p_in_base: p,
+                    normal_in_base: hit.normal,
+                    reflectance,
+                    specular,
+                    what: HitWhat::Specimen(pl.specimen),
+                });
+            }
+        }
+        best
+    }
+
+    /// True when something blocks the straight path from `from` to `to`.
+    pub fn blocked(&self, from: &Point3<f64>, to: &Point3<f64>) -> bool {
+        let d = to - from;
+        let len = d.norm();
+        if len == 0.0 {
+            return false;
+        }
+        self.cast_ray(from, &(d / len), len).is_some()
+    }
+}

@@ -1,0 +1,209 @@
+//! The calibration specimens of both papers, each in its own frame.
+
+use super::{ConvexPlanes, CylinderZ, Part, PartShape, Sheet, Surface};
+use nalgebra::{Isometry3, Point3, Translation3, Vector3};
+use parry3d_f64::shape::Ball;
+
+/// Specimen geometry in metres. Frames:
+/// - disks: origin at the disk centre, z along the disk normal (out of the top face);
+/// - ball: origin at the ball centre;
+/// - edges: origin on the straight edge, x along it; the body lies at y < 0, the edge's top face
+///   faces +z, so a profile crossing toward +y runs over the top face and drops off at the edge.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SpecimenKind {
+    /// A disk on top of a cylinder of the same radius (disk paper Fig. 2a): a step at the rim.
+    DiskOnCylinder { radius: f64, height: f64 },
+    /// A white disk on a square of black paper (Fig. 2b): one plane, told apart by intensity.
+    DiskOnPaper { radius: f64, paper_half: f64 },
+    /// A ball on a thinner post below it.
+    BallOnPost {
+        radius: f64,
+        post_radius: f64,
+        post_height: f64,
+    },
+    /// A machinist's parallel bar (cuboid).
+    ParallelBar {
+        length: f64,
+        width: f64,
+        height: f64,
+    },
+    /// A straight scale (thin plate).
+    Scale {
+        length: f64,
+        width: f64,
+        thickness: f64,
+    },
+    /// A knife blade: a thin plate whose edge is a symmetric bevel of width `bevel`.
+    KnifeBlade {
+        length: f64,
+        width: f64,
+        thickness: f64,
+        bevel: f64,
+    },
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Specimen {
+    pub kind: SpecimenKind,
+    /// Surface reflectance (0..1) of the specimen body.
+    pub reflectance: f64,
+}
+
+impl Specimen {
+    pub fn new(kind: SpecimenKind) -> Specimen {
+        let reflectance = match kind {
+            SpecimenKind::BallOnPost { .. } => 0.6,
+            SpecimenKind::KnifeBlade { .. } => 0.7,
+            _ => 0.8,
+        };
+        Specimen { kind, reflectance }
+    }
+
+    /// Short name used in scenario files and the CLI.
+    pub fn name(&self) -> &'static str {
+        match self.kind {
+            SpecimenKind::DiskOnCylinder { .. } => "disk-cylinder",
+            SpecimenKind::DiskOnPaper { .. } => "disk-paper",
+            SpecimenKind::BallOnPost { .. } => "ball",
+            SpecimenKind::ParallelBar { .. } => "parallel-bar",
+            SpecimenKind::Scale { .. } => "scale",
+            SpecimenKind::KnifeBlade { .. } => "knife-blade",
+        }
+    }
+
+    /// Disk radius, for disk specimens.
+    pub fn disk_radius(&self) -> Option<f64> {
+        match self.kind {
+            SpecimenKind::DiskOnCylinder { radius, .. }
+            | SpecimenKind::DiskOnPaper { radius, .. } => Some(radius),
+            _ => None,
+        }
+    }
+
+    /// Ball radius, for the ball.
+    pub fn ball_radius(&self) -> Option<f64> {
+        match self.kind {
+            SpecimenKind::BallOnPost { radius, .. } => Some(radius),
+            _ => None,
+        }
+    }
+
+    /// True for the straight-edge specimens.
+    pub fn is_edge(&self) -> bool {
+        matches!(
+            self.kind,
+            SpecimenKind::ParallelBar { .. }
+                | SpecimenKind::Scale { .. }
+                | SpecimenKind::KnifeBlade { .. }
+        )
+    }
+
+    /// The analytic shapes, in the specimen frame.
+    pub fn parts(&self) -> Vec<Part> {
+        let uniform = Surface::Uniform {
+            reflectance: self.reflectance,
+            specular: false,
+        };
+        let at = |x: f64, y: f64, z: f64| {
+            Isometry3::from_parts(Translation3::new(x, y, z), Default::default())
+        };
+        let bar = |length: f64, width: f64, height: f64| {
+            let h = Vector3::new(length / 2.0, width / 2.0, height / 2.0);
+            Part {
+                specimen_to_part: at(0.0, -width / 2.0, -height / 2.0),
+                shape: PartShape::Planes(ConvexPlanes::cuboid(h)),
+                surface: uniform,
+                bound_radius: h.norm() * (1.0 + 1e-9),
+            }
+        };
+        match self.kind {
+            SpecimenKind::DiskOnCylinder { radius, height } => vec![Part {
+                specimen_to_part: Isometry3::identity(),
+                shape: PartShape::Cylinder(CylinderZ {
+                    radius,
+                    z_min: -height,
+                    z_max: 0.0,
+                }),
+                surface: uniform,
+                bound_radius: radius.hypot(height) * (1.0 + 1e-9),
+            }],
+            SpecimenKind::DiskOnPaper { radius, paper_half } => vec![Part {
+                specimen_to_part: Isometry3::identity(),
+                shape: PartShape::Sheet(Sheet { half: paper_half }),
+                surface: Surface::DiskOnPaper {
+                    radius,
+                    disk: self.reflectance,
+                    paper: 0.05,
+                },
+                bound_radius: paper_half * std::f64::consts::SQRT_2 * (1.0 + 1e-9),
+            }],
+            SpecimenKind::BallOnPost {
+                radius,
+                post_radius,
+                post_height,
+            } => vec![
+                Part {
+                    specimen_to_part: Isometry3::identity(),
+                    shape: PartShape::Ball(Ball::new(radius)),
+                    surface: Surface::Uniform {
+                        reflectance: self.reflectance,
+                        specular: true,
+                    },
+                    bound_radius: radius * (1.0 + 1e-9),
+                },
+                Part {
+                    specimen_to_part: Isometry3::identity(),
+                    shape: PartShape::Cylinder(CylinderZ {
+                        radius: post_radius,
+                        z_min: -radius - post_height,
+                        z_max: -0.5 * radius,
+                    }),
+                    surface: uniform,
+                    bound_radius: post_radius.hypot(radius + post_height) * (1.0 + 1e-9),
+                },
+            ],
+            SpecimenKind::ParallelBar {
+                length,
+                width,
+                height,
+            } => vec![bar(length, width, height)],
+            SpecimenKind::Scale {
+                length,
+                width,
+                thickness,
+            } => vec![bar(length, width, thickness)],
+            SpecimenKind::KnifeBlade {
+                length,
+                width,
+                thickness,
+                bevel,
+            } => {
+                // Edge line at y = z = 0; body y in [-width, 0], z in [-t/2, t/2]; bevel faces meet at
+                // the edge.
+                let t2 = thickness / 2.0;
+                let top = Vector3::new(0.0, t2, bevel).normalize();
+                let bottom = Vector3::new(0.0, t2, -bevel).normalize();
+                let planes = vec![
+                    (Vector3::x(), length / 2.0),
+                    (-Vector3::x(), length / 2.0),
+                    (-Vector3::y(), width),
+                    (Vector3::z(), t2),
+                    (-Vector3::z(), t2),
+                    (top, 0.0),
+                    (bottom, 0.0),
+                ];
+                vec![Part {
+                    specimen_to_part: Isometry3::identity(),
+                    shape: PartShape::Planes(ConvexPlanes { planes }),
+                    surface: uniform,
+                    bound_radius: Vector3::new(length / 2.0, width, t2).norm() * (1.0 + 1e-9),
+                }]
+            }
+        }
+    }
+
+    /// The straight edge in the specimen frame: a point on it and its unit direction.
+    pub fn edge_line(&self) -> Option<(Point3<f64>, Vector3<f64>)> {
+        self.is_edge().then(|| (Point3::origin(), Vector3::x()))
+    }
+}

@@ -1,0 +1,319 @@
+//! Data collection for the disk method (disk paper Sec. III-A): for each orientation a straight
+//! TCP move from T-bar to T-tilde with m profiles at even steps, and the chords they show.
+
+use super::{PlanError, Rig, check_reachable, flange_pose};
+use crate::calib::disk::{DiskChord, DiskScan};
+use crate::features::{self, SplitMerge};
+use crate::scene::{Scene, SpecimenKind};
+use crate::sensor::gauss;
+use nalgebra::{Isometry3, Point3, Rotation3, Unit, Vector2, Vector3};
+
+/// The disk as the simulator knows it (base frame, metres).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DiskTarget {
+    pub centre: Point3<f64>,
+    pub normal: Unit<Vector3<f64>>,
+    pub radius: f64,
+}
+
+impl DiskTarget {
+    /// From a disk specimen's pose (its frame: origin at the centre, z along the normal).
+    pub fn from_pose(base_to_specimen: &Isometry3<f64>, radius: f64) -> DiskTarget {
+        DiskTarget {
+            centre: base_to_specimen * Point3::origin(),
+            normal: Unit::new_normalize(base_to_specimen.rotation * Vector3::z()),
+            radius,
+        }
+    }
+}
+
+/// How much of the disk a scan sweeps (Fig. 4).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Coverage {
+    /// From one side across the centre to the other.
+    Whole,
+    /// From one side up to the centre.
+    Half,
+}
+
+/// One planned scan: orientation, T-bar, T-tilde and the number of profiles m.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DiskScanPlan {
+    pub r_tcp: Rotation3<f64>,
+    pub t_start: Vector3<f64>,
+    pub t_end: Vector3<f64>,
+    pub m: usize,
+}
+
+impl DiskScanPlan {
+    /// Fraction along the move of profile j (0-based): (j) / (m - 1).
+    pub fn u(&self, j: usize) -> f64 {
+        if self.m < 2 {
+            0.0
+        } else {
+            j as f64 / (self.m - 1) as f64
+        }
+    }
+
+    /// TCP position of profile j.
+    pub fn tcp(&self, j: usize) -> Vector3<f64> {
+        self.t_start + (self.t_end - self.t_start) * self.u(j)
+    }
+}
+
+/// What the planner is told for one scan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScanRequest {
+    pub r_tcp: Rotation3<f64>,
+    /// TCP position near which the laser plane crosses the disk centre (shifted along the move so it
+    /// does exactly); None: put the sensor's range centre on the disk centre.
+    pub centre_tcp: Option<Vector3<f64>>,
+    /// Move direction.
+    pub direction: Direction,
+}
+
+/// A scan's move direction, given in the base frame or in the sensor frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Direction {
+    InBase(Vector3<f64>),
+    InSensor(Vector3<f64>),
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct DiskPlanSpec {
+    pub scans: Vec<ScanRequest>,
+    pub coverage: Coverage,
+    /// Fraction of the disk's extent across the laser plane that the scan spans (0..1): 1 would
+    /// start and end exactly at the tangent planes, where chords vanish.
+    pub span_fraction: f64,
+    /// m, profiles per scan.
+    pub m: usize,
+    /// Smallest allowed angle between the move and the disk plane or normal (radians, Eq. 2).
+    pub min_angle: f64,
+}
+
+/// Plan T-bar and T-tilde for every scan, checking Eq. 2 and reachability (IK at every profile).
+pub fn plan(
+    rig: &Rig,
+    disk: &DiskTarget,
+    spec: &DiskPlanSpec,
+) -> Result<Vec<DiskScanPlan>, PlanError> {
+    let plans = plan_unchecked(rig, disk, spec)?;
+    for (i, p) in plans.iter().enumerate() {
+        for j in 0..p.m {
+            check_reachable(&rig.robot, i, &flange_pose(&p.r_tcp, &p.tcp(j)))?;
+        }
+    }
+    Ok(plans)
+}
+
+/// The geometry of `plan` without the reachability check (a free-flying sensor).
+pub fn plan_unchecked(
+    rig: &Rig,
+    disk: &DiskTarget,
+    spec: &DiskPlanSpec,
+) -> Result<Vec<DiskScanPlan>, PlanError> {
+    let mut out = Vec::with_capacity(spec.scans.len());
+    for (i, req) in spec.scans.iter().enumerate() {
+        let r_bs = req.r_tcp * rig.flange_to_sensor.rotation.to_rotation_matrix();
+        let y_b = r_bs * Vector3::y();
+        let dir = match req.direction {
+            Direction::InBase(v) => v,
+            Direction::InSensor(v) => r_bs * v,
+        };
+        if dir.norm() < 1e-12 {
+            return Err(PlanError::BadScan {
+                scan: i,
+                reason: "the scan direction is zero".into(),
+            });
+        }
+        let dir = dir.normalize();
+        let n = disk.normal.into_inner();
+        let to_plane = dir.dot(&n).abs().clamp(0.0, 1.0).asin();
+        if to_plane < spec.min_angle || std::f64::consts::FRAC_PI_2 - to_plane < spec.min_angle {
+            return Err(PlanError::BadScan {
+                scan: i,
+                reason: format!(
+                    "the move is {:.2} deg from the disk plane; Eq. 2 wants it neither parallel nor perpendicular to the disk (at least {:.1} deg from both)",
+                    to_plane.to_degrees(),
+                    spec.min_angle.to_degrees()
+                ),
+            });
+        }
+        let sweep = y_b.dot(&dir);
+        if sweep.abs() < 1e-3 {
+            return Err(PlanError::BadScan {
+                scan: i,
+                reason: "the move does not sweep the laser plane (it lies in the plane)".into(),
+            });
+        }
+        let half_extent = disk.radius * (1.0 - y_b.dot(&n).powi(2)).max(0.0).sqrt();
+        if half_extent < 1e-3 * disk.radius {
+            return Err(PlanError::BadScan {
+                scan: i,
+                reason: "the laser plane is parallel to the disk".into(),
+            });
+        }
+        // The TCP position where the laser plane passes through the disk centre.
+        let guess = req.centre_tcp.unwrap_or_else(|| {
+            let c = rig.sensor.range_centre().coords;
+            disk.centre.coords
+                - req.r_tcp
+                    * (rig.flange_to_sensor.rotation * c + rig.flange_to_sensor.translation.vector)
+        });
+        let sensor_origin = guess + req.r_tcp * rig.flange_to_sensor.translation.vector;
+        let offset = y_b.dot(&(disk.centre.coords - sensor_origin));
+        let t_centre = guess + dir * (offset / sweep);
+        // Travel that moves the plane across +-span of the disk's extent.
+        let reach = spec.span_fraction * half_extent / sweep.abs();
+        let (a, b) = match spec.coverage {
+            Coverage::Whole => (-reach, reach),
+            Coverage::Half => (-reach, 0.0),
+        };
+        out.push(DiskScanPlan {
+            r_tcp: req.r_tcp,
+            t_start: t_centre + dir * a,
+            t_end: t_centre + dir * b,
+            m: spec.m,
+        });
+    }
+    // R_sensor comes from the moves seen in the sensor frame (Eq. 45): they must not all be parallel.
+    let in_sensor: Vec<Vector3<f64>> = out
+        .iter()
+        .map(|p| {
+            (p.r_tcp * rig.flange_to_sensor.rotation.to_rotation_matrix()).inverse()
+                * (p.t_end - p.t_start).normalize()
+        })
+        .collect();
+    if let Some(first) = in_sensor.first()
+        && in_sensor.iter().all(|d| d.cross(first).norm() < 1e-3)
+    {
+        return Err(PlanError::BadScan {
+            scan: 0,
+            reason: "every scan moves in the same direction in the sensor frame, so R_sensor is undetermined (Eq. 45); give directions that differ between scans".into(),
+        });
+    }
+    Ok(out)
+}
+
+/// s_i (Eq. 3): +1 when the move follows the sensor's +y.
+pub fn scan_sign(rig: &Rig, p: &DiskScanPlan) -> f64 {
+    let y_b = p.r_tcp * (rig.flange_to_sensor.rotation * Vector3::y());
+    if y_b.dot(&(p.t_end - p.t_start)) >= 0.0 {
+        1.0
+    } else {
+        -1.0
+    }
+}
+
+/// The exact chord where the laser plane (sensor y = 0) cuts the disk, ends ordered by x; None when
+/// the plane misses the disk.
+pub fn exact_chord(
+    base_to_sensor: &Isometry3<f64>,
+    disk: &DiskTarget,
+) -> Option<(Vector2<f64>, Vector2<f64>)> {
+    let q = base_to_sensor.inverse_transform_point(&disk.centre).coords;
+    let n = base_to_sensor.inverse_transform_vector(&disk.normal);
+    let d = Vector3::y().cross(&n);
+    if d.norm() < 1e-12 {
+        return None;
+    }
+    let d = d.normalize();
+    let w = n.cross(&d);
+    if w.y.abs() < 1e-15 {
+        return None;
+    }
+    let lambda = -q.y / w.y;
+    if lambda.abs() >= disk.radius {
+        return None;
+    }
+    let p0 = q + w * lambda;
+    let h = (disk.radius * disk.radius - lambda * lambda).sqrt();
+    let (e1, e2) = (p0 - d * h, p0 + d * h);
+    let (a, b) = if e1.x <= e2.x { (e1, e2) } else { (e2, e1) };
+    Some((Vector2::new(a.x, a.z), Vector2::new(b.x, b.z)))
+}
+
+/// Analytic chords with Gaussian noise of `sigma` (metres) along each chord (Eq. 52), the disk
+/// paper's own simulation. Profiles whose plane misses the disk give no chord.
+pub fn analytic_scan(
+    rig: &Rig,
+    disk: &DiskTarget,
+    p: &DiskScanPlan,
+    sigma: f64,
+    rng: &mut crate::rng::Rng,
+) -> DiskScan {
+    let mut chords = Vec::with_capacity(p.m);
+    for j in 0..p.m {
+        let pose = rig.base_to_sensor(&flange_pose(&p.r_tcp, &p.tcp(j)));
+        // Draw both noises for every profile so streams stay aligned.
+        let (t1, t2) = (gauss(rng) * sigma, gauss(rng) * sigma);
+        if let Some((a, b)) = exact_chord(&pose, disk) {
+            let len = (b - a).norm();
+            if len > 0.0 {
+                let dir = (b - a) / len;
+                chords.push(DiskChord {
+                    u: p.u(j),
+                    a: a + dir * t1,
+                    b: b + dir * t2,
+                });
+            }
+        }
+    }
+    DiskScan {
+        r_tcp: p.r_tcp,
+        t_start: p.t_start,
+        t_end: p.t_end,
+        s: scan_sign(rig, p),
+        chords,
+    }
+}
+
+/// Ray-cast chords: each profile through the sensor model, then feature extraction (split-and-merge
+/// on a disk-on-cylinder, intensity on a disk-on-paper). Profiles that show no chord are skipped
+/// and counted.
+pub fn raycast_scan(
+    rig: &Rig,
+    scene: &Scene,
+    kind: &SpecimenKind,
+    p: &DiskScanPlan,
+    rng: Option<&mut crate::rng::Rng>,
+    cfg: &SplitMerge,
+) -> (DiskScan, usize) {
+    let mut chords = Vec::with_capacity(p.m);
+    let mut missed = 0;
+    let mut rng = rng;
+    for j in 0..p.m {
+        let pose = rig.base_to_sensor(&flange_pose(&p.r_tcp, &p.tcp(j)));
+        let profile = rig.sensor.profile(scene, &pose, rng.as_deref_mut());
+        let chord = match *kind {
+            SpecimenKind::DiskOnPaper { .. } => {
+                features::disk_chord_intensity(&profile, &rig.sensor, cfg.min_points)
+            }
+            SpecimenKind::DiskOnCylinder { radius, .. } => {
+                features::disk_chord_step(&profile, &rig.sensor, radius, cfg)
+            }
+            _ => Err(features::FeatureError::NoChord {
+                reason: "not a disk specimen".into(),
+            }),
+        };
+        match chord {
+            Ok(c) => chords.push(DiskChord {
+                u: p.u(j),
+                a: c.a,
+                b: c.b,
+            }),
+            Err(_) => missed += 1,
+        }
+    }
+    (
+        DiskScan {
+            r_tcp: p.r_tcp,
+            t_start: p.t_start,
+            t_end: p.t_end,
+            s: scan_sign(rig, p),
+            chords,
+        },
+        missed,
+    )
+}

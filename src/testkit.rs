@@ -1,0 +1,123 @@
+//! One seeded kit shared by every test and benchmark: reference robots, pose generators and
+//! perturbations. Deterministic for a given seed.
+
+use crate::rng::{self, Rng};
+use crate::robot::{Joints, Robot};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use rand::RngExt;
+
+/// The IRB 120 of the disk paper.
+pub fn irb120() -> Robot {
+    Robot::resolve("irb120").expect("built-in irb120 loads")
+}
+
+/// The IRB 2600 of the edge paper.
+pub fn irb2600() -> Robot {
+    Robot::resolve("irb2600").expect("built-in irb2600 loads")
+}
+
+/// A generator for test `seed`.
+pub fn rng(seed: u64) -> Rng {
+    rng::stream(seed, &[0x7e57])
+}
+
+/// Uniform joint values within limits, `margin` radians away from each limit.
+pub fn random_joints(robot: &Robot, r: &mut Rng, margin: f64) -> Joints {
+    std::array::from_fn(|i| {
+        let j = &robot.joints[i];
+        r.random_range(j.lower_rad + margin..j.upper_rad - margin)
+    })
+}
+
+/// A uniformly distributed rotation.
+pub fn random_rotation(r: &mut Rng) -> UnitQuaternion<f64> {
+    // Shoemake's method.
+    let (u1, u2, u3): (f64, f64, f64) = (r.random(), r.random(), r.random());
+    let tau = std::f64::consts::TAU;
+    let (a, b) = ((1.0 - u1).sqrt(), u1.sqrt());
+    UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+        b * (tau * u3).cos(),
+        a * (tau * u2).sin(),
+        a * (tau * u2).cos(),
+        b * (tau * u3).sin(),
+    ))
+}
+
+/// A random unit vector.
+pub fn random_unit(r: &mut Rng) -> Vector3<f64> {
+    random_rotation(r) * Vector3::z()
+}
+
+/// A random pose: uniform rotation, translation uniform in a cube of half-width `half_m`.
+pub fn random_pose(r: &mut Rng, half_m: f64) -> Isometry3<f64> {
+    let t = Vector3::new(
+        r.random_range(-half_m..half_m),
+        r.random_range(-half_m..half_m),
+        r.random_range(-half_m..half_m),
+    );
+    Isometry3::from_parts(Translation3::from(t), random_rotation(r))
+}
+
+/// Perturb a pose by a random rotation of up to `angle_rad` and a shift of up to `shift_m`.
+pub fn perturb(r: &mut Rng, pose: &Isometry3<f64>, angle_rad: f64, shift_m: f64) -> Isometry3<f64> {
+    let axis = nalgebra::Unit::new_normalize(random_unit(r));
+    let rot = UnitQuaternion::from_axis_angle(&axis, r.random_range(-angle_rad..=angle_rad));
+    let shift = random_unit(r) * r.random_range(0.0..=shift_m);
+    Isometry3::from_parts(
+        Translation3::from(pose.translation.vector + shift),
+        rot * pose.rotation,
+    )
+}
+
+use crate::sensor::SensorModel;
+use crate::sim::Rig;
+use crate::sim::disk::{Coverage, Direction, DiskPlanSpec, DiskScanPlan, DiskTarget, ScanRequest};
+
+/// A random disk experiment for a free-flying sensor: random true mounting, random disk pose,
+/// `n` random orientations that look at the disk from 20-60 deg off its normal, and a move that
+/// sweeps the whole disk. Deterministic for a given generator state.
+pub fn random_disk_setup(r: &mut Rng, n: usize, m: usize) -> (Rig, DiskTarget, Vec<DiskScanPlan>) {
+    let flange_to_sensor = random_pose(r, 0.2);
+    let rig = Rig {
+        robot: irb120(),
+        sensor: SensorModel::gocator_2340(),
+        flange_to_sensor,
+    };
+    let disk_pose = random_pose(r, 0.5);
+    let disk = DiskTarget::from_pose(&disk_pose, r.random_range(0.02..0.08));
+    loop {
+        let mut scans = Vec::new();
+        for _ in 0..n {
+            // Sensor z (pointing back at the sensor) within 20-60 deg of the disk normal.
+            let tilt = r.random_range(20f64..60.0).to_radians();
+            let spin = r.random_range(0.0..std::f64::consts::TAU);
+            let roll = r.random_range(0.0..std::f64::consts::TAU);
+            let n_axis = disk.normal;
+            let perp = nalgebra::Unit::new_normalize(n_axis.cross(&random_unit(r)));
+            let tilt_q = UnitQuaternion::from_axis_angle(&perp, tilt);
+            let base_rot = UnitQuaternion::rotation_between(&Vector3::z(), &n_axis)
+                .unwrap_or_else(UnitQuaternion::identity);
+            let r_bs = UnitQuaternion::from_axis_angle(&n_axis, spin)
+                * tilt_q
+                * base_rot
+                * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), roll);
+            let r_tcp = (r_bs * flange_to_sensor.rotation.inverse()).to_rotation_matrix();
+            let dir = Vector3::new(r.random_range(-0.3..0.3), 1.0, r.random_range(-0.6..0.6));
+            scans.push(ScanRequest {
+                r_tcp,
+                centre_tcp: None,
+                direction: Direction::InSensor(dir),
+            });
+        }
+        let spec = DiskPlanSpec {
+            scans,
+            coverage: Coverage::Whole,
+            span_fraction: 0.9,
+            m,
+            min_angle: 10f64.to_radians(),
+        };
+        if let Ok(plans) = crate::sim::disk::plan_unchecked(&rig, &disk, &spec) {
+            return (rig, disk, plans);
+        }
+    }
+}

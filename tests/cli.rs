@@ -1,0 +1,83 @@
+//! End-to-end tests of the `lasercal` binary.
+
+use std::process::Command;
+
+fn lasercal(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_lasercal"))
+        .args(args)
+        .output()
+        .expect("run lasercal");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn cli_fk_zero_pose_irb120() {
+    let (code, out, err) = lasercal(&["fk", "irb120", "0", "0", "0", "0", "0", "0"]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    let p: Vec<f64> = serde_json::from_value(v["position_mm"].clone()).unwrap();
+    let q: Vec<f64> = serde_json::from_value(v["quaternion_wxyz"].clone()).unwrap();
+    assert_eq!(p, vec![374.0, 0.0, 630.0]);
+    assert!(
+        (q[0] - 0.707107).abs() < 1e-6
+            && q[1] == 0.0
+            && (q[2] - 0.707107).abs() < 1e-6
+            && q[3] == 0.0
+    );
+}
+
+#[test]
+fn cli_fk_negative_angles_and_irb2600() {
+    let (code, out, err) = lasercal(&["fk", "irb2600", "-30", "10", "-20", "45", "-60", "90"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("position_mm"));
+}
+
+#[test]
+fn cli_ik_roundtrip() {
+    let (_, out, _) = lasercal(&["fk", "irb120", "10", "20", "-30", "40", "50", "60"]);
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    let mut args = vec!["ik".to_string(), "irb120".to_string()];
+    for k in ["position_mm", "quaternion_wxyz"] {
+        for x in v[k].as_array().unwrap() {
+            args.push(x.to_string());
+        }
+    }
+    let argv: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+    let (code, out, err) = lasercal(&argv);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    let sols: Vec<Vec<f64>> = serde_json::from_value(v["solutions_deg"].clone()).unwrap();
+    assert!(
+        sols.iter().any(|s| s
+            .iter()
+            .zip([10.0, 20.0, -30.0, 40.0, 50.0, 60.0])
+            .all(|(a, b)| (a - b).abs() < 1e-4)),
+        "{sols:?}"
+    );
+}
+
+#[test]
+fn cli_bad_arguments_fail_cleanly() {
+    for args in [
+        vec!["fk", "irb120", "0", "0", "0"],
+        vec!["fk", "irb999", "0", "0", "0", "0", "0", "0"],
+        vec!["fk", "irb120", "0", "x", "0", "0", "0", "0"],
+        vec!["fk", "irb120", "0", "0", "0", "0", "0", "900"],
+        vec!["ik", "irb120", "2000", "0", "0", "1", "0", "0", "0"],
+        vec!["ik", "irb120", "300", "0", "400", "2", "0", "0", "0"],
+        vec!["bogus"],
+    ] {
+        let (code, out, err) = lasercal(&args);
+        assert_ne!(code, 0, "{args:?} should fail");
+        assert!(out.is_empty(), "{args:?} printed {out}");
+        assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+        assert!(!err.trim().is_empty());
+    }
+    let (_, _, err) = lasercal(&["ik", "irb120", "2000", "0", "0", "1", "0", "0", "0"]);
+    assert!(err.contains("out of reach"), "{err}");
+}
