@@ -168,6 +168,20 @@ pub fn disk_chord_step(
         if k2 >= sensor.columns {
             return Err(FeatureError::ChordTruncated { column: k });
         }
+        // Where the next column finds nothing, the chord may run on out of the measurement range.
+        if profile.points[k2].is_none() {
+            let t = sensor.column_tan(k2);
+            let ray = Line2 {
+                point: Vector2::new(0.0, sensor.apex_z),
+                dir: Vector2::new(t, sensor.dir_z).normalize(),
+            };
+            if let Some(p) = s.line.intersect(&ray) {
+                let depth = sensor.dir_z * (p.y - sensor.apex_z);
+                if depth < sensor.depth_near || depth > sensor.depth_far {
+                    return Err(FeatureError::ChordTruncated { column: k });
+                }
+            }
+        }
         end_between(sensor, &s.line, k, k2).ok_or(FeatureError::ChordTruncated { column: k })
     };
     Ok(Chord {

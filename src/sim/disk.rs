@@ -196,6 +196,46 @@ pub fn plan_unchecked(
     Ok(out)
 }
 
+/// Check that every chord of a plan lies inside the sensor's measurement range and field of view
+/// (needed when profiles are ray-cast; the analytic chords of the paper's simulation ignore it).
+pub fn check_in_view(
+    rig: &Rig,
+    disk: &DiskTarget,
+    plans: &[DiskScanPlan],
+) -> Result<(), PlanError> {
+    let s = &rig.sensor;
+    for (i, p) in plans.iter().enumerate() {
+        for j in 0..p.m {
+            let pose = rig.base_to_sensor(&flange_pose(&p.r_tcp, &p.tcp(j)));
+            let Some((a, b)) = exact_chord(&pose, disk) else {
+                continue;
+            };
+            for e in [a, b] {
+                let q = Point3::new(e.x, 0.0, e.y);
+                let depth = s.depth(&q);
+                let inside = depth >= s.depth_near
+                    && depth <= s.depth_far
+                    && s.tan_of(e.x, e.y).abs() <= s.tan_half_fov;
+                if !inside {
+                    let (zlo, zhi) = s.z_range();
+                    return Err(PlanError::BadScan {
+                        scan: i,
+                        reason: format!(
+                            "profile {j}: the chord end ({:.1}, {:.1}) mm is outside the sensor's view (z {:.0}..{:.0} mm, |x| <= {:.0}% of depth); lower span_fraction, use coverage = \"half\", or move more along the sensor's y",
+                            e.x * 1e3,
+                            e.y * 1e3,
+                            zlo * 1e3,
+                            zhi * 1e3,
+                            s.tan_half_fov * 100.0
+                        ),
+                    });
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// s_i (Eq. 3): +1 when the move follows the sensor's +y.
 pub fn scan_sign(rig: &Rig, p: &DiskScanPlan) -> f64 {
     let y_b = p.r_tcp * (rig.flange_to_sensor.rotation * Vector3::y());
