@@ -8,7 +8,9 @@ use crate::robot::Robot;
 use crate::scene::{Scene, Specimen, SpecimenKind, Table};
 use crate::sensor::{NoiseModel, SensorModel};
 use crate::sim::Rig;
+use crate::sim::ball::{BallPlan, BallTarget, Pose as BallPose};
 use crate::sim::disk::{Coverage, Direction, DiskPlanSpec, DiskScanPlan, DiskTarget, ScanRequest};
+use crate::sim::edge::{EdgeGroupPlan, EdgePlanSpec, EdgeTarget};
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 use thiserror::Error;
@@ -71,7 +73,98 @@ pub struct Scenario {
     #[serde(default)]
     pub disk: Option<DiskSection>,
     #[serde(default)]
+    pub ball: Option<BallSection>,
+    #[serde(default)]
+    pub edge: Option<EdgeSection>,
+    #[serde(default)]
     pub sweep: Option<SweepSection>,
+}
+
+fn d_step() -> f64 {
+    0.1
+}
+fn d_one() -> usize {
+    1
+}
+
+/// The ball two-step method's data collection.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct BallSection {
+    /// "analytic" (exact arcs sampled every x_step_mm, Gaussian z noise) or "raycast".
+    #[serde(default = "d_source")]
+    pub source: String,
+    /// Gaussian noise on each arc point's z, mm (analytic).
+    #[serde(default)]
+    pub sigma_mm: f64,
+    #[serde(default = "d_step")]
+    pub x_step_mm: f64,
+    /// m: arcs per translation-set capture (averaged).
+    #[serde(default = "d_one")]
+    pub arcs: usize,
+    /// Flange positions of the rotation set (one shared orientation, at least 4).
+    pub rotation_tcp_mm: Vec<[f64; 3]>,
+    /// That orientation, (rx, ry, rz) radians, R = Rz Ry Rx.
+    pub rotation_rpy_rad: [f64; 3],
+    /// Flange positions and orientations of the translation set (at least 3).
+    pub translation_tcp_mm: Vec<[f64; 3]>,
+    pub translation_rpy_rad: Vec<[f64; 3]>,
+    /// The ball, when the scenario's [specimen] is another specimen.
+    #[serde(default)]
+    pub specimen: Option<SpecimenSection>,
+}
+
+/// The straight-edge method's data collection.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct EdgeSection {
+    /// "analytic" (exact edge points plus Gaussian noise) or "raycast".
+    #[serde(default = "d_source")]
+    pub source: String,
+    /// Gaussian noise on the edge point's x and z, mm (analytic).
+    #[serde(default)]
+    pub sigma_mm: f64,
+    pub rotations: usize,
+    pub translations: usize,
+    pub tilt_deg: f64,
+    pub arc_radius_mm: f64,
+    pub arc_span_deg: f64,
+    /// Angle of the arc's chord from the edge toward the open side: 0 moves along the edge (the
+    /// profile never changes), 90 straight across it (the points do not spread along the edge).
+    #[serde(default = "d_heading")]
+    pub arc_heading_deg: f64,
+    /// Sensor z at which the laser line crosses the edge (default: the range centre).
+    #[serde(default)]
+    pub edge_z_mm: Option<f64>,
+    /// The edge specimen, when the scenario's [specimen] is another specimen.
+    #[serde(default)]
+    pub specimen: Option<SpecimenSection>,
+    /// The edge paper's Table 3 check with a precision ball.
+    #[serde(default)]
+    pub validation: Option<EdgeValidation>,
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct EdgeValidation {
+    pub ball_radius_mm: f64,
+    pub position_mm: [f64; 3],
+    #[serde(default = "d_ten")]
+    pub groups: usize,
+    #[serde(default = "d_six")]
+    pub translations: usize,
+    #[serde(default)]
+    pub sigma_mm: f64,
+}
+
+fn d_heading() -> f64 {
+    45.0
+}
+fn d_ten() -> usize {
+    10
+}
+fn d_six() -> usize {
+    6
 }
 
 #[derive(Debug, Clone, Deserialize, PartialEq)]
@@ -407,6 +500,31 @@ pub struct Setup {
     pub specimen: Specimen,
     pub base_to_specimen: Isometry3<f64>,
     pub disk: Option<DiskSetup>,
+    pub ball: Option<BallSetup>,
+    pub edge: Option<EdgeSetup>,
+}
+
+#[derive(Debug, Clone)]
+pub struct BallSetup {
+    pub target: BallTarget,
+    pub plan: BallPlan,
+    pub scene: Scene,
+    pub raycast: bool,
+    /// z noise on arc points and the arc sampling step (analytic), metres.
+    pub sigma: f64,
+    pub x_step: f64,
+}
+
+#[derive(Debug, Clone)]
+pub struct EdgeSetup {
+    pub target: EdgeTarget,
+    pub plans: Vec<EdgeGroupPlan>,
+    pub scene: Scene,
+    pub raycast: bool,
+    /// Noise on the edge point's x and z (analytic), metres.
+    pub sigma: f64,
+    /// Table 3 check: ball, groups, translations, z noise.
+    pub validation: Option<(BallTarget, usize, usize, f64)>,
 }
 
 #[derive(Debug, Clone)]
@@ -419,7 +537,7 @@ pub struct DiskSetup {
     pub min_angle: f64,
 }
 
-pub const METHODS: &[&str] = &["disk"];
+pub const METHODS: &[&str] = &["disk", "ball", "edge"];
 
 impl Scenario {
     /// Check values that deserialisation cannot.
@@ -631,6 +749,138 @@ impl Scenario {
                 }
             }
         }
+        if self.methods.iter().any(|m| m == "ball") {
+            let b = self.ball.as_ref().ok_or_else(|| {
+                bad(
+                    file,
+                    "ball",
+                    "(missing)",
+                    "the ball method needs a [ball] section",
+                )
+            })?;
+            let kind = match &b.specimen {
+                Some(sp) => specimen_kind_of(sp, "ball.specimen", file)?,
+                None => self.specimen_kind(file)?,
+            };
+            if !matches!(kind, SpecimenKind::BallOnPost { .. }) {
+                return Err(bad(
+                    file,
+                    "specimen.kind",
+                    format!("\"{}\"", self.specimen.kind),
+                    "the ball method needs a ball (here or in [ball.specimen])",
+                ));
+            }
+            if b.rotation_tcp_mm.len() < 4 {
+                return Err(bad(
+                    file,
+                    "ball.rotation_tcp_mm",
+                    format!("{} positions", b.rotation_tcp_mm.len()),
+                    "R_sensor needs at least 4 captures at one orientation",
+                ));
+            }
+            if b.translation_tcp_mm.len() < 3
+                || b.translation_tcp_mm.len() != b.translation_rpy_rad.len()
+            {
+                return Err(bad(
+                    file,
+                    "ball.translation_tcp_mm",
+                    format!(
+                        "{} positions, {} orientations",
+                        b.translation_tcp_mm.len(),
+                        b.translation_rpy_rad.len()
+                    ),
+                    "T_sensor needs at least 3 captures, one orientation each",
+                ));
+            }
+            if !["analytic", "raycast"].contains(&b.source.as_str()) {
+                return Err(bad(
+                    file,
+                    "ball.source",
+                    format!("\"{}\"", b.source),
+                    "use \"analytic\" or \"raycast\"",
+                ));
+            }
+            if !(b.sigma_mm >= 0.0 && b.sigma_mm.is_finite()) {
+                return Err(bad(
+                    file,
+                    "ball.sigma_mm",
+                    b.sigma_mm,
+                    "must be a finite number >= 0",
+                ));
+            }
+            if !(b.x_step_mm > 0.0) || b.arcs == 0 {
+                return Err(bad(
+                    file,
+                    "ball.x_step_mm",
+                    b.x_step_mm,
+                    "x_step_mm must be > 0 and arcs >= 1",
+                ));
+            }
+        }
+        if self.methods.iter().any(|m| m == "edge") {
+            let e = self.edge.as_ref().ok_or_else(|| {
+                bad(
+                    file,
+                    "edge",
+                    "(missing)",
+                    "the edge method needs an [edge] section",
+                )
+            })?;
+            if let Some(sp) = &e.specimen {
+                specimen_kind_of(sp, "edge.specimen", file)?;
+            }
+            if e.rotations < 2 {
+                return Err(bad(
+                    file,
+                    "edge.rotations",
+                    e.rotations,
+                    "at least 2 rotation groups",
+                ));
+            }
+            if e.translations < 3 {
+                return Err(bad(
+                    file,
+                    "edge.translations",
+                    e.translations,
+                    "at least 3 translations per group",
+                ));
+            }
+            if !(e.arc_radius_mm > 0.0 && e.arc_span_deg > 0.0 && e.arc_span_deg < 180.0) {
+                return Err(bad(
+                    file,
+                    "edge.arc_span_deg",
+                    e.arc_span_deg,
+                    "the arc needs a radius > 0 and a span in (0, 180) deg: a straight line makes the rotation equations degenerate",
+                ));
+            }
+            if !(e.arc_heading_deg > 0.0 && e.arc_heading_deg < 90.0) {
+                return Err(bad(
+                    file,
+                    "edge.arc_heading_deg",
+                    e.arc_heading_deg,
+                    "must be in (0, 90): along the edge the profile never changes, straight across it the points do not spread along the edge",
+                ));
+            }
+            if !(e.tilt_deg > 0.0 && e.tilt_deg <= 45.0) {
+                return Err(bad(file, "edge.tilt_deg", e.tilt_deg, "must be in (0, 45]"));
+            }
+            if !["analytic", "raycast"].contains(&e.source.as_str()) {
+                return Err(bad(
+                    file,
+                    "edge.source",
+                    format!("\"{}\"", e.source),
+                    "use \"analytic\" or \"raycast\"",
+                ));
+            }
+            if !(e.sigma_mm >= 0.0 && e.sigma_mm.is_finite()) {
+                return Err(bad(
+                    file,
+                    "edge.sigma_mm",
+                    e.sigma_mm,
+                    "must be a finite number >= 0",
+                ));
+            }
+        }
         if let Some(s) = &self.sweep {
             if s.trials == 0 {
                 return Err(bad(file, "sweep.trials", 0, "at least one trial"));
@@ -653,19 +903,29 @@ impl Scenario {
 
     /// The specimen this scenario describes.
     pub fn specimen_kind(&self, file: &str) -> Result<SpecimenKind, ScenarioError> {
-        let s = &self.specimen;
+        specimen_kind_of(&self.specimen, "specimen", file)
+    }
+}
+
+/// The specimen a specimen section describes; `key` prefixes the keys in errors.
+pub fn specimen_kind_of(
+    s: &SpecimenSection,
+    key: &str,
+    file: &str,
+) -> Result<SpecimenKind, ScenarioError> {
+    {
         let need = |name: &str, v: Option<f64>| -> Result<f64, ScenarioError> {
             match v {
                 Some(x) if x > 0.0 && x.is_finite() => Ok(x * 1e-3),
                 Some(x) => Err(bad(
                     file,
-                    &format!("specimen.{name}"),
+                    &format!("{key}.{name}"),
                     x,
                     "must be a positive length",
                 )),
                 None => Err(bad(
                     file,
-                    &format!("specimen.{name}"),
+                    &format!("{key}.{name}"),
                     "(missing)",
                     format!("a {} needs {name}", s.kind),
                 )),
@@ -699,7 +959,7 @@ impl Scenario {
                 thickness: opt(s.thickness_mm, 1.0, "thickness_mm")?,
             },
             "knife-blade" => SpecimenKind::KnifeBlade {
-                length: opt(s.length_mm, 60.0, "length_mm")?,
+                length: opt(s.length_mm, 125.0, "length_mm")?,
                 width: opt(s.width_mm, 18.0, "width_mm")?,
                 thickness: opt(s.thickness_mm, 0.6, "thickness_mm")?,
                 bevel: opt(s.bevel_mm, 1.0, "bevel_mm")?,
@@ -707,7 +967,7 @@ impl Scenario {
             other => {
                 return Err(bad(
                     file,
-                    "specimen.kind",
+                    &format!("{key}.kind"),
                     format!("\"{other}\""),
                     "use disk-cylinder, disk-paper, ball, parallel-bar, scale or knife-blade",
                 ));
@@ -716,11 +976,43 @@ impl Scenario {
         if let Some(r) = s.reflectance
             && !(0.0..=1.0).contains(&r)
         {
-            return Err(bad(file, "specimen.reflectance", r, "must be in 0..1"));
+            return Err(bad(
+                file,
+                &format!("{key}.reflectance"),
+                r,
+                "must be in 0..1",
+            ));
         }
         Ok(kind)
     }
+}
 
+/// A specimen section's specimen and its pose.
+pub fn place_specimen(
+    s: &SpecimenSection,
+    key: &str,
+    file: &str,
+) -> Result<(Specimen, Isometry3<f64>), ScenarioError> {
+    let mut specimen = Specimen::new(specimen_kind_of(s, key, file)?);
+    if let Some(r) = s.reflectance {
+        specimen.reflectance = r;
+    }
+    let pose = pose_from_xyz_rpy(
+        [
+            s.position_mm[0] * 1e-3,
+            s.position_mm[1] * 1e-3,
+            s.position_mm[2] * 1e-3,
+        ],
+        [
+            s.rpy_deg[0].to_radians(),
+            s.rpy_deg[1].to_radians(),
+            s.rpy_deg[2].to_radians(),
+        ],
+    );
+    Ok((specimen, pose))
+}
+
+impl Scenario {
     /// The true flange_to_sensor.
     pub fn mount(&self) -> Isometry3<f64> {
         let t = Vector3::from(self.sensor.mount_position_mm) * 1e-3;
@@ -771,29 +1063,27 @@ impl Scenario {
             sensor,
             flange_to_sensor: self.mount(),
         };
-        let kind = self.specimen_kind(file)?;
-        let mut specimen = Specimen::new(kind.clone());
-        if let Some(r) = self.specimen.reflectance {
-            specimen.reflectance = r;
-        }
-        let s = &self.specimen;
-        let base_to_specimen = pose_from_xyz_rpy(
-            [
-                s.position_mm[0] * 1e-3,
-                s.position_mm[1] * 1e-3,
-                s.position_mm[2] * 1e-3,
-            ],
-            [
-                s.rpy_deg[0].to_radians(),
-                s.rpy_deg[1].to_radians(),
-                s.rpy_deg[2].to_radians(),
-            ],
-        );
-        let mut scene = Scene::new(self.table.as_ref().map(|t| Table {
+        let (specimen, base_to_specimen) = place_specimen(&self.specimen, "specimen", file)?;
+        let table = self.table.as_ref().map(|t| Table {
             height_m: t.height_mm * 1e-3,
             reflectance: t.reflectance,
-        }));
+        });
+        let mut scene = Scene::new(table);
         scene.add(&specimen, base_to_specimen);
+        // A method with its own specimen gets a scene of its own (same table).
+        let own = |sec: &Option<SpecimenSection>,
+                   key: &str|
+         -> Result<(Specimen, Isometry3<f64>, Scene), ScenarioError> {
+            match sec {
+                Some(sp) => {
+                    let (spec, pose) = place_specimen(sp, key, file)?;
+                    let mut sc = Scene::new(table);
+                    sc.add(&spec, pose);
+                    Ok((spec, pose, sc))
+                }
+                None => Ok((specimen.clone(), base_to_specimen, scene.clone())),
+            }
+        };
         let disk = match (&self.disk, specimen.disk_radius()) {
             (Some(d), Some(radius)) if self.methods.iter().any(|m| m == "disk") => {
                 let target = DiskTarget::from_pose(&base_to_specimen, radius);
@@ -834,12 +1124,113 @@ impl Scenario {
             }
             _ => None,
         };
+        let ball = match &self.ball {
+            Some(b) if self.methods.iter().any(|m| m == "ball") => {
+                let (spec, pose, sc) = own(&b.specimen, "ball.specimen")?;
+                let radius = spec.ball_radius().ok_or_else(|| {
+                    bad(
+                        file,
+                        "ball.specimen.kind",
+                        spec.name(),
+                        "the ball method needs a ball specimen",
+                    )
+                })?;
+                let target = BallTarget {
+                    centre: pose * nalgebra::Point3::origin(),
+                    radius,
+                };
+                let rr = b.rotation_rpy_rad;
+                let plan = BallPlan {
+                    rotation_set: b
+                        .rotation_tcp_mm
+                        .iter()
+                        .map(|t| BallPose {
+                            r_tcp: rot_zyx(rr[0], rr[1], rr[2]),
+                            t_tcp: Vector3::from(*t) * 1e-3,
+                        })
+                        .collect(),
+                    translation_set: b
+                        .translation_tcp_mm
+                        .iter()
+                        .zip(&b.translation_rpy_rad)
+                        .map(|(t, r)| BallPose {
+                            r_tcp: rot_zyx(r[0], r[1], r[2]),
+                            t_tcp: Vector3::from(*t) * 1e-3,
+                        })
+                        .collect(),
+                    arcs: b.arcs,
+                };
+                crate::sim::ball::check(&rig, &target, &plan)
+                    .map_err(|e| bad(file, "ball.rotation_tcp_mm", "..", e.to_string()))?;
+                Some(BallSetup {
+                    target,
+                    plan,
+                    scene: sc,
+                    raycast: b.source == "raycast",
+                    sigma: b.sigma_mm * 1e-3,
+                    x_step: b.x_step_mm * 1e-3,
+                })
+            }
+            _ => None,
+        };
+        let edge = match &self.edge {
+            Some(e) if self.methods.iter().any(|m| m == "edge") => {
+                let (spec, pose, sc) = own(&e.specimen, "edge.specimen")?;
+                if !spec.is_edge() {
+                    return Err(bad(
+                        file,
+                        "edge.specimen.kind",
+                        spec.name(),
+                        "the edge method needs parallel-bar, scale or knife-blade",
+                    ));
+                }
+                let target =
+                    EdgeTarget::from_pose(&pose, spec.edge_length().unwrap_or(f64::INFINITY));
+                let espec = EdgePlanSpec {
+                    rotations: e.rotations,
+                    translations: e.translations,
+                    tilt: e.tilt_deg.to_radians(),
+                    arc_radius: e.arc_radius_mm * 1e-3,
+                    arc_span: e.arc_span_deg.to_radians(),
+                    arc_heading: e.arc_heading_deg.to_radians(),
+                    edge_z: e
+                        .edge_z_mm
+                        .map(|z| z * 1e-3)
+                        .unwrap_or(rig.sensor.range_centre().z),
+                };
+                let plans = crate::sim::edge::plan(&rig, &target, &espec)
+                    .map_err(|er| bad(file, "edge", "..", er.to_string()))?;
+                let validation = e.validation.as_ref().map(|v| {
+                    let c = Vector3::from(v.position_mm) * 1e-3;
+                    (
+                        BallTarget {
+                            centre: nalgebra::Point3::from(c),
+                            radius: v.ball_radius_mm * 1e-3,
+                        },
+                        v.groups,
+                        v.translations,
+                        v.sigma_mm * 1e-3,
+                    )
+                });
+                Some(EdgeSetup {
+                    target,
+                    plans,
+                    scene: sc,
+                    raycast: e.source == "raycast",
+                    sigma: e.sigma_mm * 1e-3,
+                    validation,
+                })
+            }
+            _ => None,
+        };
         Ok(Setup {
             rig,
             scene,
             specimen,
             base_to_specimen,
             disk,
+            ball,
+            edge,
         })
     }
 }

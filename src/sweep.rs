@@ -92,11 +92,14 @@ impl TrialRow {
     /// The value of metric `k` (index into `METRICS`), when the trial succeeded.
     pub fn metric(&self, k: usize) -> Option<f64> {
         let s = self.outcome.result.as_ref().ok()?;
-        Some(match k {
+        match k {
             0 => s.centre_error_mm,
-            1 => s.error.rotation_error_deg,
-            _ => s.error.translation_error_mm,
-        })
+            1 => Some(s.error.rotation_error_deg),
+            2 => Some(s.error.translation_error_mm),
+            3 => s.edge_angle_dev_deg,
+            4 => s.edge_distance_mm,
+            _ => s.sphere_radius_mm,
+        }
     }
 }
 

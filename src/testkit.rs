@@ -121,3 +121,99 @@ pub fn random_disk_setup(r: &mut Rng, n: usize, m: usize) -> (Rig, DiskTarget, V
         }
     }
 }
+
+use crate::sim::ball::{BallPlan, BallTarget, Pose};
+
+/// A random ball experiment for a free-flying sensor: random true mounting and ball; a rotation set
+/// of `n_rot` captures sharing one random orientation (the laser plane within 0.6 r of the centre)
+/// and a translation set of `n_trans` random orientations.
+pub fn random_ball_setup(r: &mut Rng, n_rot: usize, n_trans: usize) -> (Rig, BallTarget) {
+    let _ = (n_rot, n_trans);
+    let flange_to_sensor = random_pose(r, 0.2);
+    let rig = Rig {
+        robot: irb120(),
+        sensor: SensorModel::gocator_2340(),
+        flange_to_sensor,
+    };
+    let ball = BallTarget {
+        centre: nalgebra::Point3::from(random_pose(r, 0.5).translation.vector),
+        radius: r.random_range(0.01..0.08),
+    };
+    (rig, ball)
+}
+
+/// A flange pose that puts the ball centre at `c_in_sensor` with the sensor rotated `r_bs`.
+pub fn pose_seeing(
+    rig: &Rig,
+    ball: &BallTarget,
+    r_bs: &UnitQuaternion<f64>,
+    c_in_sensor: Vector3<f64>,
+) -> Pose {
+    let base_to_sensor = Isometry3::from_parts(
+        Translation3::from(ball.centre.coords - r_bs * c_in_sensor),
+        *r_bs,
+    );
+    let base_to_flange = base_to_sensor * rig.flange_to_sensor.inverse();
+    Pose {
+        r_tcp: base_to_flange.rotation.to_rotation_matrix(),
+        t_tcp: base_to_flange.translation.vector,
+    }
+}
+
+/// A random ball plan for `random_ball_setup`.
+pub fn random_ball_plan(
+    r: &mut Rng,
+    rig: &Rig,
+    ball: &BallTarget,
+    n_rot: usize,
+    n_trans: usize,
+    arcs: usize,
+) -> BallPlan {
+    let offset = |r: &mut Rng| {
+        Vector3::new(
+            r.random_range(-0.3..0.3) * ball.radius,
+            r.random_range(-0.6..0.6) * ball.radius,
+            r.random_range(-0.05..0.05),
+        )
+    };
+    let r0 = random_rotation(r);
+    let rotation_set = (0..n_rot)
+        .map(|_| pose_seeing(rig, ball, &r0, offset(r)))
+        .collect();
+    let translation_set = (0..n_trans)
+        .map(|_| pose_seeing(rig, ball, &random_rotation(r), offset(r)))
+        .collect();
+    BallPlan {
+        rotation_set,
+        translation_set,
+        arcs,
+    }
+}
+
+use crate::sim::edge::{EdgeGroupPlan, EdgePlanSpec, EdgeTarget};
+
+/// A random edge experiment for a free-flying sensor: random mounting and edge, the paper's grid.
+pub fn random_edge_setup(
+    r: &mut Rng,
+    rotations: usize,
+    translations: usize,
+) -> (Rig, EdgeTarget, Vec<EdgeGroupPlan>) {
+    let flange_to_sensor = random_pose(r, 0.2);
+    let rig = Rig {
+        robot: irb2600(),
+        sensor: SensorModel::vlm350(),
+        flange_to_sensor,
+    };
+    let edge = EdgeTarget::from_pose(&random_pose(r, 0.5), f64::INFINITY);
+    let spec = EdgePlanSpec {
+        rotations,
+        translations,
+        tilt: r.random_range(10f64..30.0).to_radians(),
+        arc_radius: r.random_range(0.02..0.06),
+        arc_span: r.random_range(40f64..120.0).to_radians(),
+        arc_heading: r.random_range(15f64..60.0).to_radians(),
+        edge_z: 0.08,
+    };
+    let plans = crate::sim::edge::plan_unchecked(&rig, &edge, &spec).expect("valid spec");
+    (rig, edge, plans)
+}

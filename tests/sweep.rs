@@ -136,7 +136,7 @@ fn disk_raycast_recovers_truth() {
     let out = run_trial(&setup, "disk", 1, 0);
     let s = out.result.unwrap();
     eprintln!(
-        "ray-cast: {:?}, centre {:.4} mm, missed {}",
+        "ray-cast: {:?}, centre {:?} mm, missed {}",
         s.error, s.centre_error_mm, out.missed_profiles
     );
     assert_eq!(out.missed_profiles, 0);

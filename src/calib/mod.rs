@@ -1,7 +1,9 @@
 //! Calibration methods, one file each: a `Problem` in, a `Solution` out (with residuals and a
 //! status). Pure math: no I/O.
 
+pub mod ball;
 pub mod disk;
+pub mod edge;
 pub mod ellipse;
 
 use nalgebra::{Isometry3, Matrix3, UnitQuaternion};

@@ -62,3 +62,60 @@ pub fn fit_circle(pts: &[Vector2<f64>]) -> Option<Circle> {
         rms: (ss / pts.len() as f64).sqrt(),
     })
 }
+
+/// A sphere fitted to 3D points.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sphere {
+    pub centre: nalgebra::Vector3<f64>,
+    pub radius: f64,
+    pub rms: f64,
+}
+
+/// Sphere fit: algebraic start, then Gauss-Newton on the geometric distances. None for fewer than 4
+/// points or a degenerate (coplanar) set.
+pub fn fit_sphere(pts: &[nalgebra::Vector3<f64>]) -> Option<Sphere> {
+    use nalgebra::{Matrix4, Vector4};
+    if pts.len() < 4 {
+        return None;
+    }
+    let m = pts.iter().sum::<nalgebra::Vector3<f64>>() / pts.len() as f64;
+    let (mut ata, mut atb) = (Matrix4::zeros(), Vector4::zeros());
+    for p in pts {
+        let d = p - m;
+        let row = Vector4::new(d.x, d.y, d.z, 1.0);
+        ata += row * row.transpose();
+        atb += row * d.norm_squared();
+    }
+    let s = ata.lu().solve(&atb)?;
+    let mut c = nalgebra::Vector3::new(s.x, s.y, s.z) / 2.0;
+    let r2 = s.w + c.norm_squared();
+    if !(r2 > 0.0) {
+        return None;
+    }
+    let mut r = r2.sqrt();
+    for _ in 0..50 {
+        let (mut jtj, mut jtf) = (Matrix4::zeros(), Vector4::zeros());
+        for p in pts {
+            let d = (p - m) - c;
+            let n = d.norm();
+            if n == 0.0 {
+                return None;
+            }
+            let j = Vector4::new(-d.x / n, -d.y / n, -d.z / n, -1.0);
+            jtj += j * j.transpose();
+            jtf += j * (n - r);
+        }
+        let step = jtj.lu().solve(&(-jtf))?;
+        c += nalgebra::Vector3::new(step.x, step.y, step.z);
+        r += step.w;
+        if step.norm() < 1e-15 * (1.0 + r) {
+            break;
+        }
+    }
+    let ss: f64 = pts.iter().map(|p| ((p - m - c).norm() - r).powi(2)).sum();
+    Some(Sphere {
+        centre: c + m,
+        radius: r.abs(),
+        rms: (ss / pts.len() as f64).sqrt(),
+    })
+}

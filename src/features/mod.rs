@@ -5,7 +5,7 @@
 pub mod circle;
 pub mod lines;
 
-pub use circle::{Circle, fit_circle};
+pub use circle::{Circle, Sphere, fit_circle, fit_sphere};
 pub use lines::{Line2, Segment, SplitMerge, split_and_merge};
 
 use crate::sensor::{Profile, SensorModel};
@@ -325,9 +325,10 @@ pub enum EdgeSense {
     Rising,
 }
 
-/// The straight-edge point: from the segment nearest the sensor (the specimen's top face), walk
-/// toward the edge over shallow bevels; the edge is the corner with a steep side wall, or the end of
-/// the last face halfway to the next column where the profile jumps or ends.
+/// The straight-edge point: from the specimen's top face (the nearest substantial segment) walk toward
+/// the edge over shallow bevels; the edge is the corner with a steep side wall, or the end of the
+/// last face halfway to the next column where the profile jumps or ends. Faces are refitted with
+/// their ends tightened, as for chords.
 pub fn edge_point(
     profile: &Profile,
     sensor: &SensorModel,
@@ -348,6 +349,10 @@ pub fn edge_point(
             ..*cfg
         },
     );
+    // The top face: the nearest to the sensor among the substantial segments (a table below has
+    // more points but is farther; a sliver of a steep face seen under a tilt is nearer but tiny).
+    let largest = segs.iter().map(|s| s.last + 1 - s.first).max().unwrap_or(0);
+    let min_pts = cfg.min_points.max(largest / 10);
     let depth = |s: &Segment| {
         let mid = (pts[s.first].1 + pts[s.last].1) / 2.0;
         sensor.dir_z * (mid.y - sensor.apex_z)
@@ -355,7 +360,7 @@ pub fn edge_point(
     let mut i = segs
         .iter()
         .enumerate()
-        .filter(|(_, s)| s.last + 1 - s.first >= cfg.min_points)
+        .filter(|(_, s)| s.last + 1 - s.first >= min_pts)
         .min_by(|a, b| depth(a.1).total_cmp(&depth(b.1)))
         .ok_or_else(|| FeatureError::NoEdge {
             reason: format!("no face of {} points", cfg.min_points),
@@ -363,33 +368,30 @@ pub fn edge_point(
         .0;
     let forward = sense == EdgeSense::Falling;
     loop {
-        let s = &segs[i];
-        let idx = if forward { s.last } else { s.first };
+        let (first, last, line) = tighten(&pts, &segs[i], cfg.split_tol);
+        let idx = if forward { last } else { first };
         let k = pts[idx].0;
         let next = if forward {
-            segs.get(i + 1)
+            idx + 1
         } else {
-            i.checked_sub(1).and_then(|j| segs.get(j))
+            idx.wrapping_sub(1)
         };
-        if let Some(n) = next {
-            let nidx = if forward { n.first } else { n.last };
-            let connected = nidx.abs_diff(idx) == 1
-                && pts[nidx].0.abs_diff(k) == 1
-                && (pts[nidx].1 - pts[idx].1).norm() <= cfg.jump;
-            if connected {
-                let angle = s.line.angle_to(&n.line);
-                if angle > std::f64::consts::FRAC_PI_4 {
-                    return s
-                        .line
-                        .intersect(&n.line)
-                        .ok_or_else(|| FeatureError::NoEdge {
-                            reason: "parallel faces".into(),
-                        });
-                }
-                if angle > 0.02 {
-                    i = if forward { i + 1 } else { i - 1 };
-                    continue;
-                }
+        if let Some(&(kn, pn)) = pts.get(next)
+            && kn.abs_diff(k) == 1
+            && (pn - pts[idx].1).norm() <= cfg.jump
+            && let Some(j) = segs.iter().position(|s| s.first <= next && next <= s.last)
+            && j != i
+        {
+            let (_, _, line2) = tighten(&pts, &segs[j], cfg.split_tol);
+            let angle = line.angle_to(&line2);
+            if angle > std::f64::consts::FRAC_PI_4 {
+                return line.intersect(&line2).ok_or_else(|| FeatureError::NoEdge {
+                    reason: "parallel faces".into(),
+                });
+            }
+            if angle > 0.02 {
+                i = j;
+                continue;
             }
         }
         let k2 = if forward { k + 1 } else { k.wrapping_sub(1) };
@@ -398,7 +400,7 @@ pub fn edge_point(
                 reason: "the face runs off the field of view".into(),
             });
         }
-        return end_between(sensor, &s.line, k, k2).ok_or_else(|| FeatureError::NoEdge {
+        return end_between(sensor, &line, k, k2).ok_or_else(|| FeatureError::NoEdge {
             reason: "face parallel to the ray".into(),
         });
     }

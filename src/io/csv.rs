@@ -33,6 +33,9 @@ pub fn trials_header(grid_keys: &[String]) -> String {
             "frobenius_rotation",
             "centre_error_mm",
             "accuracy_mm",
+            "edge_angle_dev_deg",
+            "edge_distance_mm",
+            "sphere_radius_mm",
             "missed_profiles",
             "error",
         ]
@@ -54,17 +57,24 @@ pub fn trial_line(r: &TrialRow) -> String {
                 s.error.rotation_error_deg,
                 s.error.translation_error_mm,
                 s.error.frobenius_rotation,
-                s.centre_error_mm,
-                s.accuracy_mm,
             ] {
                 c.push(format!("{x}"));
+            }
+            for x in [
+                s.centre_error_mm,
+                s.accuracy_mm,
+                s.edge_angle_dev_deg,
+                s.edge_distance_mm,
+                s.sphere_radius_mm,
+            ] {
+                c.push(x.map(|v| format!("{v}")).unwrap_or_default());
             }
             c.push(r.outcome.missed_profiles.to_string());
             c.push(String::new());
         }
         Err(e) => {
             c.push("false".into());
-            c.extend(std::iter::repeat_n(String::new(), 5));
+            c.extend(std::iter::repeat_n(String::new(), 8));
             c.push(r.outcome.missed_profiles.to_string());
             c.push(quote(e));
         }

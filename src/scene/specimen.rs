@@ -202,6 +202,16 @@ impl Specimen {
         }
     }
 
+    /// Length of the straight edge, for edge specimens.
+    pub fn edge_length(&self) -> Option<f64> {
+        match self.kind {
+            SpecimenKind::ParallelBar { length, .. }
+            | SpecimenKind::Scale { length, .. }
+            | SpecimenKind::KnifeBlade { length, .. } => Some(length),
+            _ => None,
+        }
+    }
+
     /// The straight edge in the specimen frame: a point on it and its unit direction.
     pub fn edge_line(&self) -> Option<(Point3<f64>, Vector3<f64>)> {
         self.is_edge().then(|| (Point3::origin(), Vector3::x()))

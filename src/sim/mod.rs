@@ -1,6 +1,8 @@
 //! Simulated experiments: planning reachable poses and producing the captures a real rig would.
 
+pub mod ball;
 pub mod disk;
+pub mod edge;
 
 use crate::robot::{Robot, RobotError};
 use crate::sensor::SensorModel;

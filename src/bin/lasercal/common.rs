@@ -40,16 +40,3 @@ pub fn matrix_text(rows: &[[f64; 4]; 4]) -> String {
         .collect::<Vec<_>>()
         .join("\n")
 }
-
-/// Parse "a,b,c" into n numbers.
-pub fn parse_list(s: &str, n: usize, what: &str) -> Result<Vec<f64>> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("{what}: '{s}' is not a comma-separated list of numbers"))?;
-    if v.len() != n || v.iter().any(|x| !x.is_finite()) {
-        anyhow::bail!("{what}: '{s}' must be {n} finite comma-separated numbers");
-    }
-    Ok(v)
-}

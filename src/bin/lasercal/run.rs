@@ -38,19 +38,27 @@ pub fn run(a: Args) -> Result<()> {
                     "\n{method}: recovered flange_to_sensor (mm):\n{}",
                     matrix_text(&est)
                 );
-                println!(
-                    "{method}: rotation error {:.6} deg, translation error {:.6} mm, |dR|_F {:.3e}, centre error {:.6} mm, accuracy (Sec. III-D) {:.6} mm{}",
+                let mut line = format!(
+                    "{method}: rotation error {:.6} deg, translation error {:.6} mm, |dR|_F {:.3e}",
                     s.error.rotation_error_deg,
                     s.error.translation_error_mm,
-                    s.error.frobenius_rotation,
-                    s.centre_error_mm,
-                    s.accuracy_mm,
-                    if out.missed_profiles > 0 {
-                        format!(", {} profiles without the feature", out.missed_profiles)
-                    } else {
-                        String::new()
-                    }
+                    s.error.frobenius_rotation
                 );
+                for (name, v, unit) in [
+                    ("centre error", s.centre_error_mm, "mm"),
+                    ("centre spread (accuracy)", s.accuracy_mm, "mm"),
+                    ("mean edge-direction deviation", s.edge_angle_dev_deg, "deg"),
+                    ("mean point-to-edge distance", s.edge_distance_mm, "mm"),
+                    ("reconstructed ball radius", s.sphere_radius_mm, "mm"),
+                ] {
+                    if let Some(v) = v {
+                        line += &format!(", {name} {v:.4} {unit}");
+                    }
+                }
+                if out.missed_profiles > 0 {
+                    line += &format!(", {} profiles without the feature", out.missed_profiles);
+                }
+                println!("{line}");
                 results.push(serde_json::json!({
                     "method": method,
                     "flange_to_sensor": est,
@@ -60,6 +68,9 @@ pub fn run(a: Args) -> Result<()> {
                     "frobenius_rotation": s.error.frobenius_rotation,
                     "centre_error_mm": s.centre_error_mm,
                     "accuracy_mm": s.accuracy_mm,
+                    "edge_angle_dev_deg": s.edge_angle_dev_deg,
+                    "edge_distance_mm": s.edge_distance_mm,
+                    "sphere_radius_mm": s.sphere_radius_mm,
                     "missed_profiles": out.missed_profiles,
                     "status": s.status,
                 }));
