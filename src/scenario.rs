@@ -1260,7 +1260,7 @@ pub fn disk_scans(setup: &Setup, rng: &mut crate::rng::Rng) -> Option<(Vec<DiskS
                     &setup.specimen.kind,
                     p,
                     noisy.then_some(&mut *rng),
-                    &Default::default(),
+                    &crate::features::SplitMerge::for_sensor(&setup.rig.sensor),
                 );
                 missed += miss;
                 scan

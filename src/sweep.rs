@@ -10,6 +10,9 @@ pub const METRICS: &[&str] = &[
     "centre_error_mm",
     "rotation_error_deg",
     "translation_error_mm",
+    "edge_angle_dev_deg",
+    "edge_distance_mm",
+    "sphere_radius_mm",
 ];
 
 /// Which share of the trials to run: trial t belongs to shard k of n when t % n == k.

@@ -76,6 +76,29 @@ pub struct SplitMerge {
     pub min_points: usize,
 }
 
+impl SplitMerge {
+    /// Tolerances scaled to a sensor's noise and quantisation: a face is split only where it bends
+    /// by more than noise can explain (4 sigma at the far end of the range plus one z step), and a
+    /// jump must exceed that twice over.
+    pub fn for_sensor(sensor: &crate::sensor::SensorModel) -> SplitMerge {
+        let d = SplitMerge::default();
+        let n = &sensor.noise;
+        let factor = if n.dark_noise_factor > 1.0 {
+            n.dark_noise_factor
+        } else {
+            1.0
+        };
+        let noise = 4.0 * n.z_sigma_near.max(n.z_sigma_far) * factor
+            + sensor.z_quantum.unwrap_or(0.0)
+            + 2.0 * n.x_sigma;
+        SplitMerge {
+            split_tol: d.split_tol.max(noise),
+            jump: d.jump.max(2.0 * noise),
+            min_points: d.min_points,
+        }
+    }
+}
+
 impl Default for SplitMerge {
     fn default() -> Self {
         SplitMerge {

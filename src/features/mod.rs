@@ -325,7 +325,7 @@ pub enum EdgeSense {
     Rising,
 }
 
-/// The straight-edge point: from the specimen's top face (the nearest substantial segment) walk toward
+/// The straight-edge point: from the specimen's top face (the largest segment not lying clearly below the others) walk toward
 /// the edge over shallow bevels; the edge is the corner with a steep side wall, or the end of the
 /// last face halfway to the next column where the profile jumps or ends. Faces are refitted with
 /// their ends tightened, as for chords.
@@ -349,23 +349,40 @@ pub fn edge_point(
             ..*cfg
         },
     );
-    // The top face: the nearest to the sensor among the substantial segments (a table below has
-    // more points but is farther; a sliver of a steep face seen under a tilt is nearer but tiny).
+    // The top face: among the substantial segments (a tenth of the largest one's points or more),
+    // leave out those lying wholly below the nearest one (a table under the specimen), then take the
+    // one with most points (not the nearest: under a tilt a side wall is as near as the face).
     let largest = segs.iter().map(|s| s.last + 1 - s.first).max().unwrap_or(0);
     let min_pts = cfg.min_points.max(largest / 10);
     let depth = |s: &Segment| {
         let mid = (pts[s.first].1 + pts[s.last].1) / 2.0;
         sensor.dir_z * (mid.y - sensor.apex_z)
     };
-    let mut i = segs
+    let mut cands: Vec<usize> = (0..segs.len())
+        .filter(|&j| segs[j].last + 1 - segs[j].first >= min_pts)
+        .collect();
+    let ends = |s: &Segment| {
+        let (a, b) = (pts[s.first].1, pts[s.last].1);
+        let (da, db) = (
+            sensor.dir_z * (a.y - sensor.apex_z),
+            sensor.dir_z * (b.y - sensor.apex_z),
+        );
+        (da.min(db), da.max(db))
+    };
+    if let Some(&nearest) = cands
         .iter()
-        .enumerate()
-        .filter(|(_, s)| s.last + 1 - s.first >= min_pts)
-        .min_by(|a, b| depth(a.1).total_cmp(&depth(b.1)))
+        .min_by(|&&a, &&b| depth(&segs[a]).total_cmp(&depth(&segs[b])))
+    {
+        let floor = ends(&segs[nearest]).1 + 2.0e-3;
+        cands.retain(|&j| ends(&segs[j]).0 <= floor);
+    }
+    let mut i = cands
+        .iter()
+        .copied()
+        .max_by_key(|&j| segs[j].last - segs[j].first)
         .ok_or_else(|| FeatureError::NoEdge {
             reason: format!("no face of {} points", cfg.min_points),
-        })?
-        .0;
+        })?;
     let forward = sense == EdgeSense::Falling;
     loop {
         let (first, last, line) = tighten(&pts, &segs[i], cfg.split_tol);
@@ -382,14 +399,16 @@ pub fn edge_point(
             && let Some(j) = segs.iter().position(|s| s.first <= next && next <= s.last)
             && j != i
         {
-            let (_, _, line2) = tighten(&pts, &segs[j], cfg.split_tol);
+            let (f2, l2, line2) = tighten(&pts, &segs[j], cfg.split_tol);
             let angle = line.angle_to(&line2);
-            if angle > std::f64::consts::FRAC_PI_4 {
+            // A wall seen in a handful of noisy points gives a poor line: only trust the corner
+            // when the wall is well sampled; otherwise fall through to the end of the face.
+            if angle > std::f64::consts::FRAC_PI_4 && l2 + 1 - f2 >= 2 * cfg.min_points {
                 return line.intersect(&line2).ok_or_else(|| FeatureError::NoEdge {
                     reason: "parallel faces".into(),
                 });
             }
-            if angle > 0.02 {
+            if angle > 0.02 && angle <= std::f64::consts::FRAC_PI_4 {
                 i = j;
                 continue;
             }

@@ -156,7 +156,7 @@ pub fn raycast_problem(
     plan: &BallPlan,
     mut rng: Option<&mut crate::rng::Rng>,
 ) -> Result<BallProblem, String> {
-    let cfg = SplitMerge::default();
+    let cfg = SplitMerge::for_sensor(&rig.sensor);
     let mut one = |p: &Pose, m: usize| -> Result<BallCapture, String> {
         let pose = rig.base_to_sensor(&flange_pose(&p.r_tcp, &p.t_tcp));
         let s = sign(&pose, ball);

@@ -245,9 +245,13 @@ pub fn raycast_problem(
     mut rng: Option<&mut crate::rng::Rng>,
 ) -> (EdgeProblem, usize) {
     let s = sense(rig, e);
+    // Edges are small features: keep a fine tolerance for an exact sensor, otherwise follow the
+    // sensor's noise.
+    let tuned = SplitMerge::for_sensor(&rig.sensor);
+    let exact = rig.sensor.noise.is_off() && rig.sensor.z_quantum.is_none();
     let cfg = SplitMerge {
-        split_tol: 0.1e-3,
-        jump: 0.5e-3,
+        split_tol: if exact { 0.1e-3 } else { tuned.split_tol },
+        jump: tuned.jump.max(0.5e-3),
         min_points: 4,
     };
     let mut missed = 0;

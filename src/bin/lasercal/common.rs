@@ -1,6 +1,6 @@
 //! Helpers shared by the subcommands.
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use lasercal::scenario::ScenarioFile;
 use std::path::Path;
 
