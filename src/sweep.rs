@@ -198,6 +198,65 @@ pub fn run(
     Ok(summary)
 }
 
+/// The per-trial numbers a summary needs (what trials.csv holds).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MetricRow {
+    pub point: usize,
+    pub method: String,
+    pub trial: u64,
+    pub ok: bool,
+    pub metrics: [Option<f64>; 6],
+}
+
+impl From<&TrialRow> for MetricRow {
+    fn from(r: &TrialRow) -> MetricRow {
+        MetricRow {
+            point: r.point,
+            method: r.outcome.method.clone(),
+            trial: r.outcome.trial,
+            ok: r.outcome.result.is_ok(),
+            metrics: std::array::from_fn(|k| r.metric(k)),
+        }
+    }
+}
+
+/// Summaries from metric rows in run order (point, method, trial), e.g. merged shards; equal to
+/// what `run` computes for the same rows.
+pub fn summarise_metrics(rows: &[MetricRow], points: &[GridPoint]) -> Vec<SummaryRow> {
+    let mut out: Vec<SummaryRow> = Vec::new();
+    let mut start = 0;
+    while start < rows.len() {
+        let (p, m) = (rows[start].point, &rows[start].method);
+        let mut end = start;
+        while end < rows.len() && rows[end].point == p && &rows[end].method == m {
+            end += 1;
+        }
+        let g = &rows[start..end];
+        out.push(SummaryRow {
+            point: p,
+            values: points
+                .get(p)
+                .map(|gp| gp.values.clone())
+                .unwrap_or_default(),
+            method: m.clone(),
+            trials: g.len(),
+            failures: g.iter().filter(|r| !r.ok).count(),
+            stats: (0..METRICS.len())
+                .map(|k| {
+                    Stats::of(
+                        &g.iter()
+                            .filter(|r| r.ok)
+                            .filter_map(|r| r.metrics[k])
+                            .collect::<Vec<_>>(),
+                    )
+                })
+                .collect(),
+        });
+        start = end;
+    }
+    out
+}
+
 /// Summaries from trial rows (for merging shards): groups by (point, method) in first-seen order,
 /// which is the run order when the rows are.
 pub fn summarise(rows: &[TrialRow]) -> Vec<SummaryRow> {

@@ -137,3 +137,97 @@ pub fn summary_value(r: &SummaryRow, column: &str) -> Option<f64> {
     }
     None
 }
+
+/// Split one CSV line into fields (double-quoted fields may hold commas and doubled quotes).
+pub fn split_line(line: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    let mut quoted = false;
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match (c, quoted) {
+            ('"', true) if chars.peek() == Some(&'"') => {
+                cur.push('"');
+                chars.next();
+            }
+            ('"', _) => quoted = !quoted,
+            (',', false) => out.push(std::mem::take(&mut cur)),
+            (c, _) => cur.push(c),
+        }
+    }
+    out.push(cur);
+    out
+}
+
+/// Parse trials.csv back into the numbers a summary needs, keeping each line's text. Errors name
+/// the line and the field.
+pub fn parse_trials(
+    text: &str,
+    grid_keys: &[String],
+    file: &str,
+) -> Result<Vec<(crate::sweep::MetricRow, String)>, String> {
+    let mut lines = text.lines();
+    let header = lines.next().ok_or_else(|| format!("{file}: empty file"))?;
+    if format!("{header}\n") != trials_header(grid_keys) {
+        return Err(format!(
+            "{file}: line 1: the header does not match this scenario's grid ({})",
+            grid_keys.join(", ")
+        ));
+    }
+    let g = grid_keys.len();
+    let mut out = Vec::new();
+    for (i, line) in lines.enumerate() {
+        let n = i + 2;
+        let f = split_line(line);
+        if f.len() != g + 14 {
+            return Err(format!(
+                "{file}: line {n}: {} fields, expected {}",
+                f.len(),
+                g + 14
+            ));
+        }
+        let num = |k: usize, what: &str| -> Result<Option<f64>, String> {
+            if f[k].is_empty() {
+                Ok(None)
+            } else {
+                f[k].parse::<f64>()
+                    .map(Some)
+                    .map_err(|_| format!("{file}: line {n}: {what} = '{}' is not a number", f[k]))
+            }
+        };
+        let point = f[0]
+            .parse::<usize>()
+            .map_err(|_| format!("{file}: line {n}: point = '{}' is not an index", f[0]))?;
+        let trial = f[g + 2]
+            .parse::<u64>()
+            .map_err(|_| format!("{file}: line {n}: trial = '{}' is not an index", f[g + 2]))?;
+        let ok = match f[g + 3].as_str() {
+            "true" => true,
+            "false" => false,
+            v => {
+                return Err(format!(
+                    "{file}: line {n}: ok = '{v}', expected true or false"
+                ));
+            }
+        };
+        let metrics = [
+            num(g + 7, "centre_error_mm")?,
+            num(g + 4, "rotation_error_deg")?,
+            num(g + 5, "translation_error_mm")?,
+            num(g + 9, "edge_angle_dev_deg")?,
+            num(g + 10, "edge_distance_mm")?,
+            num(g + 11, "sphere_radius_mm")?,
+        ];
+        out.push((
+            crate::sweep::MetricRow {
+                point,
+                method: f[g + 1].clone(),
+                trial,
+                ok,
+                metrics,
+            },
+            format!("{line}\n"),
+        ));
+    }
+    Ok(out)
+}

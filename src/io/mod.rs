@@ -3,6 +3,7 @@
 
 pub mod csv;
 pub mod plot;
+pub mod report;
 
 use std::io::Write;
 use std::path::Path;

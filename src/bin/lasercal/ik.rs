@@ -10,7 +10,7 @@ pub struct Args {
     #[arg(num_args = 7, allow_negative_numbers = true, value_names = ["X_MM", "Y_MM", "Z_MM", "QW", "QX", "QY", "QZ"])]
     pose: Vec<f64>,
     /// Seed configuration J1..J6 in degrees: solutions are listed nearest it first
-    #[arg(long, allow_negative_numbers = true, value_delimiter = ',')]
+    #[arg(long, allow_hyphen_values = true, value_delimiter = ',')]
     seed_deg: Option<Vec<f64>>,
 }
 

@@ -1,9 +1,12 @@
 //! The `lasercal` command line: one module per subcommand.
 
+mod check;
 mod common;
 mod fk;
 mod ik;
+mod merge;
 mod run;
+mod scan;
 mod sweep;
 
 use clap::{Parser, Subcommand};
@@ -29,11 +32,23 @@ enum Command {
     Run(run::Args),
     /// Run a scenario's sweep grid: trials.csv, summary.csv and plots.
     Sweep(sweep::Args),
+    /// Combine the folders of a sharded sweep into the files an unsharded run writes.
+    Merge(merge::Args),
+    /// One profile as the sensor sees it, as CSV (x, z in the sensor frame).
+    Scan(scan::Args),
+    /// CI gate: exit 0 when a percentile of the errors is within bounds, 1 when not, 2 on bad input.
+    Check(check::Args),
 }
 
 fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Check(a) => match check::run(a) {
+            Ok(code) => std::process::exit(code),
+            Err(e) => Err(e),
+        },
+        Command::Scan(a) => scan::run(a),
+        Command::Merge(a) => merge::run(a),
         Command::Fk(a) => fk::run(a),
         Command::Ik(a) => ik::run(a),
         Command::Run(a) => run::run(a),

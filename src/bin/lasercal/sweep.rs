@@ -1,9 +1,10 @@
 use super::common::{load_scenario, progress};
 use anyhow::{Context, Result, bail};
 use lasercal::io;
-use lasercal::sweep::{self, Shard, SweepPlan};
+use lasercal::scenario::ScenarioFile;
+use lasercal::sweep::{self, Shard, SummaryRow, SweepPlan};
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -18,6 +19,83 @@ pub struct Args {
     /// Seed (default: the scenario's)
     #[arg(long)]
     seed: Option<u64>,
+    /// Run only shard K of N (1 <= K <= N): trials t with t mod N = K - 1; combine with `lasercal merge`
+    #[arg(long)]
+    shard: Option<String>,
+}
+
+/// What a sweep folder holds besides its CSVs, so shards can be checked and merged.
+#[derive(serde::Serialize, serde::Deserialize, PartialEq, Debug)]
+pub struct Meta {
+    pub format: String,
+    pub version: u32,
+    pub scenario_file: String,
+    pub scenario_text: String,
+    pub seed: u64,
+    pub trials: usize,
+    pub shard: usize,
+    pub shards: usize,
+    pub lasercal_version: String,
+}
+
+fn parse_shard(s: &str) -> Result<Shard> {
+    let (k, n) = s
+        .split_once('/')
+        .with_context(|| format!("--shard {s}: write it as K/N, e.g. 3/10"))?;
+    let (k, n): (usize, usize) = (
+        k.trim()
+            .parse()
+            .with_context(|| format!("--shard {s}: K is not a number"))?,
+        n.trim()
+            .parse()
+            .with_context(|| format!("--shard {s}: N is not a number"))?,
+    );
+    if n == 0 || k == 0 || k > n {
+        bail!("--shard {s}: need 1 <= K <= N");
+    }
+    Ok(Shard {
+        index: k - 1,
+        count: n,
+    })
+}
+
+/// summary.csv, plots and report.md: the same bytes for a whole run and for merged shards.
+pub fn finish(
+    out: &Path,
+    sf: &ScenarioFile,
+    plan: &SweepPlan,
+    summary: &[SummaryRow],
+) -> Result<()> {
+    io::write(
+        &out.join("summary.csv"),
+        io::csv::summary(&plan.grid_keys, summary).as_bytes(),
+    )
+    .map_err(anyhow::Error::msg)?;
+    let plot = sf.scenario.sweep.as_ref().and_then(|s| s.plot.as_ref());
+    if let Some(p) = plot {
+        let fig = io::plot::from_summary(summary, p, &sf.scenario.name);
+        io::write(
+            &out.join("plot.svg"),
+            io::plot::svg(&fig).map_err(anyhow::Error::msg)?.as_bytes(),
+        )
+        .map_err(anyhow::Error::msg)?;
+        io::plot::png(&fig, &out.join("plot.png")).map_err(anyhow::Error::msg)?;
+    }
+    let name = Path::new(&sf.file)
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let report = io::report::report(
+        &sf.scenario,
+        &name,
+        plan.seed,
+        plan.trials,
+        &plan.grid_keys,
+        summary,
+        plot.is_some(),
+    );
+    io::write(&out.join("report.md"), report.as_bytes()).map_err(anyhow::Error::msg)?;
+    Ok(())
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -31,18 +109,32 @@ pub fn run(a: Args) -> Result<()> {
     if a.trials == Some(0) {
         bail!("--trials must be at least 1");
     }
+    let shard = a
+        .shard
+        .as_deref()
+        .map(parse_shard)
+        .transpose()?
+        .unwrap_or(Shard::ALL);
     let plan = SweepPlan::new(&sf, a.trials, a.seed)?;
     let out = a
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&sf.scenario.name));
-    let shard = Shard::ALL;
     let total = plan.work(shard);
     eprintln!(
-        "sweep {}: {} grid points x {} trials, {} threads, writing {}",
+        "sweep {}: {} grid points x {} trials{}, {} threads, writing {}",
         sf.scenario.name,
         plan.points.len(),
         plan.trials,
+        if shard.count > 1 {
+            format!(
+                " (shard {}/{}: {total} trials)",
+                shard.index + 1,
+                shard.count
+            )
+        } else {
+            String::new()
+        },
         rayon::current_num_threads(),
         out.display()
     );
@@ -64,25 +156,38 @@ pub fn run(a: Args) -> Result<()> {
     )?;
     pb.finish_and_clear();
     trials_csv.flush().context("flushing trials.csv")?;
+    let meta = Meta {
+        format: "lasercal-sweep".into(),
+        version: 1,
+        scenario_file: sf.file.clone(),
+        scenario_text: std::fs::read_to_string(&a.scenario)
+            .with_context(|| format!("re-reading {}", sf.file))?,
+        seed: plan.seed,
+        trials: plan.trials,
+        shard: shard.index + 1,
+        shards: shard.count,
+        lasercal_version: env!("CARGO_PKG_VERSION").into(),
+    };
     io::write(
-        &out.join("summary.csv"),
-        io::csv::summary(&plan.grid_keys, &summary).as_bytes(),
+        &out.join("sweep.json"),
+        serde_json::to_string_pretty(&meta)?.as_bytes(),
     )
     .map_err(anyhow::Error::msg)?;
-    if let Some(p) = sf.scenario.sweep.as_ref().and_then(|s| s.plot.as_ref()) {
-        let fig = io::plot::from_summary(&summary, p, &sf.scenario.name);
-        io::write(
-            &out.join("plot.svg"),
-            io::plot::svg(&fig).map_err(anyhow::Error::msg)?.as_bytes(),
-        )
-        .map_err(anyhow::Error::msg)?;
-        io::plot::png(&fig, &out.join("plot.png")).map_err(anyhow::Error::msg)?;
-    }
     let failures: usize = summary.iter().map(|s| s.failures).sum();
-    eprintln!(
-        "done: {total} trials in {:.1} s ({failures} failed); {}/summary.csv",
-        started.elapsed().as_secs_f64(),
-        out.display()
-    );
+    if shard.count == 1 {
+        finish(&out, &sf, &plan, &summary)?;
+        eprintln!(
+            "done: {total} trials in {:.1} s ({failures} failed); {}/report.md",
+            started.elapsed().as_secs_f64(),
+            out.display()
+        );
+    } else {
+        eprintln!(
+            "shard {}/{} done: {total} trials in {:.1} s ({failures} failed); combine the shards with `lasercal merge DIR...`",
+            shard.index + 1,
+            shard.count,
+            started.elapsed().as_secs_f64()
+        );
+    }
     Ok(())
 }
