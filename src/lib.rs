@@ -4,6 +4,7 @@
 //! expressed in frame a, so `p_in_a = a_to_b * p_in_b`). See `docs/conventions.md`.
 
 pub mod calib;
+pub mod captures;
 pub mod features;
 pub mod io;
 pub mod math;

@@ -2,7 +2,6 @@
 //! plan, noise, methods, sweep grid, trials and seed. Unknown keys and bad values are errors that
 //! name the file, the key and the value.
 
-use crate::calib::disk::DiskScan;
 use crate::math::{pose_from_xyz_rpy, rot_zyx};
 use crate::robot::Robot;
 use crate::scene::{Scene, Specimen, SpecimenKind, Table};
@@ -1242,32 +1241,4 @@ impl SpecimenKind {
             SpecimenKind::DiskOnCylinder { .. } | SpecimenKind::DiskOnPaper { .. }
         )
     }
-}
-
-/// The disk scans of one trial (exact geometry plus the scenario's noise, drawn from `rng`).
-pub fn disk_scans(setup: &Setup, rng: &mut crate::rng::Rng) -> Option<(Vec<DiskScan>, usize)> {
-    let d = setup.disk.as_ref()?;
-    let mut missed = 0;
-    let scans = d
-        .plans
-        .iter()
-        .map(|p| {
-            if d.raycast {
-                let noisy = !setup.rig.sensor.noise.is_off();
-                let (scan, miss) = crate::sim::disk::raycast_scan(
-                    &setup.rig,
-                    &setup.scene,
-                    &setup.specimen.kind,
-                    p,
-                    noisy.then_some(&mut *rng),
-                    &crate::features::SplitMerge::for_sensor(&setup.rig.sensor),
-                );
-                missed += miss;
-                scan
-            } else {
-                crate::sim::disk::analytic_scan(&setup.rig, &d.target, p, d.sigma, rng)
-            }
-        })
-        .collect();
-    Some((scans, missed))
 }

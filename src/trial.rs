@@ -2,8 +2,10 @@
 //! truth. Its numbers depend only on (scenario, seed, trial index).
 
 use crate::calib::{PoseError, Status};
+use crate::captures::{Calibration, CaptureProfile, Captures, Group, ProfileData, Role};
 use crate::rng::{self, tag};
 use crate::scenario::Setup;
+use crate::sim::flange_pose;
 use nalgebra::Isometry3;
 
 /// What a successful calibration gave.
@@ -50,19 +52,18 @@ pub struct TrialOutcome {
     pub missed_profiles: usize,
 }
 
-/// Run trial `trial` of `method` on a built scenario.
+/// Run trial `trial` of `method` on a built scenario: simulate the captures, calibrate them with
+/// `captures::calibrate` (the code a capture file from a real rig goes through), score.
 pub fn run_trial(setup: &Setup, method: &str, seed: u64, trial: u64) -> TrialOutcome {
     let mut r = rng::stream(seed, &[tag::TRIAL, trial]);
-    let (result, missed) = match method {
-        "disk" => disk_trial(setup, &mut r),
-        "ball" => ball_trial(setup, &mut r),
-        "edge" => edge_trial(setup, &mut r),
-        other => (
-            Err(format!(
-                "method '{other}' is not available for this scenario"
-            )),
-            0,
-        ),
+    // The Table 3 scan of the edge method draws from its own stream.
+    let validation_seed: u64 = rand::RngExt::random(&mut r);
+    let (result, missed) = match simulate(setup, method, &mut r) {
+        Err(e) => (Err(e), 0),
+        Ok(caps) => match crate::captures::calibrate(&caps, &setup.rig.sensor) {
+            Err(e) => (Err(e), 0),
+            Ok(cal) => (Ok(score(setup, method, &cal, validation_seed)), cal.missed),
+        },
     };
     TrialOutcome {
         trial,
@@ -72,109 +73,212 @@ pub fn run_trial(setup: &Setup, method: &str, seed: u64, trial: u64) -> TrialOut
     }
 }
 
-fn disk_trial(setup: &Setup, r: &mut rng::Rng) -> (Result<Score, String>, usize) {
-    let Some(d) = &setup.disk else {
-        return (Err("the scenario has no disk plan".into()), 0);
+fn score(setup: &Setup, method: &str, cal: &Calibration, validation_seed: u64) -> Score {
+    let truth_centre = match method {
+        "disk" => setup.disk.as_ref().map(|d| d.target.centre.coords),
+        "ball" => setup.ball.as_ref().map(|b| b.target.centre.coords),
+        _ => None,
     };
-    let Some((scans, missed)) = crate::scenario::disk_scans(setup, r) else {
-        return (Err("the scenario has no disk plan".into()), 0);
-    };
-    let mut problem = crate::calib::disk::DiskProblem::new(d.target.radius, scans);
-    problem.min_scan_angle = (d.min_angle * 0.5).min(1f64.to_radians());
-    let result = crate::calib::disk::solve(&problem).map(|sol| Score {
-        centre_error_mm: Some((sol.centre_in_base - d.target.centre.coords).norm() * 1e3),
-        accuracy_mm: Some(sol.accuracy * 1e3),
-        ..Score::new(
-            sol.flange_to_sensor,
-            &setup.rig.flange_to_sensor,
-            sol.status,
-        )
-    });
-    (result.map_err(|e| e.to_string()), missed)
-}
-
-fn ball_trial(setup: &Setup, r: &mut rng::Rng) -> (Result<Score, String>, usize) {
-    let Some(b) = &setup.ball else {
-        return (Err("the scenario has no ball plan".into()), 0);
-    };
-    let problem = if b.raycast {
-        let noisy = !setup.rig.sensor.noise.is_off();
-        crate::sim::ball::raycast_problem(
-            &setup.rig,
-            &b.scene,
-            &b.target,
-            &b.plan,
-            noisy.then_some(r),
-        )
-    } else {
-        crate::sim::ball::analytic_problem(&setup.rig, &b.target, &b.plan, b.x_step, b.sigma, r)
-    };
-    let result = problem
-        .and_then(|p| crate::calib::ball::solve(&p).map_err(|e| e.to_string()))
-        .map(|sol| Score {
-            centre_error_mm: Some((sol.centre_in_base - b.target.centre.coords).norm() * 1e3),
-            accuracy_mm: Some(sol.spread * 1e3),
-            ..Score::new(
-                sol.flange_to_sensor,
-                &setup.rig.flange_to_sensor,
-                sol.status,
+    let sphere = setup
+        .edge
+        .as_ref()
+        .filter(|_| method == "edge")
+        .and_then(|e| e.validation.as_ref())
+        .and_then(|(ball, groups, translations, sigma)| {
+            let mut vr = rng::stream(validation_seed, &[tag::SPECIMEN]);
+            crate::sim::edge::ball_radius_check(
+                &setup.rig,
+                &cal.flange_to_sensor,
+                ball,
+                *groups,
+                *translations,
+                *sigma,
+                0.1e-3,
+                &mut vr,
             )
         });
-    (result, 0)
+    Score {
+        centre_error_mm: cal
+            .centre_in_base
+            .zip(truth_centre)
+            .map(|(c, t)| (c - t).norm() * 1e3),
+        accuracy_mm: cal.accuracy.map(|a| a * 1e3),
+        edge_angle_dev_deg: cal.edge_angle_dev.map(f64::to_degrees),
+        edge_distance_mm: cal.edge_distance.map(|d| d * 1e3),
+        sphere_radius_mm: sphere.map(|x| x * 1e3),
+        ..Score::new(
+            cal.flange_to_sensor,
+            &setup.rig.flange_to_sensor,
+            cal.status,
+        )
+    }
 }
 
-fn edge_trial(setup: &Setup, r: &mut rng::Rng) -> (Result<Score, String>, usize) {
-    let Some(e) = &setup.edge else {
-        return (Err("the scenario has no edge plan".into()), 0);
-    };
-    // The Table 3 scan draws from its own stream, so it never shifts the calibration's draws.
-    let validation_seed: u64 = rand::RngExt::random(r);
-    let (problem, missed) = if e.raycast {
-        let noisy = !setup.rig.sensor.noise.is_off();
-        let (p, m) = crate::sim::edge::raycast_problem(
-            &setup.rig,
-            &e.scene,
-            &e.target,
-            &e.plans,
-            noisy.then_some(&mut *r),
-        );
-        (Ok(p), m)
-    } else {
-        (
-            crate::sim::edge::analytic_problem(&setup.rig, &e.target, &e.plans, e.sigma, r),
-            0,
-        )
-    };
-    let result = problem
-        .and_then(|p| crate::calib::edge::solve(&p).map_err(|er| er.to_string()))
-        .map(|sol| {
-            let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
-            let radius = e
-                .validation
-                .as_ref()
-                .and_then(|(ball, groups, translations, sigma)| {
-                    let mut vr = rng::stream(validation_seed, &[rng::tag::SPECIMEN]);
-                    crate::sim::edge::ball_radius_check(
-                        &setup.rig,
-                        &sol.flange_to_sensor,
-                        ball,
-                        *groups,
-                        *translations,
-                        *sigma,
-                        0.1e-3,
-                        &mut vr,
-                    )
+/// The captures of one trial of `method`: what the rig would record (features for the analytic
+/// sources, raw profiles for the ray-cast ones), with the truth attached.
+pub fn simulate(setup: &Setup, method: &str, r: &mut rng::Rng) -> Result<Captures, String> {
+    let rig = &setup.rig;
+    let noisy = !rig.sensor.noise.is_off();
+    let mut groups = Vec::new();
+    let mut profiles = Vec::new();
+    let (kind, radius, sense) = match method {
+        "disk" => {
+            let d = setup.disk.as_ref().ok_or("the scenario has no disk plan")?;
+            for (i, p) in d.plans.iter().enumerate() {
+                groups.push(Group {
+                    id: i,
+                    role: Role::Scan,
+                    sign: crate::sim::disk::scan_sign(rig, p),
                 });
-            Score {
-                edge_angle_dev_deg: Some(mean(&sol.group_angle_dev).to_degrees()),
-                edge_distance_mm: Some(mean(&sol.point_distances) * 1e3),
-                sphere_radius_mm: radius.map(|x| x * 1e3),
-                ..Score::new(
-                    sol.flange_to_sensor,
-                    &setup.rig.flange_to_sensor,
-                    sol.status,
-                )
+                if d.raycast {
+                    for j in 0..p.m {
+                        let f = flange_pose(&p.r_tcp, &p.tcp(j));
+                        let prof = rig.sensor.profile(
+                            &setup.scene,
+                            &rig.base_to_sensor(&f),
+                            noisy.then_some(&mut *r),
+                        );
+                        profiles.push(CaptureProfile {
+                            group: i,
+                            base_to_flange: f,
+                            data: ProfileData::Raw(prof),
+                        });
+                    }
+                } else {
+                    let scan = crate::sim::disk::analytic_scan(rig, &d.target, p, d.sigma, r);
+                    for ch in scan.chords {
+                        let f = flange_pose(&p.r_tcp, &(p.t_start + (p.t_end - p.t_start) * ch.u));
+                        profiles.push(CaptureProfile {
+                            group: i,
+                            base_to_flange: f,
+                            data: ProfileData::Chord { a: ch.a, b: ch.b },
+                        });
+                    }
+                }
             }
-        });
-    (result, missed)
+            (
+                setup.specimen.name().to_string(),
+                Some(d.target.radius),
+                None,
+            )
+        }
+        "ball" => {
+            let b = setup.ball.as_ref().ok_or("the scenario has no ball plan")?;
+            let poses = b
+                .plan
+                .rotation_set
+                .iter()
+                .map(|p| (Role::Rotation, p, 1))
+                .chain(
+                    b.plan
+                        .translation_set
+                        .iter()
+                        .map(|p| (Role::Translation, p, b.plan.arcs.max(1))),
+                );
+            let mut gid = 0;
+            groups.push(Group {
+                id: 0,
+                role: Role::Rotation,
+                sign: 0.0,
+            });
+            for (role, p, m) in poses {
+                let f = flange_pose(&p.r_tcp, &p.t_tcp);
+                let pose = rig.base_to_sensor(&f);
+                let sign = crate::sim::ball::sign(&pose, &b.target);
+                let id = if role == Role::Rotation {
+                    groups[0].sign = sign;
+                    0
+                } else {
+                    gid += 1;
+                    groups.push(Group {
+                        id: gid,
+                        role,
+                        sign,
+                    });
+                    gid
+                };
+                for _ in 0..m {
+                    let data = if b.raycast {
+                        ProfileData::Raw(rig.sensor.profile(
+                            &b.scene,
+                            &pose,
+                            noisy.then_some(&mut *r),
+                        ))
+                    } else {
+                        let arc = crate::sim::ball::analytic_arc(
+                            rig, &b.target, &pose, b.x_step, b.sigma, 0.9, r,
+                        );
+                        ProfileData::Circle(crate::features::fit_circle(&arc).ok_or_else(|| {
+                            format!("an arc of {} points has no circle", arc.len())
+                        })?)
+                    };
+                    profiles.push(CaptureProfile {
+                        group: id,
+                        base_to_flange: f,
+                        data,
+                    });
+                }
+            }
+            ("ball".to_string(), Some(b.target.radius), None)
+        }
+        "edge" => {
+            let e = setup.edge.as_ref().ok_or("the scenario has no edge plan")?;
+            for (g, p) in e.plans.iter().enumerate() {
+                groups.push(Group {
+                    id: g,
+                    role: Role::RotationGroup,
+                    sign: 0.0,
+                });
+                for t in &p.tcps {
+                    let f = flange_pose(&p.r_tcp, t);
+                    let pose = rig.base_to_sensor(&f);
+                    let data = if e.raycast {
+                        ProfileData::Raw(rig.sensor.profile(
+                            &e.scene,
+                            &pose,
+                            noisy.then_some(&mut *r),
+                        ))
+                    } else {
+                        let (nx, nz) = (
+                            crate::sensor::gauss(r) * e.sigma,
+                            crate::sensor::gauss(r) * e.sigma,
+                        );
+                        let q =
+                            crate::sim::edge::exact_point(&pose, &e.target).ok_or_else(|| {
+                                format!("group {g}: the laser plane is parallel to the edge")
+                            })?;
+                        ProfileData::EdgePoint(q + nalgebra::Vector2::new(nx, nz))
+                    };
+                    profiles.push(CaptureProfile {
+                        group: g,
+                        base_to_flange: f,
+                        data,
+                    });
+                }
+            }
+            let kind = e
+                .scene
+                .specimens
+                .first()
+                .map(|s| s.0.name())
+                .unwrap_or("parallel-bar")
+                .to_string();
+            (kind, None, Some(crate::sim::edge::sense(rig, &e.target)))
+        }
+        other => {
+            return Err(format!(
+                "method '{other}' is not available for this scenario"
+            ));
+        }
+    };
+    Ok(Captures {
+        method: method.to_string(),
+        sensor: rig.sensor.name.clone(),
+        specimen_kind: kind,
+        specimen_radius: radius,
+        edge_sense: sense,
+        truth: Some(rig.flange_to_sensor),
+        groups,
+        profiles,
+    })
 }

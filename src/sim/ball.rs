@@ -3,8 +3,7 @@
 
 use super::{PlanError, Rig, check_reachable, flange_pose};
 use crate::calib::ball::{BallCapture, BallProblem, centre_from_arc};
-use crate::features::{self, SplitMerge, fit_circle};
-use crate::scene::Scene;
+use crate::features::fit_circle;
 use crate::sensor::gauss;
 use nalgebra::{Isometry3, Point3, Rotation3, Vector2, Vector3};
 
@@ -131,46 +130,6 @@ pub fn analytic_problem(
             .map(|_| analytic_arc(rig, ball, &pose, x_step, sigma, 0.9, rng))
             .collect();
         capture_from_arcs(ball, p, sign(&pose, ball), &arcs)
-    };
-    let rotation_set = plan
-        .rotation_set
-        .iter()
-        .map(|p| one(p, 1))
-        .collect::<Result<_, _>>()?;
-    let translation_set = plan
-        .translation_set
-        .iter()
-        .map(|p| one(p, plan.arcs.max(1)))
-        .collect::<Result<_, _>>()?;
-    Ok(BallProblem {
-        rotation_set,
-        translation_set,
-    })
-}
-
-/// The method's input from ray-cast profiles and the arc feature.
-pub fn raycast_problem(
-    rig: &Rig,
-    scene: &Scene,
-    ball: &BallTarget,
-    plan: &BallPlan,
-    mut rng: Option<&mut crate::rng::Rng>,
-) -> Result<BallProblem, String> {
-    let cfg = SplitMerge::for_sensor(&rig.sensor);
-    let mut one = |p: &Pose, m: usize| -> Result<BallCapture, String> {
-        let pose = rig.base_to_sensor(&flange_pose(&p.r_tcp, &p.t_tcp));
-        let s = sign(&pose, ball);
-        let mut q = Vector3::zeros();
-        for _ in 0..m {
-            let prof = rig.sensor.profile(scene, &pose, rng.as_deref_mut());
-            let c = features::ball_arc(&prof, ball.radius, &cfg).map_err(|e| e.to_string())?;
-            q += centre_from_arc(&c, ball.radius, s);
-        }
-        Ok(BallCapture {
-            r_tcp: p.r_tcp,
-            t_tcp: p.t_tcp,
-            q_in_sensor: q / m as f64,
-        })
     };
     let rotation_set = plan
         .rotation_set

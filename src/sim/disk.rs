@@ -3,8 +3,7 @@
 
 use super::{PlanError, Rig, check_reachable, flange_pose};
 use crate::calib::disk::{DiskChord, DiskScan};
-use crate::features::{self, SplitMerge};
-use crate::scene::{Scene, SpecimenKind};
+
 use crate::sensor::gauss;
 use nalgebra::{Isometry3, Point3, Rotation3, Unit, Vector2, Vector3};
 
@@ -307,53 +306,4 @@ pub fn analytic_scan(
         s: scan_sign(rig, p),
         chords,
     }
-}
-
-/// Ray-cast chords: each profile through the sensor model, then feature extraction (split-and-merge
-/// on a disk-on-cylinder, intensity on a disk-on-paper). Profiles that show no chord are skipped
-/// and counted.
-pub fn raycast_scan(
-    rig: &Rig,
-    scene: &Scene,
-    kind: &SpecimenKind,
-    p: &DiskScanPlan,
-    rng: Option<&mut crate::rng::Rng>,
-    cfg: &SplitMerge,
-) -> (DiskScan, usize) {
-    let mut chords = Vec::with_capacity(p.m);
-    let mut missed = 0;
-    let mut rng = rng;
-    for j in 0..p.m {
-        let pose = rig.base_to_sensor(&flange_pose(&p.r_tcp, &p.tcp(j)));
-        let profile = rig.sensor.profile(scene, &pose, rng.as_deref_mut());
-        let chord = match *kind {
-            SpecimenKind::DiskOnPaper { .. } => {
-                features::disk_chord_intensity(&profile, &rig.sensor, cfg.min_points)
-            }
-            SpecimenKind::DiskOnCylinder { radius, .. } => {
-                features::disk_chord_step(&profile, &rig.sensor, radius, cfg)
-            }
-            _ => Err(features::FeatureError::NoChord {
-                reason: "not a disk specimen".into(),
-            }),
-        };
-        match chord {
-            Ok(c) => chords.push(DiskChord {
-                u: p.u(j),
-                a: c.a,
-                b: c.b,
-            }),
-            Err(_) => missed += 1,
-        }
-    }
-    (
-        DiskScan {
-            r_tcp: p.r_tcp,
-            t_start: p.t_start,
-            t_end: p.t_end,
-            s: scan_sign(rig, p),
-            chords,
-        },
-        missed,
-    )
 }

@@ -5,8 +5,7 @@
 use super::ball::{BallTarget, analytic_arc};
 use super::{PlanError, Rig, check_reachable};
 use crate::calib::edge::{EdgeCapture, EdgeProblem};
-use crate::features::{self, EdgeSense, SplitMerge};
-use crate::scene::Scene;
+use crate::features::{self, EdgeSense};
 use crate::sensor::gauss;
 use nalgebra::{
     Isometry3, Point3, Rotation3, Translation3, Unit, UnitQuaternion, Vector2, Vector3,
@@ -234,51 +233,6 @@ pub fn analytic_problem(
         groups.push(caps);
     }
     Ok(EdgeProblem { groups })
-}
-
-/// Edge points from ray-cast profiles; profiles without the feature are skipped and counted.
-pub fn raycast_problem(
-    rig: &Rig,
-    scene: &Scene,
-    e: &EdgeTarget,
-    plans: &[EdgeGroupPlan],
-    mut rng: Option<&mut crate::rng::Rng>,
-) -> (EdgeProblem, usize) {
-    let s = sense(rig, e);
-    // Edges are small features: keep a fine tolerance for an exact sensor, otherwise follow the
-    // sensor's noise.
-    let tuned = SplitMerge::for_sensor(&rig.sensor);
-    let exact = rig.sensor.noise.is_off() && rig.sensor.z_quantum.is_none();
-    let cfg = SplitMerge {
-        split_tol: if exact { 0.1e-3 } else { tuned.split_tol },
-        jump: tuned.jump.max(0.5e-3),
-        min_points: 4,
-    };
-    let mut missed = 0;
-    let groups = plans
-        .iter()
-        .map(|p| {
-            p.tcps
-                .iter()
-                .filter_map(|t| {
-                    let pose = rig.base_to_sensor(&super::flange_pose(&p.r_tcp, t));
-                    let prof = rig.sensor.profile(scene, &pose, rng.as_deref_mut());
-                    match features::edge_point(&prof, &rig.sensor, s, &cfg) {
-                        Ok(q) => Some(EdgeCapture {
-                            r_tcp: p.r_tcp,
-                            t_tcp: *t,
-                            p_in_sensor: q,
-                        }),
-                        Err(_) => {
-                            missed += 1;
-                            None
-                        }
-                    }
-                })
-                .collect()
-        })
-        .collect();
-    (EdgeProblem { groups }, missed)
 }
 
 /// The edge paper's Table 3 check: scan a precision ball with `groups` rotations x `translations`
