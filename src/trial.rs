@@ -55,10 +55,8 @@ pub struct TrialOutcome {
 /// Run trial `trial` of `method` on a built scenario: simulate the captures, calibrate them with
 /// `captures::calibrate` (the code a capture file from a real rig goes through), score.
 pub fn run_trial(setup: &Setup, method: &str, seed: u64, trial: u64) -> TrialOutcome {
-    let mut r = rng::stream(seed, &[tag::TRIAL, trial]);
-    // The Table 3 scan of the edge method draws from its own stream.
-    let validation_seed: u64 = rand::RngExt::random(&mut r);
-    let (result, missed) = match simulate(setup, method, &mut r) {
+    let (caps, validation_seed) = trial_captures(setup, method, seed, trial);
+    let (result, missed) = match caps {
         Err(e) => (Err(e), 0),
         Ok(caps) => match crate::captures::calibrate(&caps, &setup.rig.sensor) {
             Err(e) => (Err(e), 0),
@@ -73,7 +71,22 @@ pub fn run_trial(setup: &Setup, method: &str, seed: u64, trial: u64) -> TrialOut
     }
 }
 
-fn score(setup: &Setup, method: &str, cal: &Calibration, validation_seed: u64) -> Score {
+/// The captures of trial `trial` (exactly those `run_trial` calibrates) and the seed of its edge
+/// Table 3 check.
+pub fn trial_captures(
+    setup: &Setup,
+    method: &str,
+    seed: u64,
+    trial: u64,
+) -> (Result<Captures, String>, u64) {
+    let mut r = rng::stream(seed, &[tag::TRIAL, trial]);
+    // The Table 3 scan of the edge method draws from its own stream.
+    let validation_seed: u64 = rand::RngExt::random(&mut r);
+    (simulate(setup, method, &mut r), validation_seed)
+}
+
+/// Score a calibration of `method` against the scenario's truth.
+pub fn score(setup: &Setup, method: &str, cal: &Calibration, validation_seed: u64) -> Score {
     let truth_centre = match method {
         "disk" => setup.disk.as_ref().map(|d| d.target.centre.coords),
         "ball" => setup.ball.as_ref().map(|b| b.target.centre.coords),

@@ -164,3 +164,135 @@ fn sharded_sweep_merges_to_the_same_bytes() {
     assert_eq!(code, 2);
     assert!(err.contains("1 <= K <= N"), "{err}");
 }
+
+#[test]
+fn simulate_then_calibrate_equals_run() {
+    let dir = tempfile::tempdir().unwrap();
+    for s in [
+        "chen2018-disk.toml",
+        "chen2018-disk-raycast.toml",
+        "chen2018-ball.toml",
+        "xu2021-edge.toml",
+    ] {
+        let caps = dir.path().join("c.json");
+        let (r_json, c_json) = (dir.path().join("r.json"), dir.path().join("k.json"));
+        let (code, _, err) = lasercal(&[
+            "simulate",
+            &scen(s),
+            "--out",
+            caps.to_str().unwrap(),
+            "--trial",
+            "2",
+            "--seed",
+            "9",
+        ]);
+        assert_eq!(code, 0, "{s}: {err}");
+        let (code, _, err) = lasercal(&[
+            "calibrate",
+            caps.to_str().unwrap(),
+            "--json",
+            c_json.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{s}: {err}");
+        let (code, _, err) = lasercal(&[
+            "run",
+            &scen(s),
+            "--trial",
+            "2",
+            "--seed",
+            "9",
+            "--json",
+            r_json.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{s}: {err}");
+        let r: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&r_json).unwrap()).unwrap();
+        let c: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&c_json).unwrap()).unwrap();
+        let m = |v: &serde_json::Value| -> Vec<Vec<f64>> {
+            serde_json::from_value(v["flange_to_sensor"].clone()).unwrap()
+        };
+        let (mr, mc) = (m(&r), m(&c));
+        for i in 0..4 {
+            for j in 0..4 {
+                // The file is in mm: a round trip through it may move the last bits.
+                assert!(
+                    (mr[i][j] - mc[i][j]).abs() < 1e-9,
+                    "{s}: [{i}][{j}] {} vs {}",
+                    mr[i][j],
+                    mc[i][j]
+                );
+            }
+        }
+        assert!(
+            (r["rotation_error_deg"].as_f64().unwrap() - c["rotation_error_deg"].as_f64().unwrap())
+                .abs()
+                < 1e-9
+        );
+    }
+}
+
+#[test]
+fn malformed_capture_files_name_record_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = dir.path().join("g.json");
+    let (code, _, err) = lasercal(&[
+        "simulate",
+        &scen("chen2018-disk.toml"),
+        "--out",
+        good.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let text = std::fs::read_to_string(&good).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let cases: Vec<(Box<dyn Fn(&mut serde_json::Value)>, &str)> = vec![
+        (
+            Box::new(|v| {
+                v["profiles"][12]["tcp_quaternion_wxyz"] = serde_json::json!([2.0, 0.0, 0.0, 0.0])
+            }),
+            "profiles[12].tcp_quaternion_wxyz",
+        ),
+        (
+            Box::new(|v| v["profiles"][3]["group"] = serde_json::json!(99)),
+            "profiles[3].group",
+        ),
+        (
+            Box::new(|v| v["groups"][1]["sign"] = serde_json::json!(0)),
+            "groups[1].sign",
+        ),
+        (Box::new(|v| v["version"] = serde_json::json!(7)), "version"),
+        (
+            Box::new(|v| v["sensor"] = serde_json::json!("kinect")),
+            "sensor",
+        ),
+        (
+            Box::new(|v| v["profiles"][0]["edge_point_mm"] = serde_json::json!([1.0, 2.0])),
+            "profiles[0]",
+        ),
+        (
+            Box::new(|v| v["profiles"][0]["colour"] = serde_json::json!("red")),
+            "colour",
+        ),
+        (
+            Box::new(|v| v["specimen"]["radius_mm"] = serde_json::json!(-50.0)),
+            "specimen.radius_mm",
+        ),
+    ];
+    for (edit, want) in cases {
+        let mut w = v.clone();
+        edit(&mut w);
+        let p = dir.path().join("bad.json");
+        std::fs::write(&p, serde_json::to_string(&w).unwrap()).unwrap();
+        let (code, out, err) = lasercal(&["calibrate", p.to_str().unwrap()]);
+        assert_eq!(code, 2, "{want}: {out}");
+        assert!(
+            err.contains("bad.json") && err.contains(want),
+            "{want}: {err}"
+        );
+    }
+    // A method mismatch is refused.
+    let (code, _, err) = lasercal(&["calibrate", good.to_str().unwrap(), "--method", "edge"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("disk"), "{err}");
+    v["method"] = serde_json::json!("disk");
+}

@@ -1,6 +1,7 @@
 //! Everything that touches files or formats: CSV rows, plots, and (feature `rerun`) Rerun
 //! recordings. The library's math never does I/O; these adapters do.
 
+pub mod captures;
 pub mod csv;
 pub mod plot;
 pub mod report;

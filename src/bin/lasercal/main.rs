@@ -1,5 +1,6 @@
 //! The `lasercal` command line: one module per subcommand.
 
+mod calibrate;
 mod check;
 mod common;
 mod fk;
@@ -7,6 +8,7 @@ mod ik;
 mod merge;
 mod run;
 mod scan;
+mod simulate;
 mod sweep;
 
 use clap::{Parser, Subcommand};
@@ -32,6 +34,10 @@ enum Command {
     Run(run::Args),
     /// Run a scenario's sweep grid: trials.csv, summary.csv and plots.
     Sweep(sweep::Args),
+    /// Simulate one trial's captures and write them as a capture file (JSON).
+    Simulate(simulate::Args),
+    /// Calibrate from a capture file (a real rig's or a simulated one) with the code `run` uses.
+    Calibrate(calibrate::Args),
     /// Combine the folders of a sharded sweep into the files an unsharded run writes.
     Merge(merge::Args),
     /// One profile as the sensor sees it, as CSV (x, z in the sensor frame).
@@ -49,6 +55,8 @@ fn main() {
         },
         Command::Scan(a) => scan::run(a),
         Command::Merge(a) => merge::run(a),
+        Command::Simulate(a) => simulate::run(a),
+        Command::Calibrate(a) => calibrate::run(a),
         Command::Fk(a) => fk::run(a),
         Command::Ik(a) => ik::run(a),
         Command::Run(a) => run::run(a),

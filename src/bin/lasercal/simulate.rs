@@ -1,0 +1,48 @@
+use super::common::load_scenario;
+use anyhow::{Result, bail};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scenario file (TOML)
+    scenario: PathBuf,
+    /// Capture file to write (JSON, docs/captures.md)
+    #[arg(long)]
+    out: PathBuf,
+    /// Method whose captures to simulate (default: the scenario's first)
+    #[arg(long)]
+    method: Option<String>,
+    /// Seed (default: the scenario's)
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Trial index (the noise draw): the same captures `lasercal run --trial N` calibrates
+    #[arg(long, default_value_t = 0)]
+    trial: u64,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let sf = load_scenario(&a.scenario)?;
+    let method = a
+        .method
+        .clone()
+        .unwrap_or_else(|| sf.scenario.methods[0].clone());
+    if !sf.scenario.methods.contains(&method) {
+        bail!(
+            "--method {method}: the scenario runs {}",
+            sf.scenario.methods.join(", ")
+        );
+    }
+    let setup = sf.scenario.build(&sf.file)?;
+    let seed = a.seed.unwrap_or(sf.scenario.seed);
+    let (caps, _) = lasercal::trial::trial_captures(&setup, &method, seed, a.trial);
+    let caps = caps.map_err(anyhow::Error::msg)?;
+    let json = lasercal::io::captures::to_json(&caps, &setup.rig.sensor);
+    lasercal::io::write(&a.out, json.as_bytes()).map_err(anyhow::Error::msg)?;
+    eprintln!(
+        "{method}: {} profiles in {} groups written to {}",
+        caps.profiles.len(),
+        caps.groups.len(),
+        a.out.display()
+    );
+    Ok(())
+}

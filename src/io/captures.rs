@@ -1,0 +1,409 @@
+//! The capture file (JSON, version 1): the format adapter between `Captures` and the disk. Units
+//! at the edge are the papers' (mm); inside, metres. Documented in docs/captures.md.
+
+use crate::captures::{CaptureProfile, Captures, Group, ProfileData, Role};
+use crate::features::{Circle, EdgeSense};
+use crate::sensor::{Profile, ProfilePoint, SensorModel};
+use nalgebra::{Isometry3, Matrix3, Quaternion, Translation3, UnitQuaternion, Vector2, Vector3};
+use serde::{Deserialize, Serialize};
+
+pub const FORMAT: &str = "lasercal-captures";
+pub const VERSION: u32 = 1;
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileV1 {
+    format: String,
+    version: u32,
+    method: String,
+    sensor: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    sensor_noise: Option<NoiseV1>,
+    specimen: SpecimenV1,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    edge_sense: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    truth_flange_to_sensor_mm: Option<[[f64; 4]; 4]>,
+    groups: Vec<GroupV1>,
+    profiles: Vec<ProfileV1>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct NoiseV1 {
+    z_sigma_near_mm: f64,
+    z_sigma_far_mm: f64,
+    x_sigma_mm: f64,
+    #[serde(default)]
+    dark_noise_factor: f64,
+    /// 0: continuous z.
+    z_quantum_mm: f64,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SpecimenV1 {
+    kind: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    radius_mm: Option<f64>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GroupV1 {
+    id: usize,
+    role: String,
+    #[serde(default)]
+    sign: f64,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CircleV1 {
+    centre: [f64; 2],
+    radius: f64,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ProfileV1 {
+    group: usize,
+    tcp_position_mm: [f64; 3],
+    tcp_quaternion_wxyz: [f64; 4],
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    points_mm: Option<Vec<Option<[f64; 2]>>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    intensity: Option<Vec<Option<f64>>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    chord_mm: Option<[[f64; 2]; 2]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    circle_mm: Option<CircleV1>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    edge_point_mm: Option<[f64; 2]>,
+}
+
+/// Serialise captures (with the sensor model whose noise tuned the feature extraction).
+pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
+    let v2 = |v: &Vector2<f64>| [v.x * 1e3, v.y * 1e3];
+    let n = &sensor.noise;
+    let file = FileV1 {
+        format: FORMAT.into(),
+        version: VERSION,
+        method: c.method.clone(),
+        sensor: c.sensor.clone(),
+        sensor_noise: Some(NoiseV1 {
+            z_sigma_near_mm: n.z_sigma_near * 1e3,
+            z_sigma_far_mm: n.z_sigma_far * 1e3,
+            x_sigma_mm: n.x_sigma * 1e3,
+            dark_noise_factor: n.dark_noise_factor,
+            z_quantum_mm: sensor.z_quantum.unwrap_or(0.0) * 1e3,
+        }),
+        specimen: SpecimenV1 {
+            kind: c.specimen_kind.clone(),
+            radius_mm: c.specimen_radius.map(|r| r * 1e3),
+        },
+        edge_sense: c.edge_sense.map(|s| {
+            if s == EdgeSense::Falling {
+                "falling".into()
+            } else {
+                "rising".into()
+            }
+        }),
+        truth_flange_to_sensor_mm: c.truth.as_ref().map(crate::math::pose_to_rows_mm),
+        groups: c
+            .groups
+            .iter()
+            .map(|g| GroupV1 {
+                id: g.id,
+                role: g.role.name().into(),
+                sign: g.sign,
+            })
+            .collect(),
+        profiles: c
+            .profiles
+            .iter()
+            .map(|p| {
+                let t = p.base_to_flange.translation.vector * 1e3;
+                let mut rec = ProfileV1 {
+                    group: p.group,
+                    tcp_position_mm: [t.x, t.y, t.z],
+                    tcp_quaternion_wxyz: crate::math::quat_wxyz(&p.base_to_flange.rotation),
+                    points_mm: None,
+                    intensity: None,
+                    chord_mm: None,
+                    circle_mm: None,
+                    edge_point_mm: None,
+                };
+                match &p.data {
+                    ProfileData::Raw(prof) => {
+                        rec.points_mm = Some(
+                            prof.points
+                                .iter()
+                                .map(|q| q.map(|q| [q.x * 1e3, q.z * 1e3]))
+                                .collect(),
+                        );
+                        rec.intensity =
+                            Some(prof.points.iter().map(|q| q.map(|q| q.intensity)).collect());
+                    }
+                    ProfileData::Chord { a, b } => rec.chord_mm = Some([v2(a), v2(b)]),
+                    ProfileData::Circle(ci) => {
+                        rec.circle_mm = Some(CircleV1 {
+                            centre: v2(&ci.centre),
+                            radius: ci.radius * 1e3,
+                        })
+                    }
+                    ProfileData::EdgePoint(q) => rec.edge_point_mm = Some(v2(q)),
+                }
+                rec
+            })
+            .collect(),
+    };
+    serde_json::to_string(&file).unwrap_or_default()
+}
+
+fn err(file: &str, at: &str, msg: impl std::fmt::Display) -> String {
+    format!("{file}: {at}: {msg}")
+}
+
+/// Parse a capture file; errors name the file, the record and the field. Returns the captures and
+/// the sensor model to extract features with (the preset, with the file's noise figures).
+pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), String> {
+    let f: FileV1 =
+        serde_json::from_str(text).map_err(|e| format!("{file}: not a valid capture file: {e}"))?;
+    if f.format != FORMAT {
+        return Err(err(
+            file,
+            "format",
+            format!("'{}' is not '{FORMAT}'", f.format),
+        ));
+    }
+    if f.version != VERSION {
+        return Err(err(
+            file,
+            "version",
+            format!(
+                "{} is not supported (this lasercal reads version {VERSION})",
+                f.version
+            ),
+        ));
+    }
+    if !["disk", "ball", "edge"].contains(&f.method.as_str()) {
+        return Err(err(
+            file,
+            "method",
+            format!("'{}': use disk, ball or edge", f.method),
+        ));
+    }
+    let mut sensor = SensorModel::preset(&f.sensor).map_err(|e| err(file, "sensor", e))?;
+    if let Some(n) = &f.sensor_noise {
+        for (k, v) in [
+            ("z_sigma_near_mm", n.z_sigma_near_mm),
+            ("z_sigma_far_mm", n.z_sigma_far_mm),
+            ("x_sigma_mm", n.x_sigma_mm),
+            ("z_quantum_mm", n.z_quantum_mm),
+        ] {
+            if !(v >= 0.0 && v.is_finite()) {
+                return Err(err(
+                    file,
+                    &format!("sensor_noise.{k}"),
+                    format!("{v} must be a finite number >= 0"),
+                ));
+            }
+        }
+        sensor.noise.z_sigma_near = n.z_sigma_near_mm * 1e-3;
+        sensor.noise.z_sigma_far = n.z_sigma_far_mm * 1e-3;
+        sensor.noise.x_sigma = n.x_sigma_mm * 1e-3;
+        sensor.noise.dark_noise_factor = n.dark_noise_factor;
+        sensor.z_quantum = (n.z_quantum_mm > 0.0).then_some(n.z_quantum_mm * 1e-3);
+    }
+    let radius = match f.specimen.radius_mm {
+        Some(r) if r > 0.0 && r.is_finite() => Some(r * 1e-3),
+        Some(r) => {
+            return Err(err(
+                file,
+                "specimen.radius_mm",
+                format!("{r} must be a positive length"),
+            ));
+        }
+        None if f.method != "edge" => {
+            return Err(err(
+                file,
+                "specimen.radius_mm",
+                format!("missing: the {} method needs it", f.method),
+            ));
+        }
+        None => None,
+    };
+    let edge_sense = match f.edge_sense.as_deref() {
+        None => None,
+        Some("falling") => Some(EdgeSense::Falling),
+        Some("rising") => Some(EdgeSense::Rising),
+        Some(s) => {
+            return Err(err(
+                file,
+                "edge_sense",
+                format!("'{s}': use falling or rising"),
+            ));
+        }
+    };
+    let truth = f.truth_flange_to_sensor_mm.map(|m| {
+        let r = Matrix3::from_fn(|i, j| m[i][j]);
+        Isometry3::from_parts(
+            Translation3::new(m[0][3] * 1e-3, m[1][3] * 1e-3, m[2][3] * 1e-3),
+            UnitQuaternion::from_rotation_matrix(&crate::math::nearest_rotation(&r)),
+        )
+    });
+    let mut groups = Vec::new();
+    for (i, g) in f.groups.iter().enumerate() {
+        let role = match g.role.as_str() {
+            "scan" => Role::Scan,
+            "rotation" => Role::Rotation,
+            "translation" => Role::Translation,
+            "rotation-group" => Role::RotationGroup,
+            r => {
+                return Err(err(
+                    file,
+                    &format!("groups[{i}].role"),
+                    format!("'{r}': use scan, rotation, translation or rotation-group"),
+                ));
+            }
+        };
+        if f.method != "edge" && g.sign != 1.0 && g.sign != -1.0 {
+            return Err(err(
+                file,
+                &format!("groups[{i}].sign"),
+                format!("{}: the {} method needs s_i = 1 or -1", g.sign, f.method),
+            ));
+        }
+        if groups.iter().any(|x: &Group| x.id == g.id) {
+            return Err(err(
+                file,
+                &format!("groups[{i}].id"),
+                format!("{} is used twice", g.id),
+            ));
+        }
+        groups.push(Group {
+            id: g.id,
+            role,
+            sign: g.sign,
+        });
+    }
+    let mut profiles = Vec::with_capacity(f.profiles.len());
+    for (i, p) in f.profiles.iter().enumerate() {
+        let at = |k: &str| format!("profiles[{i}].{k}");
+        if !groups.iter().any(|g| g.id == p.group) {
+            return Err(err(
+                file,
+                &at("group"),
+                format!("{} is not among the groups", p.group),
+            ));
+        }
+        let q = p.tcp_quaternion_wxyz;
+        let quat = Quaternion::new(q[0], q[1], q[2], q[3]);
+        if !((quat.norm() - 1.0).abs() <= 1e-3) {
+            return Err(err(
+                file,
+                &at("tcp_quaternion_wxyz"),
+                format!("{q:?} is not a unit quaternion (norm {:.6})", quat.norm()),
+            ));
+        }
+        let t = p.tcp_position_mm;
+        if t.iter().any(|x| !x.is_finite()) {
+            return Err(err(
+                file,
+                &at("tcp_position_mm"),
+                format!("{t:?} is not finite"),
+            ));
+        }
+        let base_to_flange = Isometry3::from_parts(
+            Translation3::from(Vector3::from(t) * 1e-3),
+            UnitQuaternion::from_quaternion(quat),
+        );
+        let given = [
+            p.points_mm.is_some(),
+            p.chord_mm.is_some(),
+            p.circle_mm.is_some(),
+            p.edge_point_mm.is_some(),
+        ]
+        .iter()
+        .filter(|x| **x)
+        .count();
+        if given != 1 {
+            return Err(err(
+                file,
+                &format!("profiles[{i}]"),
+                "give exactly one of points_mm, chord_mm, circle_mm, edge_point_mm",
+            ));
+        }
+        let v = |a: [f64; 2]| Vector2::new(a[0] * 1e-3, a[1] * 1e-3);
+        let data = if let Some(pts) = &p.points_mm {
+            if pts.len() != sensor.columns {
+                return Err(err(
+                    file,
+                    &at("points_mm"),
+                    format!(
+                        "{} entries; the {} has {} columns (give one per column, null where missing)",
+                        pts.len(),
+                        sensor.name,
+                        sensor.columns
+                    ),
+                ));
+            }
+            let inten = p.intensity.as_ref();
+            if let Some(iv) = inten
+                && iv.len() != pts.len()
+            {
+                return Err(err(
+                    file,
+                    &at("intensity"),
+                    format!("{} entries, points_mm has {}", iv.len(), pts.len()),
+                ));
+            }
+            let points = pts
+                .iter()
+                .enumerate()
+                .map(|(k, q)| {
+                    q.map(|q| ProfilePoint {
+                        x: q[0] * 1e-3,
+                        z: q[1] * 1e-3,
+                        intensity: inten.and_then(|iv| iv[k]).unwrap_or(1.0),
+                    })
+                })
+                .collect();
+            ProfileData::Raw(Profile { points })
+        } else if let Some(c) = p.chord_mm {
+            ProfileData::Chord {
+                a: v(c[0]),
+                b: v(c[1]),
+            }
+        } else if let Some(c) = &p.circle_mm {
+            ProfileData::Circle(Circle {
+                centre: v(c.centre),
+                radius: c.radius * 1e-3,
+                rms: 0.0,
+            })
+        } else if let Some(e) = p.edge_point_mm {
+            ProfileData::EdgePoint(v(e))
+        } else {
+            unreachable!("exactly one data field was checked above")
+        };
+        profiles.push(CaptureProfile {
+            group: p.group,
+            base_to_flange,
+            data,
+        });
+    }
+    Ok((
+        Captures {
+            method: f.method,
+            sensor: f.sensor,
+            specimen_kind: f.specimen.kind,
+            specimen_radius: radius,
+            edge_sense,
+            truth,
+            groups,
+            profiles,
+        },
+        sensor,
+    ))
+}
