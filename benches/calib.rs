@@ -1,0 +1,60 @@
+//! Calibration cost. Issue 4: one disk calibration (n = 4, m = 100, ellipse fits included) within
+//! 50 us. Issue 5: an edge calibration with 25 x 10 captures and a ball calibration with 8.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use lasercal::calib::ball::{self, BallProblem};
+use lasercal::calib::disk::{DiskProblem, DiskScan, solve};
+use lasercal::calib::edge;
+use lasercal::scenario::ScenarioFile;
+use lasercal::sim::disk::analytic_scan;
+use lasercal::testkit;
+use std::hint::black_box;
+
+fn bench(c: &mut Criterion) {
+    let mut g = testkit::rng(9);
+    let (rig, target, plans) = testkit::random_disk_setup(&mut g, 4, 100);
+    let scans: Vec<DiskScan> = plans
+        .iter()
+        .map(|p| analytic_scan(&rig, &target, p, 1e-4, &mut g))
+        .collect();
+    let problem = DiskProblem::new(target.radius, scans);
+    c.bench_function("disk/solve_n4_m100", |b| {
+        b.iter(|| black_box(solve(black_box(&problem))))
+    });
+
+    let (rig, target, plans) = testkit::random_edge_setup(&mut g, 25, 10);
+    let ep = lasercal::sim::edge::analytic_problem(&rig, &target, &plans, 0.05e-3, &mut g).unwrap();
+    c.bench_function("edge/solve_25x10", |b| {
+        b.iter(|| black_box(edge::solve(black_box(&ep))))
+    });
+
+    let (rig, ball_t) = testkit::random_ball_setup(&mut g, 4, 4);
+    let plan = testkit::random_ball_plan(&mut g, &rig, &ball_t, 4, 4, 1);
+    let bp: BallProblem =
+        lasercal::sim::ball::analytic_problem(&rig, &ball_t, &plan, 0.1e-3, 0.1e-3, &mut g)
+            .unwrap();
+    c.bench_function("ball/solve_8_captures", |b| {
+        b.iter(|| black_box(ball::solve(black_box(&bp))))
+    });
+
+    let dir = env!("CARGO_MANIFEST_DIR");
+    for (scen, method) in [
+        ("chen2018-disk.toml", "disk"),
+        ("chen2018-ball.toml", "ball"),
+        ("xu2021-edge.toml", "edge"),
+    ] {
+        let sf =
+            ScenarioFile::load(std::path::Path::new(&format!("{dir}/scenarios/{scen}"))).unwrap();
+        let setup = sf.scenario.build(&sf.file).unwrap();
+        let mut t = 0u64;
+        c.bench_function(&format!("trial/{method}_{}", sf.scenario.name), |b| {
+            b.iter(|| {
+                t += 1;
+                black_box(lasercal::trial::run_trial(&setup, method, 1, t))
+            })
+        });
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
