@@ -5,6 +5,8 @@ pub mod captures;
 pub mod csv;
 pub mod plot;
 pub mod report;
+#[cfg(feature = "rerun")]
+pub mod rerun;
 
 use std::io::Write;
 use std::path::Path;

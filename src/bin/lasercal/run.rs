@@ -17,6 +17,57 @@ pub struct Args {
     /// Write the result as JSON
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Record the run (arm, specimen, laser fan, profiles, features, true and recovered sensor
+    /// frames) into a Rerun .rrd file
+    #[arg(long)]
+    rerun: Option<PathBuf>,
+    /// Open a Rerun viewer and stream the recording to it
+    #[arg(long)]
+    spawn: bool,
+    /// Method to record with --rerun/--spawn (default: the scenario's first)
+    #[arg(long)]
+    rerun_method: Option<String>,
+}
+
+#[cfg(feature = "rerun")]
+fn record(
+    a: &Args,
+    setup: &lasercal::scenario::Setup,
+    methods: &[String],
+    seed: u64,
+    estimates: &[(String, nalgebra::Isometry3<f64>)],
+) -> Result<()> {
+    use lasercal::io::rerun::Recorder;
+    let method = a.rerun_method.clone().unwrap_or_else(|| methods[0].clone());
+    let Some((_, est)) = estimates.iter().find(|(m, _)| *m == method) else {
+        bail!("--rerun-method {method}: no calibration of that method in this run");
+    };
+    let (caps, _) = lasercal::trial::trial_captures(setup, &method, seed, a.trial);
+    let caps = caps.map_err(anyhow::Error::msg)?;
+    let mut recorders = Vec::new();
+    if let Some(p) = &a.rerun {
+        recorders.push(Recorder::save(p).map_err(anyhow::Error::msg)?);
+    }
+    if a.spawn {
+        recorders.push(Recorder::spawn().map_err(anyhow::Error::msg)?);
+    }
+    for r in &recorders {
+        r.log_run(setup, &caps, est).map_err(anyhow::Error::msg)?;
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "rerun"))]
+fn record(
+    _: &Args,
+    _: &lasercal::scenario::Setup,
+    _: &[String],
+    _: u64,
+    _: &[(String, nalgebra::Isometry3<f64>)],
+) -> Result<()> {
+    bail!(
+        "this lasercal was built without the `rerun` feature: rebuild with default features for --rerun/--spawn"
+    )
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -28,11 +79,13 @@ pub fn run(a: Args) -> Result<()> {
     println!("scenario {} (seed {seed}, trial {})", sc.name, a.trial);
     println!("truth flange_to_sensor (mm):\n{}", matrix_text(&truth));
     let mut results = Vec::new();
+    let mut estimates = Vec::new();
     let mut failed = false;
     for method in &sc.methods {
         let out = run_trial(&setup, method, seed, a.trial);
         match &out.result {
             Ok(s) => {
+                estimates.push((method.clone(), s.estimate));
                 let est = pose_to_rows_mm(&s.estimate);
                 println!(
                     "\n{method}: recovered flange_to_sensor (mm):\n{}",
@@ -95,6 +148,9 @@ pub fn run(a: Args) -> Result<()> {
         };
         lasercal::io::write(path, serde_json::to_string_pretty(&doc)?.as_bytes())
             .map_err(anyhow::Error::msg)?;
+    }
+    if a.rerun.is_some() || a.spawn {
+        record(&a, &setup, &sc.methods, seed, &estimates)?;
     }
     if failed {
         bail!("at least one method failed");

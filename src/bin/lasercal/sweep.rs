@@ -19,6 +19,9 @@ pub struct Args {
     /// Seed (default: the scenario's)
     #[arg(long)]
     seed: Option<u64>,
+    /// Also record the plotted curves as scalar series into a Rerun .rrd file
+    #[arg(long)]
+    rerun: Option<PathBuf>,
     /// Run only shard K of N (1 <= K <= N): trials t with t mod N = K - 1; combine with `lasercal merge`
     #[arg(long)]
     shard: Option<String>,
@@ -176,6 +179,9 @@ pub fn run(a: Args) -> Result<()> {
     let failures: usize = summary.iter().map(|s| s.failures).sum();
     if shard.count == 1 {
         finish(&out, &sf, &plan, &summary)?;
+        if let Some(p) = &a.rerun {
+            record_curves(p, &sf, &summary)?;
+        }
         eprintln!(
             "done: {total} trials in {:.1} s ({failures} failed); {}/report.md",
             started.elapsed().as_secs_f64(),
@@ -190,4 +196,21 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     Ok(())
+}
+
+#[cfg(feature = "rerun")]
+fn record_curves(path: &Path, sf: &ScenarioFile, summary: &[SummaryRow]) -> Result<()> {
+    let Some(plot) = sf.scenario.sweep.as_ref().and_then(|s| s.plot.as_ref()) else {
+        bail!("--rerun: the scenario's sweep has no [sweep.plot] saying which curves to record");
+    };
+    let fig = io::plot::from_summary(summary, plot, &sf.scenario.name);
+    let r = io::rerun::Recorder::save(path).map_err(anyhow::Error::msg)?;
+    r.log_curves(&fig).map_err(anyhow::Error::msg)
+}
+
+#[cfg(not(feature = "rerun"))]
+fn record_curves(_: &Path, _: &ScenarioFile, _: &[SummaryRow]) -> Result<()> {
+    bail!(
+        "this lasercal was built without the `rerun` feature: rebuild with default features for --rerun"
+    )
 }
