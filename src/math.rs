@@ -31,10 +31,16 @@ pub fn rotation_angle_between(a: &UnitQuaternion<f64>, b: &UnitQuaternion<f64>) 
 /// Nearest proper rotation to a 3x3 matrix (SVD with the determinant guard against reflections).
 pub fn nearest_rotation(m: &Matrix3<f64>) -> Rotation3<f64> {
     let svd = m.svd(true, true);
-    let (u, v_t) = (svd.u.unwrap(), svd.v_t.unwrap());
-    let d = (u * v_t).determinant().signum();
-    let r = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * v_t;
-    Rotation3::from_matrix_unchecked(r)
+    match (svd.u, svd.v_t) {
+        (Some(u), Some(v_t)) => {
+            let d = (u * v_t).determinant().signum();
+            Rotation3::from_matrix_unchecked(
+                u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * v_t,
+            )
+        }
+        // nalgebra always returns U and V when asked; a non-finite input gets no rotation.
+        _ => Rotation3::from_matrix_unchecked(Matrix3::from_element(f64::NAN)),
+    }
 }
 
 /// Wrap an angle into (-pi, pi].

@@ -75,25 +75,12 @@ pub fn rotation_from_translations(set: &[BallCapture]) -> Result<Rotation3<f64>,
     for c in set {
         h += (c.q_in_sensor - qm) * (-(inv * (c.t_tcp - tm))).transpose();
     }
-    let svd = h.svd(true, true);
-    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
-        unreachable!("SVD was asked for U and V")
-    };
-    let mut sv = svd.singular_values;
-    sv.as_mut_slice().sort_by(|a, b| b.total_cmp(a));
-    if sv[1] <= 1e-9 * sv[0] {
-        return Err(CalibError::Degenerate {
-            method: METHOD,
-            what: "the rotation-set translations are collinear".into(),
-            part: "rotation",
-            fix: "translate in at least two directions",
-        });
-    }
-    let v = v_t.transpose();
-    let d = (v * u.transpose()).determinant().signum();
-    Ok(Rotation3::from_matrix_unchecked(
-        v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * u.transpose(),
-    ))
+    super::rotation_from_correlation(&h).ok_or_else(|| CalibError::Degenerate {
+        method: METHOD,
+        what: "the rotation-set translations are collinear".into(),
+        part: "rotation",
+        fix: "translate in at least two directions",
+    })
 }
 
 /// T_sensor given R_sensor: (R_i - R_j) T = R_j R q^j - R_i R q^i + T_j - T_i over consecutive

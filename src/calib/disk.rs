@@ -232,25 +232,13 @@ pub fn transformation_solution(data: &[SensingDatum]) -> Result<(Isometry3<f64>,
     for d in data {
         h += d.d_in_sensor * (d.r_tcp.inverse() * d.d_in_base).transpose();
     }
-    let svd = h.svd(true, true);
-    let (u, v_t) = match (svd.u, svd.v_t) {
-        (Some(u), Some(v)) => (u, v),
-        _ => unreachable!("SVD was asked for U and V"),
-    };
-    let mut sv = svd.singular_values;
-    sv.as_mut_slice().sort_by(|a, b| b.total_cmp(a));
-    if sv[1] <= 1e-9 * sv[0] {
-        return Err(CalibError::Degenerate {
-            method: METHOD,
-            what: "all TCP offsets D_i are parallel".into(),
-            part: "rotation",
-            fix: "scan in directions that differ between sensing data",
-        });
-    }
-    let v = v_t.transpose();
-    let d = (v * u.transpose()).determinant().signum();
-    let r = v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * u.transpose();
-    let r_sensor = Rotation3::from_matrix_unchecked(r);
+    // Eqs. 15-16 with the reflection guard.
+    let r_sensor = super::rotation_from_correlation(&h).ok_or_else(|| CalibError::Degenerate {
+        method: METHOD,
+        what: "all TCP offsets D_i are parallel".into(),
+        part: "rotation",
+        fix: "scan in directions that differ between sensing data",
+    })?;
     let resid = (data
         .iter()
         .map(|d| (r_sensor * d.d_in_sensor - d.r_tcp.inverse() * d.d_in_base).norm_squared())

@@ -76,3 +76,20 @@ impl PoseError {
 pub fn quat_from_matrix(m: &Matrix3<f64>) -> UnitQuaternion<f64> {
     UnitQuaternion::from_rotation_matrix(&crate::math::nearest_rotation(m))
 }
+
+/// The rotation R minimising sum |R x_i - y_i|^2 from H = sum x_i y_i^T (Arun et al.: SVD with the
+/// determinant guard against reflections). None when H has rank below 2 (the x_i all parallel).
+pub fn rotation_from_correlation(h: &Matrix3<f64>) -> Option<nalgebra::Rotation3<f64>> {
+    let svd = h.svd(true, true);
+    let (u, v_t) = (svd.u?, svd.v_t?);
+    let mut sv = svd.singular_values;
+    sv.as_mut_slice().sort_by(|a, b| b.total_cmp(a));
+    if !(sv[1] > 1e-9 * sv[0]) {
+        return None;
+    }
+    let v = v_t.transpose();
+    let d = (v * u.transpose()).determinant().signum();
+    Some(nalgebra::Rotation3::from_matrix_unchecked(
+        v * Matrix3::from_diagonal(&nalgebra::Vector3::new(1.0, 1.0, d)) * u.transpose(),
+    ))
+}
