@@ -76,7 +76,40 @@ pub struct Scenario {
     #[serde(default)]
     pub edge: Option<EdgeSection>,
     #[serde(default)]
+    pub robot_error: Option<RobotErrorSection>,
+    #[serde(default)]
+    pub vibration: Option<VibrationSection>,
+    #[serde(default)]
     pub sweep: Option<SweepSection>,
+}
+
+/// Robot pose error applied to the robot that moves (the calibration sees the commanded poses).
+#[derive(Debug, Clone, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RobotErrorSection {
+    /// ISO 9283 position repeatability (IRB 120: 0.01 mm, IRB 2600: 0.04 mm).
+    #[serde(default)]
+    pub repeatability_mm: f64,
+    /// Encoder noise per joint and pose (standard deviation).
+    #[serde(default)]
+    pub joint_noise_deg: f64,
+    /// Systematic kinematic error per trial: joint origin offsets and joint zero offsets (std).
+    #[serde(default)]
+    pub link_error_mm: f64,
+    #[serde(default)]
+    pub joint_offset_error_deg: f64,
+}
+
+/// Cheap arm-vibration model: a band-limited random TCP perturbation.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct VibrationSection {
+    /// RMS of the TCP displacement per axis.
+    pub amplitude_mm: f64,
+    pub band_low_hz: f64,
+    pub band_high_hz: f64,
+    /// The rate at which profiles are taken (the Gocator: about 170 Hz).
+    pub profile_rate_hz: f64,
 }
 
 fn d_step() -> f64 {
@@ -501,6 +534,8 @@ pub struct Setup {
     pub disk: Option<DiskSetup>,
     pub ball: Option<BallSetup>,
     pub edge: Option<EdgeSetup>,
+    pub robot_error: crate::sim::disturb::RobotError,
+    pub vibration: crate::sim::disturb::Vibration,
 }
 
 #[derive(Debug, Clone)]
@@ -880,6 +915,49 @@ impl Scenario {
                 ));
             }
         }
+        if let Some(r) = &self.robot_error {
+            for (k, v) in [
+                ("repeatability_mm", r.repeatability_mm),
+                ("joint_noise_deg", r.joint_noise_deg),
+                ("link_error_mm", r.link_error_mm),
+                ("joint_offset_error_deg", r.joint_offset_error_deg),
+            ] {
+                if !(v >= 0.0 && v.is_finite()) {
+                    return Err(bad(
+                        file,
+                        &format!("robot_error.{k}"),
+                        v,
+                        "must be a finite number >= 0",
+                    ));
+                }
+            }
+        }
+        if let Some(v) = &self.vibration {
+            if !(v.amplitude_mm >= 0.0 && v.amplitude_mm.is_finite()) {
+                return Err(bad(
+                    file,
+                    "vibration.amplitude_mm",
+                    v.amplitude_mm,
+                    "must be a finite number >= 0",
+                ));
+            }
+            if !(v.band_low_hz > 0.0 && v.band_high_hz >= v.band_low_hz) {
+                return Err(bad(
+                    file,
+                    "vibration.band_high_hz",
+                    v.band_high_hz,
+                    "give 0 < band_low_hz <= band_high_hz",
+                ));
+            }
+            if !(v.profile_rate_hz > 0.0) {
+                return Err(bad(
+                    file,
+                    "vibration.profile_rate_hz",
+                    v.profile_rate_hz,
+                    "must be > 0",
+                ));
+            }
+        }
         if let Some(s) = &self.sweep {
             if s.trials == 0 {
                 return Err(bad(file, "sweep.trials", 0, "at least one trial"));
@@ -1222,6 +1300,23 @@ impl Scenario {
             }
             _ => None,
         };
+        let re = self.robot_error.clone().unwrap_or_default();
+        let robot_error = crate::sim::disturb::RobotError {
+            repeatability: re.repeatability_mm * 1e-3,
+            joint_noise: re.joint_noise_deg.to_radians(),
+            link_error: re.link_error_mm * 1e-3,
+            joint_offset_error: re.joint_offset_error_deg.to_radians(),
+        };
+        let vibration = self
+            .vibration
+            .as_ref()
+            .map(|v| crate::sim::disturb::Vibration {
+                amplitude_rms: v.amplitude_mm * 1e-3,
+                band_low_hz: v.band_low_hz,
+                band_high_hz: v.band_high_hz,
+                profile_rate_hz: v.profile_rate_hz,
+            })
+            .unwrap_or_default();
         Ok(Setup {
             rig,
             scene,
@@ -1230,6 +1325,8 @@ impl Scenario {
             disk,
             ball,
             edge,
+            robot_error,
+            vibration,
         })
     }
 }

@@ -5,6 +5,7 @@ use crate::calib::{PoseError, Status};
 use crate::captures::{Calibration, CaptureProfile, Captures, Group, ProfileData, Role};
 use crate::rng::{self, tag};
 use crate::scenario::Setup;
+use crate::sim::disturb::Disturbance;
 use crate::sim::flange_pose;
 use nalgebra::Isometry3;
 
@@ -82,7 +83,14 @@ pub fn trial_captures(
     let mut r = rng::stream(seed, &[tag::TRIAL, trial]);
     // The Table 3 scan of the edge method draws from its own stream.
     let validation_seed: u64 = rand::RngExt::random(&mut r);
-    (simulate(setup, method, &mut r), validation_seed)
+    // Robot error and vibration draw from their own stream: switched off, nothing changes.
+    let mut dist = Disturbance::new(
+        &setup.rig.robot,
+        setup.robot_error,
+        setup.vibration,
+        rng::stream(seed, &[tag::ROBOT_ERROR, trial]),
+    );
+    (simulate(setup, method, &mut r, &mut dist), validation_seed)
 }
 
 /// Score a calibration of `method` against the scenario's truth.
@@ -129,8 +137,21 @@ pub fn score(setup: &Setup, method: &str, cal: &Calibration, validation_seed: u6
 
 /// The captures of one trial of `method`: what the rig would record (features for the analytic
 /// sources, raw profiles for the ray-cast ones), with the truth attached.
-pub fn simulate(setup: &Setup, method: &str, r: &mut rng::Rng) -> Result<Captures, String> {
+pub fn simulate(
+    setup: &Setup,
+    method: &str,
+    r: &mut rng::Rng,
+    dist: &mut Disturbance,
+) -> Result<Captures, String> {
     let rig = &setup.rig;
+    let robot = &rig.robot;
+    // Profiles are numbered in the order they are taken (the vibration's clock).
+    let mut k = 0usize;
+    let mut actual = |f: &nalgebra::Isometry3<f64>| {
+        let a = dist.actual(robot, f, k);
+        k += 1;
+        a
+    };
     let noisy = !rig.sensor.noise.is_off();
     let mut groups = Vec::new();
     let mut profiles = Vec::new();
@@ -158,7 +179,14 @@ pub fn simulate(setup: &Setup, method: &str, r: &mut rng::Rng) -> Result<Capture
                         });
                     }
                 } else {
-                    let scan = crate::sim::disk::analytic_scan(rig, &d.target, p, d.sigma, r);
+                    let scan = crate::sim::disk::analytic_scan_with(
+                        rig,
+                        &d.target,
+                        p,
+                        d.sigma,
+                        r,
+                        &mut |f, _| actual(f),
+                    );
                     for ch in scan.chords {
                         let f = flange_pose(&p.r_tcp, &(p.t_start + (p.t_end - p.t_start) * ch.u));
                         profiles.push(CaptureProfile {
@@ -196,8 +224,7 @@ pub fn simulate(setup: &Setup, method: &str, r: &mut rng::Rng) -> Result<Capture
             });
             for (role, p, m) in poses {
                 let f = flange_pose(&p.r_tcp, &p.t_tcp);
-                let pose = rig.base_to_sensor(&f);
-                let sign = crate::sim::ball::sign(&pose, &b.target);
+                let sign = crate::sim::ball::sign(&rig.base_to_sensor(&f), &b.target);
                 let id = if role == Role::Rotation {
                     groups[0].sign = sign;
                     0
@@ -211,6 +238,7 @@ pub fn simulate(setup: &Setup, method: &str, r: &mut rng::Rng) -> Result<Capture
                     gid
                 };
                 for _ in 0..m {
+                    let pose = rig.base_to_sensor(&actual(&f));
                     let data = if b.raycast {
                         ProfileData::Raw(rig.sensor.profile(
                             &b.scene,
@@ -244,7 +272,7 @@ pub fn simulate(setup: &Setup, method: &str, r: &mut rng::Rng) -> Result<Capture
                 });
                 for t in &p.tcps {
                     let f = flange_pose(&p.r_tcp, t);
-                    let pose = rig.base_to_sensor(&f);
+                    let pose = rig.base_to_sensor(&actual(&f));
                     let data = if e.raycast {
                         ProfileData::Raw(rig.sensor.profile(
                             &e.scene,

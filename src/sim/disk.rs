@@ -282,9 +282,22 @@ pub fn analytic_scan(
     sigma: f64,
     rng: &mut crate::rng::Rng,
 ) -> DiskScan {
+    analytic_scan_with(rig, disk, p, sigma, rng, &mut |f, _| *f)
+}
+
+/// `analytic_scan` with the robot really at `actual(commanded flange pose, profile index)`, while
+/// the chords keep the commanded positions (as a real controller reports them).
+pub fn analytic_scan_with(
+    rig: &Rig,
+    disk: &DiskTarget,
+    p: &DiskScanPlan,
+    sigma: f64,
+    rng: &mut crate::rng::Rng,
+    actual: &mut dyn FnMut(&Isometry3<f64>, usize) -> Isometry3<f64>,
+) -> DiskScan {
     let mut chords = Vec::with_capacity(p.m);
     for j in 0..p.m {
-        let pose = rig.base_to_sensor(&flange_pose(&p.r_tcp, &p.tcp(j)));
+        let pose = rig.base_to_sensor(&actual(&flange_pose(&p.r_tcp, &p.tcp(j)), j));
         // Draw both noises for every profile so streams stay aligned.
         let (t1, t2) = (gauss(rng) * sigma, gauss(rng) * sigma);
         if let Some((a, b)) = exact_chord(&pose, disk) {

@@ -2,6 +2,7 @@
 
 pub mod ball;
 pub mod disk;
+pub mod disturb;
 pub mod edge;
 
 use crate::robot::{Robot, RobotError};

@@ -1,0 +1,159 @@
+//! Physical causes of error between the commanded flange pose (what the controller reports and the
+//! calibration sees) and the pose the sensor really has: robot pose error (ISO 9283 repeatability,
+//! joint encoder noise, a systematic kinematic error) and arm vibration (a seeded, band-limited
+//! random TCP perturbation). Every cause is off by default; off, the actual pose is the commanded
+//! one exactly.
+
+use crate::rng::Rng;
+use crate::robot::{Joints, Robot};
+use crate::sensor::gauss;
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use rand::RngExt;
+
+/// Robot pose error (metres, radians).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RobotError {
+    /// ISO 9283 position repeatability RP: each pose lands off by an isotropic Gaussian whose
+    /// 3-sigma distance radius is RP (sigma per axis = RP / (3 sqrt 3)).
+    pub repeatability: f64,
+    /// Standard deviation of each joint's encoder reading error, per pose.
+    pub joint_noise: f64,
+    /// Systematic kinematic error drawn once per trial: the standard deviation of each joint
+    /// origin's offset (a link-length error) and of each joint's zero offset.
+    pub link_error: f64,
+    pub joint_offset_error: f64,
+}
+
+/// Cheap vibration model: per axis, a sum of sinusoids with random frequencies in a band and random
+/// phases, scaled to an RMS amplitude, sampled at the profile rate.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Vibration {
+    pub amplitude_rms: f64,
+    pub band_low_hz: f64,
+    pub band_high_hz: f64,
+    pub profile_rate_hz: f64,
+}
+
+impl RobotError {
+    pub fn is_off(&self) -> bool {
+        *self == RobotError::default()
+    }
+}
+
+impl Vibration {
+    pub fn is_off(&self) -> bool {
+        !(self.amplitude_rms > 0.0)
+    }
+}
+
+/// The disturbance of one trial: the robot that really moves and the vibration signal.
+pub struct Disturbance {
+    err: RobotError,
+    actual: Option<Robot>,
+    vib: Vibration,
+    /// Per axis: (frequency Hz, phase) of each sinusoid.
+    waves: [[(f64, f64); 8]; 3],
+    q_prev: Option<Joints>,
+    rng: Rng,
+}
+
+impl Disturbance {
+    /// Draw the trial's systematic error and vibration signal from `rng`.
+    pub fn new(robot: &Robot, err: RobotError, vib: Vibration, mut rng: Rng) -> Disturbance {
+        let actual = (!err.is_off()).then(|| {
+            let mut r = robot.clone();
+            for j in &mut r.joints {
+                if err.link_error > 0.0 {
+                    let d = Vector3::new(gauss(&mut rng), gauss(&mut rng), gauss(&mut rng))
+                        * err.link_error;
+                    j.prev_to_joint = Isometry3::from_parts(
+                        Translation3::from(j.prev_to_joint.translation.vector + d),
+                        j.prev_to_joint.rotation,
+                    );
+                }
+                if err.joint_offset_error > 0.0 {
+                    let off = gauss(&mut rng) * err.joint_offset_error;
+                    j.prev_to_joint *= UnitQuaternion::from_axis_angle(&j.axis, off);
+                }
+            }
+            r
+        });
+        let mut waves = [[(0.0, 0.0); 8]; 3];
+        for axis in &mut waves {
+            for w in axis.iter_mut() {
+                *w = (
+                    rng.random_range(
+                        vib.band_low_hz.min(vib.band_high_hz)
+                            ..=vib.band_high_hz.max(vib.band_low_hz),
+                    ),
+                    rng.random_range(0.0..std::f64::consts::TAU),
+                );
+            }
+        }
+        Disturbance {
+            err,
+            actual,
+            vib,
+            waves,
+            q_prev: None,
+            rng,
+        }
+    }
+
+    /// True when no cause is switched on.
+    pub fn is_off(&self) -> bool {
+        self.err.is_off() && self.vib.is_off()
+    }
+
+    /// The vibration offset at profile `k` (metres, base frame).
+    pub fn vibration_at(&self, k: usize) -> Vector3<f64> {
+        if self.vib.is_off() || !(self.vib.profile_rate_hz > 0.0) {
+            return Vector3::zeros();
+        }
+        let t = k as f64 / self.vib.profile_rate_hz;
+        // Eight unit sinusoids have RMS 2 (= sqrt(8 / 2)); scale to the requested RMS.
+        let scale = self.vib.amplitude_rms / 2.0;
+        Vector3::from_fn(|a, _| {
+            self.waves[a]
+                .iter()
+                .map(|(f, ph)| (std::f64::consts::TAU * f * t + ph).sin())
+                .sum::<f64>()
+                * scale
+        })
+    }
+
+    /// The flange pose the robot really reaches when commanded `nominal` (profile `k` of the trial).
+    pub fn actual(&mut self, robot: &Robot, nominal: &Isometry3<f64>, k: usize) -> Isometry3<f64> {
+        if self.is_off() {
+            return *nominal;
+        }
+        let mut pose = *nominal;
+        if !self.err.is_off() {
+            // The controller solves IK on the nominal model and drives the joints there.
+            let seed = self.q_prev.unwrap_or([0.0; 6]);
+            if let Ok(mut q) = robot.ik_nearest(nominal, &seed) {
+                self.q_prev = Some(q);
+                for v in &mut q {
+                    *v += gauss(&mut self.rng) * self.err.joint_noise;
+                }
+                let moving = self.actual.as_ref().unwrap_or(robot);
+                pose = moving.fk(&q);
+            }
+            let sigma = self.err.repeatability / (3.0 * 3f64.sqrt());
+            let d = Vector3::new(
+                gauss(&mut self.rng),
+                gauss(&mut self.rng),
+                gauss(&mut self.rng),
+            ) * sigma;
+            pose = Isometry3::from_parts(
+                Translation3::from(pose.translation.vector + d),
+                pose.rotation,
+            );
+        }
+        let v = self.vibration_at(k);
+        Isometry3::from_parts(
+            Translation3::from(pose.translation.vector + v),
+            pose.rotation,
+        )
+    }
+}

@@ -1,0 +1,161 @@
+//! Issue 7 (part): robot pose error and the cheap vibration model.
+
+use lasercal::rng;
+use lasercal::scenario::ScenarioFile;
+use lasercal::sim::disturb::{Disturbance, RobotError, Vibration};
+use lasercal::testkit::{self, irb120};
+use lasercal::trial::run_trial;
+
+fn base() -> String {
+    std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenarios/chen2018-disk.toml"
+    ))
+    .unwrap()
+}
+
+#[test]
+fn every_cause_off_equals_the_ideal_simulator() {
+    let ideal = ScenarioFile::parse(&base(), "a.toml").unwrap();
+    let off = format!(
+        "{}\n[robot_error]\nrepeatability_mm = 0.0\njoint_noise_deg = 0.0\nlink_error_mm = 0.0\njoint_offset_error_deg = 0.0\n[vibration]\namplitude_mm = 0.0\nband_low_hz = 5.0\nband_high_hz = 20.0\nprofile_rate_hz = 170.0\n",
+        base()
+    );
+    let off = ScenarioFile::parse(&off, "b.toml").unwrap();
+    let (a, b) = (
+        ideal.scenario.build("a").unwrap(),
+        off.scenario.build("b").unwrap(),
+    );
+    for t in 0..5 {
+        assert_eq!(
+            run_trial(&a, "disk", 3, t),
+            run_trial(&b, "disk", 3, t),
+            "trial {t}"
+        );
+    }
+    // And a cause switched on changes the result, the same way for the same seed.
+    let on = ScenarioFile::parse(
+        &format!("{}\n[robot_error]\nrepeatability_mm = 0.05\n", base()),
+        "c.toml",
+    )
+    .unwrap();
+    let c = on.scenario.build("c").unwrap();
+    assert_ne!(run_trial(&a, "disk", 3, 0), run_trial(&c, "disk", 3, 0));
+    assert_eq!(run_trial(&c, "disk", 3, 0), run_trial(&c, "disk", 3, 0));
+}
+
+#[test]
+fn repeatability_statistics_match_iso_9283_figure() {
+    let robot = irb120();
+    let rp = 0.01e-3;
+    let mut d = Disturbance::new(
+        &robot,
+        RobotError {
+            repeatability: rp,
+            ..Default::default()
+        },
+        Vibration::default(),
+        rng::stream(1, &[2]),
+    );
+    let mut g = testkit::rng(70);
+    let mut dev = Vec::new();
+    for k in 0..6000 {
+        let q = testkit::random_joints(&robot, &mut g, 0.2);
+        let nominal = robot.fk(&q);
+        let a = d.actual(&robot, &nominal, k);
+        dev.extend(
+            (a.translation.vector - nominal.translation.vector)
+                .iter()
+                .copied(),
+        );
+        assert!(a.rotation.angle_to(&nominal.rotation) < 1e-9);
+    }
+    let sigma = (dev.iter().map(|x| x * x).sum::<f64>() / dev.len() as f64).sqrt();
+    let want = rp / (3.0 * 3f64.sqrt());
+    assert!((sigma / want - 1.0).abs() < 0.03, "sigma {sigma} vs {want}");
+}
+
+#[test]
+fn joint_noise_statistics_match_parameter() {
+    let robot = irb120();
+    let s = 0.01f64.to_radians();
+    let mut d = Disturbance::new(
+        &robot,
+        RobotError {
+            joint_noise: s,
+            ..Default::default()
+        },
+        Vibration::default(),
+        rng::stream(1, &[3]),
+    );
+    let mut g = testkit::rng(71);
+    let mut dq = Vec::new();
+    // A continuous path, as a scan is: the controller's IK stays on one arm branch.
+    let q0 = [0.3, 0.2, -0.1, 0.5, 0.6, 0.1];
+    for k in 0..3000 {
+        let w = testkit::random_joints(&robot, &mut g, 0.2);
+        let q: [f64; 6] = std::array::from_fn(|i| q0[i] + 0.05 * (w[i] * 1.3).sin());
+        let a = d.actual(&robot, &robot.fk(&q), k);
+        // The nominal model maps the actual pose back to the noisy joints exactly.
+        let qa = robot.ik_nearest(&a, &q).unwrap();
+        dq.extend(qa.iter().zip(&q).map(|(x, y)| x - y));
+    }
+    let sigma = (dq.iter().map(|x| x * x).sum::<f64>() / dq.len() as f64).sqrt();
+    assert!((sigma / s - 1.0).abs() < 0.03, "sigma {sigma} vs {s}");
+}
+
+#[test]
+fn kinematic_error_is_systematic() {
+    let robot = irb120();
+    let err = RobotError {
+        link_error: 0.1e-3,
+        joint_offset_error: 0.01f64.to_radians(),
+        ..Default::default()
+    };
+    let mut d = Disturbance::new(&robot, err, Vibration::default(), rng::stream(1, &[4]));
+    let q = [0.3, 0.2, -0.1, 0.5, 0.6, 0.1];
+    let nominal = robot.fk(&q);
+    let (a1, a2) = (d.actual(&robot, &nominal, 0), d.actual(&robot, &nominal, 1));
+    let off = (a1.translation.vector - nominal.translation.vector).norm();
+    assert!(off > 1e-5 && off < 2e-3, "offset {off}");
+    assert!(
+        (a1.translation.vector - a2.translation.vector).norm() < 1e-15,
+        "the same command lands at the same place"
+    );
+    // Another trial's robot is another draw.
+    let mut d2 = Disturbance::new(&robot, err, Vibration::default(), rng::stream(1, &[5]));
+    assert!(
+        (d2.actual(&robot, &nominal, 0).translation.vector - a1.translation.vector).norm() > 1e-7
+    );
+}
+
+#[test]
+fn vibration_rms_and_band_match_parameters() {
+    let robot = irb120();
+    let vib = Vibration {
+        amplitude_rms: 0.02e-3,
+        band_low_hz: 5.0,
+        band_high_hz: 20.0,
+        profile_rate_hz: 500.0,
+    };
+    let mut rms = 0.0;
+    let trials = 200;
+    for t in 0..trials {
+        let d = Disturbance::new(&robot, RobotError::default(), vib, rng::stream(7, &[t]));
+        let v: Vec<f64> = (0..2000)
+            .flat_map(|k| d.vibration_at(k).iter().copied().collect::<Vec<_>>())
+            .collect();
+        rms += v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64;
+        // Band-limited: between samples 1/500 s apart, a 20 Hz signal moves at most 2 pi 20 / 500 of
+        // its peak (about 0.25 of it).
+        let x: Vec<f64> = (0..2000).map(|k| d.vibration_at(k).x).collect();
+        let peak = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let step = x
+            .windows(2)
+            .map(|w| (w[1] - w[0]).abs())
+            .fold(0.0, f64::max);
+        assert!(step <= 0.26 * peak * 2.0, "steps {step} vs peak {peak}");
+    }
+    let rms = (rms / trials as f64).sqrt();
+    assert!((rms / 0.02e-3 - 1.0).abs() < 0.05, "rms {rms}");
+}
