@@ -2,12 +2,9 @@
 //! centre in the sensor frame from each arc's circle, R_sensor from captures sharing one
 //! orientation, then T_sensor from captures at other orientations.
 
-use super::disk::solve_ls;
 use super::{CalibError, Status};
 use crate::features::Circle;
-use nalgebra::{
-    DMatrix, DVector, Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3,
-};
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
 const METHOD: &str = "ball";
 
@@ -98,18 +95,11 @@ pub fn translation_given_rotation(
             need: 3,
         });
     }
-    let mut a = DMatrix::zeros(3 * (n - 1), 3);
-    let mut b = DVector::zeros(3 * (n - 1));
-    for i in 0..n - 1 {
-        let (p, q) = (&set[i], &set[i + 1]);
-        a.fixed_view_mut::<3, 3>(3 * i, 0)
-            .copy_from(&(p.r_tcp.matrix() - q.r_tcp.matrix()));
-        let rhs = q.r_tcp * (r_sensor * q.q_in_sensor) - p.r_tcp * (r_sensor * p.q_in_sensor)
-            + q.t_tcp
-            - p.t_tcp;
-        b.fixed_rows_mut::<3>(3 * i).copy_from(&rhs);
-    }
-    solve_ls(&a, &b).ok_or_else(|| CalibError::Degenerate {
+    let caps: Vec<_> = set
+        .iter()
+        .map(|c| (c.r_tcp, c.t_tcp, c.q_in_sensor))
+        .collect();
+    super::translation_from_fixed_point(&caps, r_sensor).ok_or_else(|| CalibError::Degenerate {
         method: METHOD,
         what: "the translation-set orientations differ only by rotations about one axis".into(),
         part: "translation",

@@ -245,24 +245,19 @@ pub fn transformation_solution(data: &[SensingDatum]) -> Result<(Isometry3<f64>,
         .sum::<f64>()
         / n as f64)
         .sqrt();
-    // M T = N stacked over consecutive pairs.
-    let mut mm = DMatrix::zeros(3 * (n - 1), 3);
-    let mut nn = DVector::zeros(3 * (n - 1));
-    for i in 0..n - 1 {
-        let (a, b) = (&data[i], &data[i + 1]);
-        let ri = a.r_tcp.matrix() - b.r_tcp.matrix();
-        let ni = b.r_tcp * (r_sensor * b.q_in_sensor) - a.r_tcp * (r_sensor * a.q_in_sensor)
-            + b.t_tcp
-            - a.t_tcp;
-        mm.fixed_view_mut::<3, 3>(3 * i, 0).copy_from(&ri);
-        nn.fixed_rows_mut::<3>(3 * i).copy_from(&ni);
-    }
-    let t_sensor = solve_ls(&mm, &nn).ok_or_else(|| CalibError::Degenerate {
-        method: METHOD,
-        what: "the flange orientations differ only by rotations about one axis (or not at all)"
-            .into(),
-        part: "translation",
-        fix: "use orientations tilted about at least two different axes",
+    // M T = N stacked over consecutive pairs (Eqs. 17-19).
+    let caps: Vec<_> = data
+        .iter()
+        .map(|d| (d.r_tcp, d.t_tcp, d.q_in_sensor))
+        .collect();
+    let t_sensor = super::translation_from_fixed_point(&caps, &r_sensor).ok_or_else(|| {
+        CalibError::Degenerate {
+            method: METHOD,
+            what: "the flange orientations differ only by rotations about one axis (or not at all)"
+                .into(),
+            part: "translation",
+            fix: "use orientations tilted about at least two different axes",
+        }
     })?;
     let iso = Isometry3::from_parts(
         Translation3::from(t_sensor),

@@ -93,3 +93,30 @@ pub fn rotation_from_correlation(h: &Matrix3<f64>) -> Option<nalgebra::Rotation3
         v * Matrix3::from_diagonal(&nalgebra::Vector3::new(1.0, 1.0, d)) * u.transpose(),
     ))
 }
+
+/// T_sensor from captures of one fixed point (disk or ball centre) seen at q_i from flange poses
+/// (R_i, T_i), given R_sensor: (R_i - R_i+1) T = R_i+1 R q_i+1 - R_i R q_i + T_i+1 - T_i over
+/// consecutive captures (the disk paper's Eqs. 17-19), least squares. None when rank deficient.
+pub fn translation_from_fixed_point(
+    caps: &[(
+        nalgebra::Rotation3<f64>,
+        nalgebra::Vector3<f64>,
+        nalgebra::Vector3<f64>,
+    )],
+    r_sensor: &nalgebra::Rotation3<f64>,
+) -> Option<nalgebra::Vector3<f64>> {
+    let n = caps.len();
+    if n < 2 {
+        return None;
+    }
+    let mut a = nalgebra::DMatrix::zeros(3 * (n - 1), 3);
+    let mut b = nalgebra::DVector::zeros(3 * (n - 1));
+    for i in 0..n - 1 {
+        let ((r1, t1, q1), (r2, t2, q2)) = (&caps[i], &caps[i + 1]);
+        a.fixed_view_mut::<3, 3>(3 * i, 0)
+            .copy_from(&(r1.matrix() - r2.matrix()));
+        b.fixed_rows_mut::<3>(3 * i)
+            .copy_from(&(r2 * (r_sensor * q2) - r1 * (r_sensor * q1) + t2 - t1));
+    }
+    disk::solve_ls(&a, &b)
+}
