@@ -1107,9 +1107,9 @@ impl Scenario {
         Isometry3::from_parts(Translation3::from(t), rot)
     }
 
-    /// Build the rig, scene and plans (checking reachability).
-    pub fn build(&self, file: &str) -> Result<Setup, ScenarioError> {
-        self.validate(file)?;
+    /// The rig and the scene of the top-level specimen (and table), without any method's plan: what
+    /// `lasercal scan` needs.
+    pub fn rig_and_scene(&self, file: &str) -> Result<(Rig, Scene), ScenarioError> {
         let robot = Robot::resolve(&self.robot.name).map_err(|e| {
             bad(
                 file,
@@ -1135,11 +1135,26 @@ impl Scenario {
             dark_noise_factor: n.dark_noise_factor,
             dark_dropout: n.dark_dropout,
         };
-        let rig = Rig {
-            robot,
-            sensor,
-            flange_to_sensor: self.mount(),
-        };
+        let (specimen, pose) = place_specimen(&self.specimen, "specimen", file)?;
+        let mut scene = Scene::new(self.table.as_ref().map(|t| Table {
+            height_m: t.height_mm * 1e-3,
+            reflectance: t.reflectance,
+        }));
+        scene.add(&specimen, pose);
+        Ok((
+            Rig {
+                robot,
+                sensor,
+                flange_to_sensor: self.mount(),
+            },
+            scene,
+        ))
+    }
+
+    /// Build the rig, scene and plans (checking reachability).
+    pub fn build(&self, file: &str) -> Result<Setup, ScenarioError> {
+        self.validate(file)?;
+        let (rig, _) = self.rig_and_scene(file)?;
         let (specimen, base_to_specimen) = place_specimen(&self.specimen, "specimen", file)?;
         let table = self.table.as_ref().map(|t| Table {
             height_m: t.height_mm * 1e-3,

@@ -34,6 +34,31 @@ fn scan_prints_a_profile_for_each_specimen() {
         let valid = lines[1..].iter().filter(|l| !l.ends_with(",,,")).count();
         assert!(valid >= min_valid, "{file}: {valid} valid points");
     }
+    // Every specimen kind at the scenario's specimen position: each shows a different profile.
+    let mut seen = std::collections::HashSet::new();
+    for kind in [
+        "disk-cylinder",
+        "disk-paper",
+        "ball",
+        "parallel-bar",
+        "scale",
+        "knife-blade",
+    ] {
+        let (code, out, err) = lasercal(&[
+            "scan",
+            &scen("chen2018-disk-raycast.toml"),
+            "--specimen",
+            kind,
+        ]);
+        assert_eq!(code, 0, "{kind}: {err}");
+        assert!(
+            seen.insert(out),
+            "{kind}: the same profile as another specimen"
+        );
+    }
+    let (code, _, err) = lasercal(&["scan", &scen("chen2018-disk.toml"), "--specimen", "donut"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("donut"), "{err}");
     // An explicit joint pose, written to a file.
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("p.csv");

@@ -47,7 +47,25 @@ enum Command {
 }
 
 fn main() {
-    let cli = Cli::parse();
+    // Argument errors as one line (clap's own message, without the usage block); help and
+    // version print in full.
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => match e.kind() {
+            clap::error::ErrorKind::DisplayHelp
+            | clap::error::ErrorKind::DisplayVersion
+            | clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => e.exit(),
+            _ => {
+                let msg = e.to_string();
+                let first = msg
+                    .lines()
+                    .find(|l| !l.trim().is_empty())
+                    .unwrap_or("invalid arguments");
+                eprintln!("{} (see lasercal --help)", first.trim());
+                std::process::exit(2);
+            }
+        },
+    };
     let result = match cli.command {
         Command::Check(a) => match check::run(a) {
             Ok(code) => std::process::exit(code),

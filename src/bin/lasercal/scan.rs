@@ -21,6 +21,10 @@ pub struct Args {
     /// Which specimen to scan when a method has its own: disk, ball or edge
     #[arg(long)]
     method: Option<String>,
+    /// Scan another specimen kind at the scenario's specimen position (its default size):
+    /// disk-cylinder, disk-paper, ball, parallel-bar, scale, knife-blade
+    #[arg(long)]
+    specimen: Option<String>,
     /// Apply the scenario's sensor noise with this seed
     #[arg(long)]
     noise_seed: Option<u64>,
@@ -90,23 +94,44 @@ pub fn run(a: Args) -> Result<()> {
             ),
         }
     };
-    let scene = match a.method.as_deref() {
-        None | Some("disk") => &setup.scene,
-        Some("ball") => {
+    let own_scene;
+    let scene = match (&a.specimen, a.method.as_deref()) {
+        (Some(kind), _) => {
+            let mut sc = sf.scenario.clone();
+            let s = &mut sc.specimen;
+            s.kind = kind.clone();
+            // The new kind's default size, with the disk/ball radius kept where it applies.
+            (
+                s.height_mm,
+                s.paper_half_mm,
+                s.post_radius_mm,
+                s.post_height_mm,
+            ) = (None, None, None, None);
+            (s.length_mm, s.width_mm, s.thickness_mm, s.bevel_mm) = (None, None, None, None);
+            if s.radius_mm.is_none()
+                && matches!(kind.as_str(), "disk-cylinder" | "disk-paper" | "ball")
+            {
+                s.radius_mm = Some(50.0);
+            }
+            own_scene = sc.rig_and_scene(&sf.file)?.1;
+            &own_scene
+        }
+        (None, None | Some("disk")) => &setup.scene,
+        (None, Some("ball")) => {
             &setup
                 .ball
                 .as_ref()
                 .context("the scenario has no [ball] plan")?
                 .scene
         }
-        Some("edge") => {
+        (None, Some("edge")) => {
             &setup
                 .edge
                 .as_ref()
                 .context("the scenario has no [edge] plan")?
                 .scene
         }
-        Some(m) => bail!("--method {m}: use disk, ball or edge"),
+        (None, Some(m)) => bail!("--method {m}: use disk, ball or edge"),
     };
     let base_to_sensor = setup.rig.base_to_sensor(&base_to_flange);
     let mut rng = a
