@@ -267,6 +267,9 @@ pub struct SpecimenSection {
     pub thickness_mm: Option<f64>,
     pub bevel_mm: Option<f64>,
     pub reflectance: Option<f64>,
+    /// Specimen imperfection: standard deviation of the true disk or ball radius around the nominal
+    /// one (drawn per trial; the calibration is told the nominal radius).
+    pub radius_tolerance_mm: Option<f64>,
 }
 
 #[derive(Debug, Clone, Deserialize, PartialEq)]
@@ -547,6 +550,8 @@ pub struct BallSetup {
     /// z noise on arc points and the arc sampling step (analytic), metres.
     pub sigma: f64,
     pub x_step: f64,
+    /// Standard deviation of the true radius (metres).
+    pub radius_tolerance: f64,
 }
 
 #[derive(Debug, Clone)]
@@ -569,6 +574,8 @@ pub struct DiskSetup {
     /// Eq. 52 sigma, metres.
     pub sigma: f64,
     pub min_angle: f64,
+    /// Standard deviation of the true radius (metres).
+    pub radius_tolerance: f64,
 }
 
 pub const METHODS: &[&str] = &["disk", "ball", "edge"];
@@ -1050,6 +1057,16 @@ pub fn specimen_kind_of(
                 ));
             }
         };
+        if let Some(t) = s.radius_tolerance_mm
+            && !(t >= 0.0 && t.is_finite())
+        {
+            return Err(bad(
+                file,
+                &format!("{key}.radius_tolerance_mm"),
+                t,
+                "must be a finite number >= 0",
+            ));
+        }
         if let Some(r) = s.reflectance
             && !(0.0..=1.0).contains(&r)
         {
@@ -1212,6 +1229,7 @@ impl Scenario {
                     raycast: d.source == "raycast",
                     sigma: d.sigma_mm * 1e-3,
                     min_angle: d.min_angle_deg.to_radians(),
+                    radius_tolerance: self.specimen.radius_tolerance_mm.unwrap_or(0.0) * 1e-3,
                 })
             }
             _ => None,
@@ -1261,6 +1279,13 @@ impl Scenario {
                     raycast: b.source == "raycast",
                     sigma: b.sigma_mm * 1e-3,
                     x_step: b.x_step_mm * 1e-3,
+                    radius_tolerance: b
+                        .specimen
+                        .as_ref()
+                        .unwrap_or(&self.specimen)
+                        .radius_tolerance_mm
+                        .unwrap_or(0.0)
+                        * 1e-3,
                 })
             }
             _ => None,

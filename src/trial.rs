@@ -5,6 +5,8 @@ use crate::calib::{PoseError, Status};
 use crate::captures::{Calibration, CaptureProfile, Captures, Group, ProfileData, Role};
 use crate::rng::{self, tag};
 use crate::scenario::Setup;
+use crate::sim::ball::BallTarget;
+use crate::sim::disk::DiskTarget;
 use crate::sim::disturb::Disturbance;
 use crate::sim::flange_pose;
 use nalgebra::Isometry3;
@@ -90,7 +92,12 @@ pub fn trial_captures(
         setup.vibration,
         rng::stream(seed, &[tag::ROBOT_ERROR, trial]),
     );
-    (simulate(setup, method, &mut r, &mut dist), validation_seed)
+    // The specimen's imperfection likewise: a standard normal scaling its radius tolerance.
+    let radius_z = crate::sensor::gauss(&mut rng::stream(seed, &[tag::SPECIMEN, trial]));
+    (
+        simulate(setup, method, &mut r, &mut dist, radius_z),
+        validation_seed,
+    )
 }
 
 /// Score a calibration of `method` against the scenario's truth.
@@ -137,11 +144,15 @@ pub fn score(setup: &Setup, method: &str, cal: &Calibration, validation_seed: u6
 
 /// The captures of one trial of `method`: what the rig would record (features for the analytic
 /// sources, raw profiles for the ray-cast ones), with the truth attached.
+///
+/// `radius_z` scales the specimen's radius tolerance: the true radius is nominal + radius_z *
+/// tolerance, while the captures carry the nominal radius (what the user was told).
 pub fn simulate(
     setup: &Setup,
     method: &str,
     r: &mut rng::Rng,
     dist: &mut Disturbance,
+    radius_z: f64,
 ) -> Result<Captures, String> {
     let rig = &setup.rig;
     let robot = &rig.robot;
@@ -158,6 +169,11 @@ pub fn simulate(
     let (kind, radius, sense) = match method {
         "disk" => {
             let d = setup.disk.as_ref().ok_or("the scenario has no disk plan")?;
+            let target = DiskTarget {
+                radius: d.target.radius + radius_z * d.radius_tolerance,
+                ..d.target
+            };
+            let scene = with_radius(&setup.scene, target.radius, d.radius_tolerance);
             for (i, p) in d.plans.iter().enumerate() {
                 groups.push(Group {
                     id: i,
@@ -168,8 +184,8 @@ pub fn simulate(
                     for j in 0..p.m {
                         let f = flange_pose(&p.r_tcp, &p.tcp(j));
                         let prof = rig.sensor.profile(
-                            &setup.scene,
-                            &rig.base_to_sensor(&f),
+                            &scene,
+                            &rig.base_to_sensor(&actual(&f)),
                             noisy.then_some(&mut *r),
                         );
                         profiles.push(CaptureProfile {
@@ -181,7 +197,7 @@ pub fn simulate(
                 } else {
                     let scan = crate::sim::disk::analytic_scan_with(
                         rig,
-                        &d.target,
+                        &target,
                         p,
                         d.sigma,
                         r,
@@ -205,6 +221,11 @@ pub fn simulate(
         }
         "ball" => {
             let b = setup.ball.as_ref().ok_or("the scenario has no ball plan")?;
+            let target = BallTarget {
+                radius: b.target.radius + radius_z * b.radius_tolerance,
+                ..b.target
+            };
+            let scene = with_radius(&b.scene, target.radius, b.radius_tolerance);
             let poses = b
                 .plan
                 .rotation_set
@@ -224,7 +245,7 @@ pub fn simulate(
             });
             for (role, p, m) in poses {
                 let f = flange_pose(&p.r_tcp, &p.t_tcp);
-                let sign = crate::sim::ball::sign(&rig.base_to_sensor(&f), &b.target);
+                let sign = crate::sim::ball::sign(&rig.base_to_sensor(&f), &target);
                 let id = if role == Role::Rotation {
                     groups[0].sign = sign;
                     0
@@ -241,13 +262,13 @@ pub fn simulate(
                     let pose = rig.base_to_sensor(&actual(&f));
                     let data = if b.raycast {
                         ProfileData::Raw(rig.sensor.profile(
-                            &b.scene,
+                            &scene,
                             &pose,
                             noisy.then_some(&mut *r),
                         ))
                     } else {
                         let arc = crate::sim::ball::analytic_arc(
-                            rig, &b.target, &pose, b.x_step, b.sigma, 0.9, r,
+                            rig, &target, &pose, b.x_step, b.sigma, 0.9, r,
                         );
                         ProfileData::Circle(crate::features::fit_circle(&arc).ok_or_else(|| {
                             format!("an arc of {} points has no circle", arc.len())
@@ -322,4 +343,31 @@ pub fn simulate(
         groups,
         profiles,
     })
+}
+
+/// The scene with its first specimen's disk or ball radius set to `radius` (when the tolerance is
+/// non-zero; otherwise the scene itself).
+fn with_radius(
+    scene: &crate::scene::Scene,
+    radius: f64,
+    tolerance: f64,
+) -> std::borrow::Cow<'_, crate::scene::Scene> {
+    use crate::scene::{Scene, SpecimenKind};
+    if tolerance == 0.0 {
+        return std::borrow::Cow::Borrowed(scene);
+    }
+    let mut out = Scene::new(scene.table);
+    for (i, (spec, pose)) in scene.specimens.iter().enumerate() {
+        let mut s = spec.clone();
+        if i == 0 {
+            match &mut s.kind {
+                SpecimenKind::DiskOnCylinder { radius: r, .. }
+                | SpecimenKind::DiskOnPaper { radius: r, .. }
+                | SpecimenKind::BallOnPost { radius: r, .. } => *r = radius,
+                _ => {}
+            }
+        }
+        out.add(&s, *pose);
+    }
+    std::borrow::Cow::Owned(out)
 }

@@ -159,3 +159,74 @@ fn vibration_rms_and_band_match_parameters() {
     let rms = (rms / trials as f64).sqrt();
     assert!((rms / 0.02e-3 - 1.0).abs() < 0.05, "rms {rms}");
 }
+
+#[test]
+fn every_simulation_path_feels_the_robot_error() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/");
+    for (file, method) in [
+        ("chen2018-disk.toml", "disk"),
+        ("chen2018-disk-raycast.toml", "disk"),
+        ("chen2018-ball.toml", "ball"),
+        ("xu2021-edge.toml", "edge"),
+    ] {
+        let text = std::fs::read_to_string(format!("{dir}{file}")).unwrap();
+        let ideal = ScenarioFile::parse(&text, file)
+            .unwrap()
+            .scenario
+            .build(file)
+            .unwrap();
+        let shaken = ScenarioFile::parse(&format!("{text}\n[vibration]\namplitude_mm = 0.05\nband_low_hz = 5.0\nband_high_hz = 20.0\nprofile_rate_hz = 170.0\n"), file)
+            .unwrap()
+            .scenario
+            .build(file)
+            .unwrap();
+        let (a, b) = (
+            run_trial(&ideal, method, 1, 0),
+            run_trial(&shaken, method, 1, 0),
+        );
+        let (ea, eb) = (a.result.unwrap().error, b.result.unwrap().error);
+        assert!(ea != eb, "{file}: vibration changed nothing");
+    }
+}
+
+#[test]
+fn radius_tolerance_biases_the_disk_method_in_proportion() {
+    let text = base().replace("sigma_mm = 0.1", "sigma_mm = 0.0");
+    let mean_err = |tol: f64| {
+        let t = text.replace(
+            "rpy_deg = [0.0, 0.0, 0.0]",
+            &format!("rpy_deg = [0.0, 0.0, 0.0]\nradius_tolerance_mm = {tol}"),
+        );
+        let setup = ScenarioFile::parse(&t, "r.toml")
+            .unwrap()
+            .scenario
+            .build("r")
+            .unwrap();
+        (0..30)
+            .map(|k| {
+                run_trial(&setup, "disk", 5, k)
+                    .result
+                    .unwrap()
+                    .error
+                    .translation_error_mm
+            })
+            .sum::<f64>()
+            / 30.0
+    };
+    let (e0, e1, e2) = (mean_err(0.0), mean_err(0.02), mean_err(0.2));
+    assert!(e0 < 1e-9, "no tolerance: exact ({e0})");
+    assert!(e1 > 1e-4, "a 0.02 mm radius tolerance shows ({e1})");
+    assert!(
+        (e2 / e1 - 10.0).abs() < 1.5,
+        "ten times the tolerance, about ten times the error ({e1} -> {e2})"
+    );
+    // A negative tolerance is refused with the key named.
+    let bad = text.replace(
+        "rpy_deg = [0.0, 0.0, 0.0]",
+        "rpy_deg = [0.0, 0.0, 0.0]\nradius_tolerance_mm = -1.0",
+    );
+    let e = ScenarioFile::parse(&bad, "bad.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("specimen.radius_tolerance_mm"), "{e}");
+}
