@@ -80,6 +80,8 @@ pub struct Scenario {
     #[serde(default)]
     pub vibration: Option<VibrationSection>,
     #[serde(default)]
+    pub dynamics: Option<DynamicsSection>,
+    #[serde(default)]
     pub sweep: Option<SweepSection>,
 }
 
@@ -98,6 +100,37 @@ pub struct RobotErrorSection {
     pub link_error_mm: f64,
     #[serde(default)]
     pub joint_offset_error_deg: f64,
+}
+
+/// Arm dynamics (rapier): each capture is taken after moving there and settling.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DynamicsSection {
+    /// Time the robot waits after each move before the profile (the edge paper's delays).
+    pub settle_ms: f64,
+    /// Servo gains (acceleration-based: 1/s^2 and 1/s).
+    #[serde(default = "d_stiffness")]
+    pub stiffness: f64,
+    #[serde(default = "d_damping")]
+    pub damping: f64,
+    /// Joint speed as a fraction of the axis limits.
+    #[serde(default = "d_speed")]
+    pub speed_fraction: f64,
+    #[serde(default = "d_dt")]
+    pub dt_ms: f64,
+}
+
+fn d_stiffness() -> f64 {
+    1.0e4
+}
+fn d_damping() -> f64 {
+    40.0
+}
+fn d_speed() -> f64 {
+    0.5
+}
+fn d_dt() -> f64 {
+    1.0
 }
 
 /// Cheap arm-vibration model: a band-limited random TCP perturbation.
@@ -539,6 +572,7 @@ pub struct Setup {
     pub edge: Option<EdgeSetup>,
     pub robot_error: crate::sim::disturb::RobotError,
     pub vibration: crate::sim::disturb::Vibration,
+    pub dynamics: Option<DynamicsSection>,
 }
 
 #[derive(Debug, Clone)]
@@ -937,6 +971,35 @@ impl Scenario {
                         "must be a finite number >= 0",
                     ));
                 }
+            }
+        }
+        if let Some(d) = &self.dynamics {
+            if !(d.settle_ms >= 0.0 && d.settle_ms.is_finite()) {
+                return Err(bad(
+                    file,
+                    "dynamics.settle_ms",
+                    d.settle_ms,
+                    "must be a finite number >= 0",
+                ));
+            }
+            if !(d.stiffness > 0.0 && d.damping >= 0.0) {
+                return Err(bad(
+                    file,
+                    "dynamics.stiffness",
+                    d.stiffness,
+                    "give stiffness > 0 and damping >= 0",
+                ));
+            }
+            if !(d.speed_fraction > 0.0 && d.speed_fraction <= 1.0) {
+                return Err(bad(
+                    file,
+                    "dynamics.speed_fraction",
+                    d.speed_fraction,
+                    "must be in (0, 1]",
+                ));
+            }
+            if !(d.dt_ms > 0.0 && d.dt_ms <= 10.0) {
+                return Err(bad(file, "dynamics.dt_ms", d.dt_ms, "must be in (0, 10]"));
             }
         }
         if let Some(v) = &self.vibration {
@@ -1367,6 +1430,7 @@ impl Scenario {
             edge,
             robot_error,
             vibration,
+            dynamics: self.dynamics.clone(),
         })
     }
 }

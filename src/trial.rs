@@ -92,6 +92,22 @@ pub fn trial_captures(
         setup.vibration,
         rng::stream(seed, &[tag::ROBOT_ERROR, trial]),
     );
+    if let Some(d) = &setup.dynamics {
+        let gains = crate::sim::dynamics::ServoGains {
+            stiffness: d.stiffness,
+            damping: d.damping,
+        };
+        match crate::sim::dynamics::ArmDynamics::new(&setup.rig.robot, gains, d.dt_ms * 1e-3) {
+            Ok(arm) => {
+                dist.dynamic = Some(crate::sim::disturb::Dynamic {
+                    arm,
+                    settle_s: d.settle_ms * 1e-3,
+                    speed_fraction: d.speed_fraction,
+                })
+            }
+            Err(e) => return (Err(e), validation_seed),
+        }
+    }
     // The specimen's imperfection likewise: a standard normal scaling its radius tolerance.
     let radius_z = crate::sensor::gauss(&mut rng::stream(seed, &[tag::SPECIMEN, trial]));
     (

@@ -46,8 +46,18 @@ impl Vibration {
     }
 }
 
+/// The dynamic arm of a trial: every capture is taken after moving there and settling.
+pub struct Dynamic {
+    pub arm: crate::sim::dynamics::ArmDynamics,
+    pub settle_s: f64,
+    pub speed_fraction: f64,
+}
+
 /// The disturbance of one trial: the robot that really moves and the vibration signal.
 pub struct Disturbance {
+    /// Optional rapier arm: when set, the pose is where the simulated arm is after the move and
+    /// the settle time (the static robot error then only adds repeatability).
+    pub dynamic: Option<Dynamic>,
     err: RobotError,
     actual: Option<Robot>,
     vib: Vibration,
@@ -91,6 +101,7 @@ impl Disturbance {
             }
         }
         Disturbance {
+            dynamic: None,
             err,
             actual,
             vib,
@@ -102,7 +113,7 @@ impl Disturbance {
 
     /// True when no cause is switched on.
     pub fn is_off(&self) -> bool {
-        self.err.is_off() && self.vib.is_off()
+        self.err.is_off() && self.vib.is_off() && self.dynamic.is_none()
     }
 
     /// The vibration offset at profile `k` (metres, base frame).
@@ -128,7 +139,24 @@ impl Disturbance {
             return *nominal;
         }
         let mut pose = *nominal;
-        if !self.err.is_off() {
+        if let Some(dy) = &mut self.dynamic {
+            let seed = self.q_prev.unwrap_or([0.0; 6]);
+            if let Ok(q) = robot.ik_nearest(nominal, &seed) {
+                self.q_prev = Some(q);
+                dy.arm.move_to(&q, dy.speed_fraction, dy.settle_s, 1e9);
+                pose = dy.arm.tool0();
+            }
+            let sigma = self.err.repeatability / (3.0 * 3f64.sqrt());
+            let d = Vector3::new(
+                gauss(&mut self.rng),
+                gauss(&mut self.rng),
+                gauss(&mut self.rng),
+            ) * sigma;
+            pose = Isometry3::from_parts(
+                Translation3::from(pose.translation.vector + d),
+                pose.rotation,
+            );
+        } else if !self.err.is_off() {
             // The controller solves IK on the nominal model and drives the joints there.
             let seed = self.q_prev.unwrap_or([0.0; 6]);
             if let Ok(mut q) = robot.ik_nearest(nominal, &seed) {

@@ -3,6 +3,7 @@
 pub mod ball;
 pub mod disk;
 pub mod disturb;
+pub mod dynamics;
 pub mod edge;
 
 use crate::robot::{Robot, RobotError};
