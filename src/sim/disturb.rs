@@ -138,35 +138,36 @@ impl Disturbance {
         if self.is_off() {
             return *nominal;
         }
+        // The controller solves IK on the nominal model, from where the arm last was, and drives
+        // the joints there.
+        // (Vibration alone needs no joints.)
+        let q = if self.dynamic.is_some() || !self.err.is_off() {
+            robot
+                .ik_nearest(nominal, &self.q_prev.unwrap_or([0.0; 6]))
+                .ok()
+        } else {
+            None
+        };
+        if q.is_some() {
+            self.q_prev = q;
+        }
         let mut pose = *nominal;
-        if let Some(dy) = &mut self.dynamic {
-            let seed = self.q_prev.unwrap_or([0.0; 6]);
-            if let Ok(q) = robot.ik_nearest(nominal, &seed) {
-                self.q_prev = Some(q);
+        match (&mut self.dynamic, q) {
+            // The simulated arm moves there and settles.
+            (Some(dy), Some(q)) => {
                 dy.arm.move_to(&q, dy.speed_fraction, dy.settle_s, 1e9);
                 pose = dy.arm.tool0();
             }
-            let sigma = self.err.repeatability / (3.0 * 3f64.sqrt());
-            let d = Vector3::new(
-                gauss(&mut self.rng),
-                gauss(&mut self.rng),
-                gauss(&mut self.rng),
-            ) * sigma;
-            pose = Isometry3::from_parts(
-                Translation3::from(pose.translation.vector + d),
-                pose.rotation,
-            );
-        } else if !self.err.is_off() {
-            // The controller solves IK on the nominal model and drives the joints there.
-            let seed = self.q_prev.unwrap_or([0.0; 6]);
-            if let Ok(mut q) = robot.ik_nearest(nominal, &seed) {
-                self.q_prev = Some(q);
+            // The static model: encoder noise on the joints, the perturbed robot's kinematics.
+            (None, Some(mut q)) if !self.err.is_off() => {
                 for v in &mut q {
                     *v += gauss(&mut self.rng) * self.err.joint_noise;
                 }
-                let moving = self.actual.as_ref().unwrap_or(robot);
-                pose = moving.fk(&q);
+                pose = self.actual.as_ref().unwrap_or(robot).fk(&q);
             }
+            _ => {}
+        }
+        if !self.err.is_off() {
             let sigma = self.err.repeatability / (3.0 * 3f64.sqrt());
             let d = Vector3::new(
                 gauss(&mut self.rng),
