@@ -1,18 +1,7 @@
 //! End-to-end tests of the `lasercal` binary.
 
-use std::process::Command;
-
-fn lasercal(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_lasercal"))
-        .args(args)
-        .output()
-        .expect("run lasercal");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod common;
+use common::lasercal;
 
 #[test]
 fn cli_fk_zero_pose_irb120() {

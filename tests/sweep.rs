@@ -1,5 +1,8 @@
 //! Sweeps: determinism, the reduced Fig. 15 slopes, the ray-cast disk path, the CLI end to end.
 
+mod common;
+use common::lasercal;
+
 use lasercal::scenario::ScenarioFile;
 use lasercal::sweep::{self, Shard, SweepPlan, TrialRow};
 use lasercal::trial::run_trial;
@@ -151,19 +154,6 @@ fn disk_raycast_recovers_truth() {
         "{:?}",
         s.error
     );
-}
-
-fn lasercal(args: &[&str]) -> (i32, String, String) {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lasercal"))
-        .args(args)
-        .env("CI", "1")
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
 }
 
 #[test]

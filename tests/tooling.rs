@@ -1,24 +1,10 @@
 //! Issue 6 (part) and issue 3's scan command: end to end through the binary in temporary folders.
 
+mod common;
+use common::lasercal;
+use common::scen;
+
 use std::path::Path;
-use std::process::Command;
-
-fn lasercal(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_lasercal"))
-        .args(args)
-        .env("CI", "1")
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
-
-fn scen(name: &str) -> String {
-    format!("{}/scenarios/{name}", env!("CARGO_MANIFEST_DIR"))
-}
 
 #[test]
 fn scan_prints_a_profile_for_each_specimen() {
