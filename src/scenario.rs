@@ -82,7 +82,41 @@ pub struct Scenario {
     #[serde(default)]
     pub dynamics: Option<DynamicsSection>,
     #[serde(default)]
+    pub causes: Option<CausesSection>,
+    #[serde(default)]
     pub sweep: Option<SweepSection>,
+}
+
+/// The physical causes of error a scenario can switch on, by name (`[causes] only`).
+pub const CAUSES: &[&str] = &[
+    "sensor",
+    "repeatability",
+    "encoder",
+    "kinematic",
+    "vibration",
+    "specimen",
+];
+
+/// Cause studies: keep one of the configured causes of error (or all) and scale its magnitude, so
+/// that a sweep over `causes.only` and `causes.scale` shows each cause alone and all combined.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CausesSection {
+    /// "all", "none", or one of CAUSES: sensor (sensor noise), repeatability, encoder (joint
+    /// noise), kinematic (link-length and joint-offset error), vibration, specimen (radius
+    /// tolerance and form error).
+    #[serde(default = "d_all")]
+    pub only: String,
+    /// Multiplies the magnitude of every cause kept (1 = as configured).
+    #[serde(default = "d_scale")]
+    pub scale: f64,
+}
+
+fn d_all() -> String {
+    "all".into()
+}
+fn d_scale() -> f64 {
+    1.0
 }
 
 /// Robot pose error applied to the robot that moves (the calibration sees the commanded poses).
@@ -303,6 +337,39 @@ pub struct SpecimenSection {
     /// Specimen imperfection: standard deviation of the true disk or ball radius around the nominal
     /// one (drawn per trial; the calibration is told the nominal radius).
     pub radius_tolerance_mm: Option<f64>,
+    /// Form tolerances, peak-to-valley (the form error's orientation is drawn per trial): disk
+    /// flatness (a saddle warp), ball sphericity (an ellipsoid), edge straightness (a bow).
+    pub flatness_mm: Option<f64>,
+    pub sphericity_mm: Option<f64>,
+    pub straightness_mm: Option<f64>,
+    /// Radius to which a parallel bar's or scale's edge is rounded (ray-cast sources only).
+    pub edge_radius_mm: Option<f64>,
+}
+
+impl SpecimenSection {
+    /// The form tolerances, metres.
+    pub fn form(&self) -> crate::scene::FormTolerance {
+        crate::scene::FormTolerance {
+            flatness: self.flatness_mm.unwrap_or(0.0) * 1e-3,
+            sphericity: self.sphericity_mm.unwrap_or(0.0) * 1e-3,
+            straightness: self.straightness_mm.unwrap_or(0.0) * 1e-3,
+        }
+    }
+
+    fn scale_imperfection(&mut self, k: f64) {
+        for v in [
+            &mut self.radius_tolerance_mm,
+            &mut self.flatness_mm,
+            &mut self.sphericity_mm,
+            &mut self.straightness_mm,
+            &mut self.edge_radius_mm,
+        ]
+        .into_iter()
+        .flatten()
+        {
+            *v *= k;
+        }
+    }
 }
 
 #[derive(Debug, Clone, Deserialize, PartialEq)]
@@ -586,6 +653,8 @@ pub struct BallSetup {
     pub x_step: f64,
     /// Standard deviation of the true radius (metres).
     pub radius_tolerance: f64,
+    /// Form tolerances of the specimen.
+    pub form: crate::scene::FormTolerance,
 }
 
 #[derive(Debug, Clone)]
@@ -598,6 +667,8 @@ pub struct EdgeSetup {
     pub sigma: f64,
     /// Table 3 check: ball, groups, translations, z noise.
     pub validation: Option<(BallTarget, usize, usize, f64)>,
+    /// Form tolerance of the edge (straightness).
+    pub form: crate::scene::FormTolerance,
 }
 
 #[derive(Debug, Clone)]
@@ -610,6 +681,8 @@ pub struct DiskSetup {
     pub min_angle: f64,
     /// Standard deviation of the true radius (metres).
     pub radius_tolerance: f64,
+    /// Form tolerances of the specimen.
+    pub form: crate::scene::FormTolerance,
 }
 
 pub const METHODS: &[&str] = &["disk", "ball", "edge"];
@@ -617,6 +690,9 @@ pub const METHODS: &[&str] = &["disk", "ball", "edge"];
 impl Scenario {
     /// Check values that deserialisation cannot.
     pub fn validate(&self, file: &str) -> Result<(), ScenarioError> {
+        if self.causes.is_some() {
+            return self.resolved(file)?.validate(file);
+        }
         if self.methods.is_empty() {
             return Err(bad(file, "methods", "[]", "name at least one method"));
         }
@@ -1130,6 +1206,43 @@ pub fn specimen_kind_of(
                 "must be a finite number >= 0",
             ));
         }
+        let allowed = |field: &str| match field {
+            "flatness_mm" => kind.is_disk_kind(),
+            "sphericity_mm" => matches!(kind, SpecimenKind::BallOnPost { .. }),
+            "straightness_mm" => Specimen::new(kind.clone()).is_edge(),
+            _ => matches!(
+                kind,
+                SpecimenKind::ParallelBar { .. } | SpecimenKind::Scale { .. }
+            ),
+        };
+        for (field, v, applies) in [
+            ("flatness_mm", s.flatness_mm, "a disk"),
+            ("sphericity_mm", s.sphericity_mm, "a ball"),
+            ("straightness_mm", s.straightness_mm, "an edge specimen"),
+            (
+                "edge_radius_mm",
+                s.edge_radius_mm,
+                "a parallel bar or a scale",
+            ),
+        ] {
+            let Some(v) = v else { continue };
+            if !(v >= 0.0 && v.is_finite()) {
+                return Err(bad(
+                    file,
+                    &format!("{key}.{field}"),
+                    v,
+                    "must be a finite number >= 0",
+                ));
+            }
+            if !allowed(field) {
+                return Err(bad(
+                    file,
+                    &format!("{key}.{field}"),
+                    v,
+                    format!("applies to {applies}, not to {}", s.kind),
+                ));
+            }
+        }
         if let Some(r) = s.reflectance
             && !(0.0..=1.0).contains(&r)
         {
@@ -1154,6 +1267,7 @@ pub fn place_specimen(
     if let Some(r) = s.reflectance {
         specimen.reflectance = r;
     }
+    specimen.edge_radius = s.edge_radius_mm.unwrap_or(0.0) * 1e-3;
     let pose = pose_from_xyz_rpy(
         [
             s.position_mm[0] * 1e-3,
@@ -1231,8 +1345,79 @@ impl Scenario {
         ))
     }
 
+    /// The scenario with its `[causes]` applied: the causes not kept switched off, the kept ones
+    /// scaled; no `[causes]` section leaves it as it is.
+    pub fn resolved(&self, file: &str) -> Result<Scenario, ScenarioError> {
+        let mut s = self.clone();
+        let Some(c) = s.causes.take() else {
+            return Ok(s);
+        };
+        if c.only != "all" && c.only != "none" && !CAUSES.contains(&c.only.as_str()) {
+            return Err(bad(
+                file,
+                "causes.only",
+                format!("\"{}\"", c.only),
+                format!("use all, none or one of {}", CAUSES.join(", ")),
+            ));
+        }
+        if !(c.scale >= 0.0 && c.scale.is_finite()) {
+            return Err(bad(
+                file,
+                "causes.scale",
+                c.scale,
+                "must be a finite number >= 0",
+            ));
+        }
+        let k = |cause: &str| {
+            if c.only == "all" || c.only == cause {
+                c.scale
+            } else {
+                0.0
+            }
+        };
+        let ks = k("sensor");
+        let n = &mut s.sensor.noise;
+        for v in [
+            &mut n.z_sigma_near_mm,
+            &mut n.z_sigma_far_mm,
+            &mut n.x_sigma_mm,
+            &mut n.outlier_amplitude_mm,
+        ] {
+            *v *= ks;
+        }
+        if let Some(d) = &mut s.disk {
+            d.sigma_mm *= ks;
+        }
+        if let Some(b) = &mut s.ball {
+            b.sigma_mm *= ks;
+            if let Some(sp) = &mut b.specimen {
+                sp.scale_imperfection(k("specimen"));
+            }
+        }
+        if let Some(e) = &mut s.edge {
+            e.sigma_mm *= ks;
+            if let Some(sp) = &mut e.specimen {
+                sp.scale_imperfection(k("specimen"));
+            }
+        }
+        s.specimen.scale_imperfection(k("specimen"));
+        if let Some(r) = &mut s.robot_error {
+            r.repeatability_mm *= k("repeatability");
+            r.joint_noise_deg *= k("encoder");
+            r.link_error_mm *= k("kinematic");
+            r.joint_offset_error_deg *= k("kinematic");
+        }
+        if let Some(v) = &mut s.vibration {
+            v.amplitude_mm *= k("vibration");
+        }
+        Ok(s)
+    }
+
     /// Build the rig, scene and plans (checking reachability).
     pub fn build(&self, file: &str) -> Result<Setup, ScenarioError> {
+        if self.causes.is_some() {
+            return self.resolved(file)?.build(file);
+        }
         self.validate(file)?;
         let (rig, _) = self.rig_and_scene(file)?;
         let (specimen, base_to_specimen) = place_specimen(&self.specimen, "specimen", file)?;
@@ -1293,6 +1478,7 @@ impl Scenario {
                     sigma: d.sigma_mm * 1e-3,
                     min_angle: d.min_angle_deg.to_radians(),
                     radius_tolerance: self.specimen.radius_tolerance_mm.unwrap_or(0.0) * 1e-3,
+                    form: self.specimen.form(),
                 })
             }
             _ => None,
@@ -1349,6 +1535,7 @@ impl Scenario {
                         .radius_tolerance_mm
                         .unwrap_or(0.0)
                         * 1e-3,
+                    form: b.specimen.as_ref().unwrap_or(&self.specimen).form(),
                 })
             }
             _ => None,
@@ -1392,6 +1579,16 @@ impl Scenario {
                         v.sigma_mm * 1e-3,
                     )
                 });
+                if e.source != "raycast" && spec.edge_radius > 0.0 {
+                    return Err(bad(
+                        file,
+                        "edge.specimen.edge_radius_mm",
+                        spec.edge_radius * 1e3,
+                        "a rounded edge needs edge.source = \"raycast\": where the profile's \
+                         corner lands on the round depends on the profile, which only the \
+                         ray-cast sensor sees",
+                    ));
+                }
                 Some(EdgeSetup {
                     target,
                     plans,
@@ -1399,6 +1596,7 @@ impl Scenario {
                     raycast: e.source == "raycast",
                     sigma: e.sigma_mm * 1e-3,
                     validation,
+                    form: e.specimen.as_ref().unwrap_or(&self.specimen).form(),
                 })
             }
             _ => None,

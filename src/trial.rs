@@ -108,10 +108,10 @@ pub fn trial_captures(
             Err(e) => return (Err(e), validation_seed),
         }
     }
-    // The specimen's imperfection likewise: a standard normal scaling its radius tolerance.
-    let radius_z = crate::sensor::gauss(&mut rng::stream(seed, &[tag::SPECIMEN, trial]));
+    // The specimen's imperfection likewise.
+    let mut specimen_rng = rng::stream(seed, &[tag::SPECIMEN, trial]);
     (
-        simulate(setup, method, &mut r, &mut dist, radius_z),
+        simulate(setup, method, &mut r, &mut dist, &mut specimen_rng),
         validation_seed,
     )
 }
@@ -161,15 +161,18 @@ pub fn score(setup: &Setup, method: &str, cal: &Calibration, validation_seed: u6
 /// The captures of one trial of `method`: what the rig would record (features for the analytic
 /// sources, raw profiles for the ray-cast ones), with the truth attached.
 ///
-/// `radius_z` scales the specimen's radius tolerance: the true radius is nominal + radius_z *
-/// tolerance, while the captures carry the nominal radius (what the user was told).
+/// `specimen_rng` draws the specimen's imperfection: the true radius is nominal + z * tolerance (z
+/// standard normal), then the form error; the captures carry the nominal radius (what the user was
+/// told).
 pub fn simulate(
     setup: &Setup,
     method: &str,
     r: &mut rng::Rng,
     dist: &mut Disturbance,
-    radius_z: f64,
+    specimen_rng: &mut rng::Rng,
 ) -> Result<Captures, String> {
+    use crate::scene::FormError;
+    let radius_z = crate::sensor::gauss(specimen_rng);
     let rig = &setup.rig;
     let robot = &rig.robot;
     // Profiles are numbered in the order they are taken (the vibration's clock).
@@ -189,7 +192,11 @@ pub fn simulate(
                 radius: d.target.radius + radius_z * d.radius_tolerance,
                 ..d.target
             };
-            let scene = with_radius(&setup.scene, target.radius, d.radius_tolerance);
+            let form = FormError::draw(&setup.specimen, &d.form, specimen_rng);
+            let scene = with_form(
+                with_radius(&setup.scene, target.radius, d.radius_tolerance),
+                form,
+            );
             for (i, p) in d.plans.iter().enumerate() {
                 groups.push(Group {
                     id: i,
@@ -214,6 +221,7 @@ pub fn simulate(
                     let scan = crate::sim::disk::analytic_scan_with(
                         rig,
                         &target,
+                        Some((&setup.base_to_specimen, &form)),
                         p,
                         d.sigma,
                         r,
@@ -241,7 +249,12 @@ pub fn simulate(
                 radius: b.target.radius + radius_z * b.radius_tolerance,
                 ..b.target
             };
-            let scene = with_radius(&b.scene, target.radius, b.radius_tolerance);
+            let (spec, frame) = &b.scene.specimens[0];
+            let form = FormError::draw(spec, &b.form, specimen_rng);
+            let scene = with_form(
+                with_radius(&b.scene, target.radius, b.radius_tolerance),
+                form,
+            );
             let poses = b
                 .plan
                 .rotation_set
@@ -283,8 +296,15 @@ pub fn simulate(
                             noisy.then_some(&mut *r),
                         ))
                     } else {
-                        let arc = crate::sim::ball::analytic_arc(
-                            rig, &target, &pose, b.x_step, b.sigma, 0.9, r,
+                        let arc = crate::sim::ball::analytic_arc_formed(
+                            rig,
+                            &target,
+                            Some((frame, &form)),
+                            &pose,
+                            b.x_step,
+                            b.sigma,
+                            0.9,
+                            r,
                         );
                         ProfileData::Circle(crate::features::fit_circle(&arc).ok_or_else(|| {
                             format!("an arc of {} points has no circle", arc.len())
@@ -301,6 +321,9 @@ pub fn simulate(
         }
         "edge" => {
             let e = setup.edge.as_ref().ok_or("the scenario has no edge plan")?;
+            let (spec, frame) = &e.scene.specimens[0];
+            let form = FormError::draw(spec, &e.form, specimen_rng);
+            let scene = with_form(std::borrow::Cow::Borrowed(&e.scene), form);
             for (g, p) in e.plans.iter().enumerate() {
                 groups.push(Group {
                     id: g,
@@ -312,7 +335,7 @@ pub fn simulate(
                     let pose = rig.base_to_sensor(&actual(&f));
                     let data = if e.raycast {
                         ProfileData::Raw(rig.sensor.profile(
-                            &e.scene,
+                            &scene,
                             &pose,
                             noisy.then_some(&mut *r),
                         ))
@@ -322,9 +345,10 @@ pub fn simulate(
                             crate::sensor::gauss(r) * e.sigma,
                         );
                         let q =
-                            crate::sim::edge::exact_point(&pose, &e.target).ok_or_else(|| {
-                                format!("group {g}: the laser plane is parallel to the edge")
-                            })?;
+                            crate::sim::edge::exact_point_formed(&pose, &e.target, frame, &form)
+                                .ok_or_else(|| {
+                                    format!("group {g}: the laser plane is parallel to the edge")
+                                })?;
                         ProfileData::EdgePoint(q + nalgebra::Vector2::new(nx, nz))
                     };
                     profiles.push(CaptureProfile {
@@ -359,6 +383,19 @@ pub fn simulate(
         groups,
         profiles,
     })
+}
+
+/// The scene with its first specimen's form error (the scene itself for a perfect part).
+fn with_form(
+    scene: std::borrow::Cow<'_, crate::scene::Scene>,
+    form: crate::scene::FormError,
+) -> std::borrow::Cow<'_, crate::scene::Scene> {
+    if form.is_none() {
+        return scene;
+    }
+    let mut s = scene.into_owned();
+    s.set_form(0, form);
+    std::borrow::Cow::Owned(s)
 }
 
 /// The scene with its first specimen's disk or ball radius set to `radius` (when the tolerance is

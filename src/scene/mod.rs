@@ -1,8 +1,10 @@
 //! Specimens placed anywhere (`base_to_specimen`), a table plane, and ray casts through parry.
 
+pub mod form;
 pub mod shapes;
 mod specimen;
 
+pub use form::{FormError, FormTolerance};
 pub use shapes::{ConvexPlanes, CylinderZ, Sheet};
 pub use specimen::{Specimen, SpecimenKind};
 
@@ -89,6 +91,9 @@ struct Placed {
     part: Part,
     bound_centre: Point3<f64>,
     specimen: usize,
+    /// Index of the part within its specimen, and the specimen's pose (for its form error).
+    part_index: usize,
+    base_to_specimen: Isometry3<f64>,
 }
 
 /// What a ray hit.
@@ -125,6 +130,8 @@ pub struct Scene {
     placed: Vec<Placed>,
     pub table: Option<Table>,
     pub specimens: Vec<(Specimen, Isometry3<f64>)>,
+    /// Each specimen's form error (none unless set).
+    pub forms: Vec<FormError>,
 }
 
 impl Scene {
@@ -133,23 +140,35 @@ impl Scene {
             placed: Vec::new(),
             table,
             specimens: Vec::new(),
+            forms: Vec::new(),
         }
     }
 
     /// Place a specimen; returns its index (reported in `HitWhat::Specimen`).
     pub fn add(&mut self, specimen: &Specimen, base_to_specimen: Isometry3<f64>) -> usize {
         let idx = self.specimens.len();
-        for part in specimen.parts() {
+        for (part_index, part) in specimen.parts().into_iter().enumerate() {
             let base_to_part = base_to_specimen * part.specimen_to_part;
             self.placed.push(Placed {
                 bound_centre: base_to_part * Point3::origin(),
                 base_to_part,
                 part,
                 specimen: idx,
+                part_index,
+                base_to_specimen,
             });
         }
         self.specimens.push((specimen.clone(), base_to_specimen));
+        self.forms.push(FormError::None);
         idx
+    }
+
+    /// Give specimen `idx` a form error: rays then see its real surface (to first order in the
+    /// error, which is microns on a part of centimetres).
+    pub fn set_form(&mut self, idx: usize, form: FormError) {
+        if let Some(f) = self.forms.get_mut(idx) {
+            *f = form;
+        }
     }
 
     /// First hit of the ray `origin + t * dir` (`dir` a unit vector) with `t` in [0, max_toi].
@@ -191,14 +210,27 @@ impl Scene {
                     .shape
                     .cast_ray_and_get_normal(&pl.base_to_part, &ray, limit, true)
             {
-                let p = origin + dir * hit.time_of_impact;
+                let mut toi = hit.time_of_impact;
+                let form = &self.forms[pl.specimen];
+                if form.applies_to_part(pl.part_index) {
+                    // The surface moved by the displacement's normal component: the ray meets it
+                    // that far earlier (or later), divided by the incidence cosine.
+                    let p = origin + dir * toi;
+                    let d = pl.base_to_specimen
+                        * form.displacement(&pl.base_to_specimen.inverse_transform_point(&p));
+                    let cos = -dir.dot(&hit.normal);
+                    if cos > 0.05 {
+                        toi -= d.dot(&hit.normal) / cos;
+                    }
+                }
+                let p = origin + dir * toi;
                 let (reflectance, specular) = pl
                     .part
                     .surface
                     .at(&pl.base_to_part.inverse_transform_point(&p));
-                limit = hit.time_of_impact;
+                limit = limit.min(toi.max(0.0));
                 best = Some(Hit {
-                    toi: hit.time_of_impact,
+                    toi,
                     p_in_base: p,
                     normal_in_base: hit.normal,
                     reflectance,

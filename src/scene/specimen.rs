@@ -47,7 +47,13 @@ pub struct Specimen {
     pub kind: SpecimenKind,
     /// Surface reflectance (0..1) of the specimen body.
     pub reflectance: f64,
+    /// Radius to which the straight edge of a parallel bar or scale is rounded (metres; 0 sharp).
+    /// Modelled as a fillet of `FILLET_FACETS` tangent planes (within 0.2 % of the radius).
+    pub edge_radius: f64,
 }
+
+/// Facets of a rounded edge.
+pub const FILLET_FACETS: usize = 16;
 
 impl Specimen {
     pub fn new(kind: SpecimenKind) -> Specimen {
@@ -56,7 +62,11 @@ impl Specimen {
             SpecimenKind::KnifeBlade { .. } => 0.7,
             _ => 0.8,
         };
-        Specimen { kind, reflectance }
+        Specimen {
+            kind,
+            reflectance,
+            edge_radius: 0.0,
+        }
     }
 
     /// Short name used in scenario files and the CLI.
@@ -107,11 +117,28 @@ impl Specimen {
         let at = |x: f64, y: f64, z: f64| {
             Isometry3::from_parts(Translation3::new(x, y, z), Default::default())
         };
+        let rho = self.edge_radius.min(
+            0.5 * match self.kind {
+                SpecimenKind::Scale { thickness, .. } => thickness,
+                _ => f64::INFINITY,
+            },
+        );
         let bar = |length: f64, width: f64, height: f64| {
             let h = Vector3::new(length / 2.0, width / 2.0, height / 2.0);
+            let mut planes = ConvexPlanes::cuboid(h);
+            if rho > 0.0 {
+                // The edge (part frame y = w/2, z = h/2) rounded: planes tangent to the fillet
+                // circle about (w/2 - rho, h/2 - rho), normals between +z and +y.
+                let c = Vector3::new(0.0, h.y - rho, h.z - rho);
+                for k in 0..FILLET_FACETS {
+                    let a = (k as f64 + 0.5) / FILLET_FACETS as f64 * std::f64::consts::FRAC_PI_2;
+                    let n = Vector3::new(0.0, a.sin(), a.cos());
+                    planes.planes.push((n, n.dot(&c) + rho));
+                }
+            }
             Part {
                 specimen_to_part: at(0.0, -width / 2.0, -height / 2.0),
-                shape: PartShape::Planes(ConvexPlanes::cuboid(h)),
+                shape: PartShape::Planes(planes),
                 surface: uniform,
                 bound_radius: h.norm() * (1.0 + 1e-9),
             }

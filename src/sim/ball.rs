@@ -74,6 +74,31 @@ pub fn analytic_arc(
     fraction: f64,
     rng: &mut crate::rng::Rng,
 ) -> Vec<Vector2<f64>> {
+    analytic_arc_formed(
+        rig,
+        ball,
+        None,
+        base_to_sensor,
+        x_step,
+        sigma,
+        fraction,
+        rng,
+    )
+}
+
+/// `analytic_arc` on a ball with an optional form error (the ball's frame and the error): each
+/// point lies on the real surface, r = R + delta(u), found by fixed-point iteration on u.
+#[allow(clippy::too_many_arguments)]
+pub fn analytic_arc_formed(
+    rig: &Rig,
+    ball: &BallTarget,
+    form: Option<(&Isometry3<f64>, &crate::scene::FormError)>,
+    base_to_sensor: &Isometry3<f64>,
+    x_step: f64,
+    sigma: f64,
+    fraction: f64,
+    rng: &mut crate::rng::Rng,
+) -> Vec<Vector2<f64>> {
     let c = base_to_sensor.inverse_transform_point(&ball.centre);
     let rd2 = ball.radius * ball.radius - c.y * c.y;
     if rd2 <= 0.0 {
@@ -90,7 +115,19 @@ pub fn analytic_arc(
             let x = k as f64 * x_step;
             let dz = (rd2 - (x - c.x).powi(2)).max(0.0).sqrt();
             // The branch nearer the sensor: toward -dir_z.
-            Vector2::new(x, c.z - rig.sensor.dir_z * dz + gauss(rng) * sigma)
+            let mut z = c.z - rig.sensor.dir_z * dz;
+            if let Some((frame, f)) = form.filter(|(_, f)| !f.is_none()) {
+                let sensor_to_ball = base_to_sensor.inverse() * frame;
+                for _ in 0..6 {
+                    let u = (nalgebra::Point3::new(x, 0.0, z) - c).normalize();
+                    let u_ball = sensor_to_ball.inverse_transform_vector(&u);
+                    let r =
+                        ball.radius + f.displacement(&nalgebra::Point3::from(u_ball)).dot(&u_ball);
+                    let d2 = r * r - c.y * c.y - (x - c.x).powi(2);
+                    z = c.z - rig.sensor.dir_z * d2.max(0.0).sqrt();
+                }
+            }
+            Vector2::new(x, z + gauss(rng) * sigma)
         })
         .collect()
 }

@@ -273,6 +273,42 @@ pub fn exact_chord(
     Some((Vector2::new(a.x, a.z), Vector2::new(b.x, b.z)))
 }
 
+/// `exact_chord` on a disk with a form error (`base_to_specimen`: the disk's frame): each end is
+/// where the laser plane meets the warped rim, found by Newton's method from the flat rim's end.
+pub fn exact_chord_formed(
+    base_to_sensor: &Isometry3<f64>,
+    disk: &DiskTarget,
+    base_to_specimen: &Isometry3<f64>,
+    form: &crate::scene::FormError,
+) -> Option<(Vector2<f64>, Vector2<f64>)> {
+    let (a, b) = exact_chord(base_to_sensor, disk)?;
+    if form.is_none() {
+        return Some((a, b));
+    }
+    let sensor_to_specimen = base_to_sensor.inverse() * base_to_specimen;
+    let rim = |t: f64| {
+        let p = Point3::new(disk.radius * t.cos(), disk.radius * t.sin(), 0.0);
+        sensor_to_specimen * (p + form.displacement(&p))
+    };
+    let end = |e: Vector2<f64>| {
+        let p = sensor_to_specimen.inverse_transform_point(&Point3::new(e.x, 0.0, e.y));
+        let mut t = p.y.atan2(p.x);
+        for _ in 0..8 {
+            let h = 1e-6;
+            let g = rim(t).y;
+            let dg = (rim(t + h).y - rim(t - h).y) / (2.0 * h);
+            if dg.abs() < 1e-15 {
+                break;
+            }
+            t -= g / dg;
+        }
+        let q = rim(t);
+        Vector2::new(q.x, q.z)
+    };
+    let (a, b) = (end(a), end(b));
+    Some(if a.x <= b.x { (a, b) } else { (b, a) })
+}
+
 /// Analytic chords with Gaussian noise of `sigma` (metres) along each chord (Eq. 52), the disk
 /// paper's own simulation. Profiles whose plane misses the disk give no chord.
 pub fn analytic_scan(
@@ -282,14 +318,16 @@ pub fn analytic_scan(
     sigma: f64,
     rng: &mut crate::rng::Rng,
 ) -> DiskScan {
-    analytic_scan_with(rig, disk, p, sigma, rng, &mut |f, _| *f)
+    analytic_scan_with(rig, disk, None, p, sigma, rng, &mut |f, _| *f)
 }
 
 /// `analytic_scan` with the robot really at `actual(commanded flange pose, profile index)`, while
-/// the chords keep the commanded positions (as a real controller reports them).
+/// the chords keep the commanded positions (as a real controller reports them), on a disk with an
+/// optional form error (its frame and the error).
 pub fn analytic_scan_with(
     rig: &Rig,
     disk: &DiskTarget,
+    form: Option<(&Isometry3<f64>, &crate::scene::FormError)>,
     p: &DiskScanPlan,
     sigma: f64,
     rng: &mut crate::rng::Rng,
@@ -300,7 +338,11 @@ pub fn analytic_scan_with(
         let pose = rig.base_to_sensor(&actual(&flange_pose(&p.r_tcp, &p.tcp(j)), j));
         // Draw both noises for every profile so streams stay aligned.
         let (t1, t2) = (gauss(rng) * sigma, gauss(rng) * sigma);
-        if let Some((a, b)) = exact_chord(&pose, disk) {
+        let chord = match form {
+            Some((frame, f)) => exact_chord_formed(&pose, disk, frame, f),
+            None => exact_chord(&pose, disk),
+        };
+        if let Some((a, b)) = chord {
             let len = (b - a).norm();
             if len > 0.0 {
                 let dir = (b - a) / len;

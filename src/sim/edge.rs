@@ -208,6 +208,40 @@ pub fn exact_point(base_to_sensor: &Isometry3<f64>, e: &EdgeTarget) -> Option<Ve
     Some(Vector2::new(q.x, q.z))
 }
 
+/// `exact_point` on an edge with a form error (`base_to_specimen`: the edge's frame): where the
+/// laser plane meets the bowed edge, by Newton's method along it from the straight edge's point.
+pub fn exact_point_formed(
+    base_to_sensor: &Isometry3<f64>,
+    e: &EdgeTarget,
+    base_to_specimen: &Isometry3<f64>,
+    form: &crate::scene::FormError,
+) -> Option<Vector2<f64>> {
+    let q = exact_point(base_to_sensor, e)?;
+    if form.is_none() {
+        return Some(q);
+    }
+    let sensor_to_specimen = base_to_sensor.inverse() * base_to_specimen;
+    let edge = |x: f64| {
+        let p = Point3::new(x, 0.0, 0.0);
+        sensor_to_specimen * (p + form.displacement(&p))
+    };
+    let mut x = sensor_to_specimen
+        .inverse_transform_point(&Point3::new(q.x, 0.0, q.y))
+        .x;
+    for _ in 0..8 {
+        let h = 1e-6;
+        let g = edge(x).y;
+        let dg = (edge(x + h).y - edge(x - h).y) / (2.0 * h);
+        if dg.abs() < 1e-15 {
+            return None;
+        }
+        x -= g / dg;
+    }
+    let p = edge(x);
+    // No convergence: the plane (nearly) runs along the edge.
+    (p.y.abs() < 1e-12).then(|| Vector2::new(p.x, p.z))
+}
+
 /// Exact edge points with Gaussian noise of `sigma` on x and z.
 pub fn analytic_problem(
     rig: &Rig,
