@@ -2,10 +2,10 @@
 //! from them, grouped by orientation or scan), and the one path from captures to a calibration.
 //! Simulated trials and capture files from real rigs both go through `calibrate`.
 
-use crate::calib::Status;
 use crate::calib::ball::{BallCapture, BallProblem, centre_from_arc};
 use crate::calib::disk::{DiskChord, DiskProblem, DiskScan};
 use crate::calib::edge::{EdgeCapture, EdgeProblem};
+use crate::calib::{Status, refine};
 use crate::features::{self, Circle, EdgeSense, SplitMerge};
 use crate::sensor::{Profile, SensorModel};
 use nalgebra::{Isometry3, Vector2, Vector3};
@@ -14,8 +14,13 @@ use nalgebra::{Isometry3, Vector2, Vector3};
 #[derive(Debug, Clone, PartialEq)]
 pub enum ProfileData {
     Raw(Profile),
-    Chord { a: Vector2<f64>, b: Vector2<f64> },
+    Chord {
+        a: Vector2<f64>,
+        b: Vector2<f64>,
+    },
     Circle(Circle),
+    /// The points of a ball arc (sensor x, z), its circle found by the calibration.
+    Arc(Vec<Vector2<f64>>),
     EdgePoint(Vector2<f64>),
 }
 
@@ -80,6 +85,38 @@ pub struct Calibration {
     pub status: Status,
     /// Profiles in which the feature was not found.
     pub missed: usize,
+    /// The raw features with their flange poses and the closed-form specimen pose: what the joint
+    /// refinement starts from (None when the captures hold only reduced features, e.g. circles).
+    pub features: Option<(refine::Data, refine::SpecimenEstimate)>,
+}
+
+/// Unit normal of the plane through the chord ends, seen through `flange_to_sensor`.
+fn plane_normal(
+    ends: &[(Isometry3<f64>, Vector2<f64>)],
+    flange_to_sensor: &Isometry3<f64>,
+) -> Vector3<f64> {
+    let pts: Vec<Vector3<f64>> = ends
+        .iter()
+        .map(|(f, p)| (f * flange_to_sensor * nalgebra::Point3::new(p.x, 0.0, p.y)).coords)
+        .collect();
+    let mean = pts.iter().sum::<Vector3<f64>>() / pts.len().max(1) as f64;
+    let cov = pts
+        .iter()
+        .map(|p| (p - mean) * (p - mean).transpose())
+        .sum::<nalgebra::Matrix3<f64>>();
+    let eig = nalgebra::SymmetricEigen::new(cov);
+    let k = eig.eigenvalues.imin();
+    let n: Vector3<f64> = eig.eigenvectors.column(k).into_owned();
+    if n.z < 0.0 { -n } else { n }
+}
+
+/// Refine a calibration jointly over its raw features (see `calib::refine`).
+pub fn refine(cal: &Calibration, opts: &refine::Options) -> Result<refine::Refined, String> {
+    let (data, specimen) = cal.features.as_ref().ok_or(
+        "the joint refinement needs the raw features (chord ends, arc points or edge points); \
+         these captures hold reduced ones (ball circles): record arc_mm or points_mm",
+    )?;
+    refine::refine(data, &cal.flange_to_sensor, specimen, opts).map_err(|e| e.to_string())
 }
 
 fn group_profiles(c: &Captures, id: usize) -> Vec<&CaptureProfile> {
@@ -96,6 +133,7 @@ pub fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<Calibration, Stri
                 .specimen_radius
                 .ok_or("the disk method needs the disk radius")?;
             let mut scans = Vec::new();
+            let mut ends = Vec::new();
             for g in &c.groups {
                 let ps = group_profiles(c, g.id);
                 let (Some(first), Some(last)) = (ps.first(), ps.last()) else {
@@ -108,6 +146,7 @@ pub fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<Calibration, Stri
                 let span = t1 - t0;
                 let mut chords = Vec::new();
                 for p in &ps {
+                    let flange = p.base_to_flange;
                     let u = if span.norm_squared() > 0.0 {
                         (p.base_to_flange.translation.vector - t0).dot(&span) / span.norm_squared()
                     } else {
@@ -130,11 +169,15 @@ pub fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<Calibration, Stri
                         }
                     };
                     match chord {
-                        Ok(ch) => chords.push(DiskChord {
-                            u,
-                            a: ch.a,
-                            b: ch.b,
-                        }),
+                        Ok(ch) => {
+                            ends.push((flange, ch.a));
+                            ends.push((flange, ch.b));
+                            chords.push(DiskChord {
+                                u,
+                                a: ch.a,
+                                b: ch.b,
+                            })
+                        }
                         Err(_) => missed += 1,
                     }
                 }
@@ -149,7 +192,15 @@ pub fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<Calibration, Stri
             let mut problem = DiskProblem::new(radius, scans);
             problem.min_scan_angle = 0.5f64.to_radians();
             let sol = crate::calib::disk::solve(&problem).map_err(|e| e.to_string())?;
+            let normal = plane_normal(&ends, &sol.flange_to_sensor);
             Ok(Calibration {
+                features: Some((
+                    refine::Data::Disk { radius, ends },
+                    refine::SpecimenEstimate::Disk {
+                        centre: sol.centre_in_base.into(),
+                        normal,
+                    },
+                )),
                 flange_to_sensor: sol.flange_to_sensor,
                 centre_in_base: Some(sol.centre_in_base),
                 accuracy: Some(sol.accuracy),
@@ -164,12 +215,15 @@ pub fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<Calibration, Stri
                 .specimen_radius
                 .ok_or("the ball method needs the ball radius")?;
             let (mut rotation_set, mut translation_set) = (Vec::new(), Vec::new());
+            let mut arc_points = Some(Vec::new());
             for g in &c.groups {
                 let ps = group_profiles(c, g.id);
                 let mut centres = Vec::new();
                 for p in &ps {
                     let circle = match &p.data {
                         ProfileData::Circle(ci) => Ok(*ci),
+                        ProfileData::Arc(a) => features::fit_circle(a)
+                            .ok_or_else(|| format!("an arc of {} points has no circle", a.len())),
                         ProfileData::Raw(prof) => {
                             features::ball_arc(prof, radius, &cfg).map_err(|e| e.to_string())
                         }
@@ -180,6 +234,17 @@ pub fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<Calibration, Stri
                             ));
                         }
                     };
+                    match (&circle, &p.data, &mut arc_points) {
+                        (Ok(_), ProfileData::Arc(a), Some(all)) => {
+                            all.extend(a.iter().map(|q| (p.base_to_flange, *q)))
+                        }
+                        (Ok(ci), ProfileData::Raw(prof), Some(all)) => all.extend(
+                            features::arc_points(prof, ci)
+                                .into_iter()
+                                .map(|q| (p.base_to_flange, q)),
+                        ),
+                        _ => arc_points = None,
+                    }
                     match circle {
                         Ok(ci) => centres.push((p, centre_from_arc(&ci, radius, g.sign))),
                         Err(e) => return Err(format!("group {}: {e}", g.id)),
@@ -219,6 +284,14 @@ pub fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<Calibration, Stri
             })
             .map_err(|e| e.to_string())?;
             Ok(Calibration {
+                features: arc_points.map(|points| {
+                    (
+                        refine::Data::Ball { radius, points },
+                        refine::SpecimenEstimate::Ball {
+                            centre: sol.centre_in_base.into(),
+                        },
+                    )
+                }),
                 flange_to_sensor: sol.flange_to_sensor,
                 centre_in_base: Some(sol.centre_in_base),
                 accuracy: Some(sol.spread),
@@ -239,6 +312,7 @@ pub fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<Calibration, Stri
                 min_points: 4,
             };
             let mut groups = Vec::new();
+            let mut points = Vec::new();
             for g in &c.groups {
                 let mut caps = Vec::new();
                 for p in group_profiles(c, g.id) {
@@ -254,11 +328,14 @@ pub fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<Calibration, Stri
                         }
                     };
                     match point {
-                        Ok(q) => caps.push(EdgeCapture {
-                            r_tcp: p.base_to_flange.rotation.to_rotation_matrix(),
-                            t_tcp: p.base_to_flange.translation.vector,
-                            p_in_sensor: q,
-                        }),
+                        Ok(q) => {
+                            points.push((p.base_to_flange, q));
+                            caps.push(EdgeCapture {
+                                r_tcp: p.base_to_flange.rotation.to_rotation_matrix(),
+                                t_tcp: p.base_to_flange.translation.vector,
+                                p_in_sensor: q,
+                            })
+                        }
                         Err(_) => missed += 1,
                     }
                 }
@@ -268,6 +345,13 @@ pub fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<Calibration, Stri
                 crate::calib::edge::solve(&EdgeProblem { groups }).map_err(|e| e.to_string())?;
             let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
             Ok(Calibration {
+                features: Some((
+                    refine::Data::Edge { points },
+                    refine::SpecimenEstimate::Edge {
+                        point: sol.edge_point.into(),
+                        dir: sol.edge_direction,
+                    },
+                )),
                 flange_to_sensor: sol.flange_to_sensor,
                 centre_in_base: None,
                 accuracy: None,

@@ -685,7 +685,19 @@ pub struct DiskSetup {
     pub form: crate::scene::FormTolerance,
 }
 
-pub const METHODS: &[&str] = &["disk", "ball", "edge"];
+pub const METHODS: &[&str] = &[
+    "disk",
+    "ball",
+    "edge",
+    "disk-refined",
+    "ball-refined",
+    "edge-refined",
+];
+
+/// The closed-form method a method name builds on ("edge-refined" -> "edge").
+pub fn base_method(method: &str) -> &str {
+    method.strip_suffix("-refined").unwrap_or(method)
+}
 
 impl Scenario {
     /// Check values that deserialisation cannot.
@@ -788,7 +800,7 @@ impl Scenario {
                 ));
             }
         }
-        if self.methods.iter().any(|m| m == "disk") {
+        if self.methods.iter().any(|m| base_method(m) == "disk") {
             let d = self.disk.as_ref().ok_or_else(|| {
                 bad(
                     file,
@@ -900,7 +912,7 @@ impl Scenario {
                 }
             }
         }
-        if self.methods.iter().any(|m| m == "ball") {
+        if self.methods.iter().any(|m| base_method(m) == "ball") {
             let b = self.ball.as_ref().ok_or_else(|| {
                 bad(
                     file,
@@ -968,7 +980,7 @@ impl Scenario {
                 ));
             }
         }
-        if self.methods.iter().any(|m| m == "edge") {
+        if self.methods.iter().any(|m| base_method(m) == "edge") {
             let e = self.edge.as_ref().ok_or_else(|| {
                 bad(
                     file,
@@ -1442,7 +1454,7 @@ impl Scenario {
             }
         };
         let disk = match (&self.disk, specimen.disk_radius()) {
-            (Some(d), Some(radius)) if self.methods.iter().any(|m| m == "disk") => {
+            (Some(d), Some(radius)) if self.methods.iter().any(|m| base_method(m) == "disk") => {
                 let target = DiskTarget::from_pose(&base_to_specimen, radius);
                 let scans = d
                     .orientations_rpy_rad
@@ -1484,7 +1496,7 @@ impl Scenario {
             _ => None,
         };
         let ball = match &self.ball {
-            Some(b) if self.methods.iter().any(|m| m == "ball") => {
+            Some(b) if self.methods.iter().any(|m| base_method(m) == "ball") => {
                 let (spec, pose, sc) = own(&b.specimen, "ball.specimen")?;
                 let radius = spec.ball_radius().ok_or_else(|| {
                     bad(
@@ -1541,7 +1553,7 @@ impl Scenario {
             _ => None,
         };
         let edge = match &self.edge {
-            Some(e) if self.methods.iter().any(|m| m == "edge") => {
+            Some(e) if self.methods.iter().any(|m| base_method(m) == "edge") => {
                 let (spec, pose, sc) = own(&e.specimen, "edge.specimen")?;
                 if !spec.is_edge() {
                     return Err(bad(

@@ -28,6 +28,8 @@ pub struct Score {
     /// Edge method: radius of the precision ball reconstructed with the estimate (Table 3), mm.
     pub sphere_radius_mm: Option<f64>,
     pub status: Status,
+    /// Refined methods: the refinement (uncertainty, observability, costs).
+    pub refined: Option<crate::calib::refine::Refined>,
 }
 
 impl Score {
@@ -41,6 +43,7 @@ impl Score {
             edge_distance_mm: None,
             sphere_radius_mm: None,
             status,
+            refined: None,
         }
     }
 }
@@ -63,7 +66,14 @@ pub fn run_trial(setup: &Setup, method: &str, seed: u64, trial: u64) -> TrialOut
         Err(e) => (Err(e), 0),
         Ok(caps) => match crate::captures::calibrate(&caps, &setup.rig.sensor) {
             Err(e) => (Err(e), 0),
-            Ok(cal) => (Ok(score(setup, method, &cal, validation_seed)), cal.missed),
+            Ok(cal) => match refine_if_asked(method, cal) {
+                Ok((cal, refined)) => {
+                    let mut s = score(setup, method, &cal, validation_seed);
+                    s.refined = refined;
+                    (Ok(s), cal.missed)
+                }
+                Err(e) => (Err(e), 0),
+            },
         },
     };
     TrialOutcome {
@@ -72,6 +82,26 @@ pub fn run_trial(setup: &Setup, method: &str, seed: u64, trial: u64) -> TrialOut
         result,
         missed_profiles: missed,
     }
+}
+
+/// For a "-refined" method, the joint refinement of the closed-form calibration (its estimate
+/// and specimen pose replace the closed-form ones).
+pub fn refine_if_asked(
+    method: &str,
+    mut cal: Calibration,
+) -> Result<(Calibration, Option<crate::calib::refine::Refined>), String> {
+    if !method.ends_with("-refined") {
+        return Ok((cal, None));
+    }
+    let r = crate::captures::refine(&cal, &Default::default())?;
+    cal.flange_to_sensor = r.flange_to_sensor;
+    cal.status = r.status;
+    cal.centre_in_base = match r.specimen {
+        crate::calib::refine::SpecimenEstimate::Disk { centre, .. }
+        | crate::calib::refine::SpecimenEstimate::Ball { centre } => Some(centre.coords),
+        _ => cal.centre_in_base,
+    };
+    Ok((cal, Some(r)))
 }
 
 /// The captures of trial `trial` (exactly those `run_trial` calibrates) and the seed of its edge
@@ -111,13 +141,20 @@ pub fn trial_captures(
     // The specimen's imperfection likewise.
     let mut specimen_rng = rng::stream(seed, &[tag::SPECIMEN, trial]);
     (
-        simulate(setup, method, &mut r, &mut dist, &mut specimen_rng),
+        simulate(
+            setup,
+            crate::scenario::base_method(method),
+            &mut r,
+            &mut dist,
+            &mut specimen_rng,
+        ),
         validation_seed,
     )
 }
 
 /// Score a calibration of `method` against the scenario's truth.
 pub fn score(setup: &Setup, method: &str, cal: &Calibration, validation_seed: u64) -> Score {
+    let method = crate::scenario::base_method(method);
     let truth_centre = match method {
         "disk" => setup.disk.as_ref().map(|d| d.target.centre.coords),
         "ball" => setup.ball.as_ref().map(|b| b.target.centre.coords),
@@ -306,9 +343,7 @@ pub fn simulate(
                             0.9,
                             r,
                         );
-                        ProfileData::Circle(crate::features::fit_circle(&arc).ok_or_else(|| {
-                            format!("an arc of {} points has no circle", arc.len())
-                        })?)
+                        ProfileData::Arc(arc)
                     };
                     profiles.push(CaptureProfile {
                         group: id,

@@ -5,6 +5,7 @@ pub mod ball;
 pub mod disk;
 pub mod edge;
 pub mod ellipse;
+pub mod refine;
 
 use nalgebra::{Isometry3, Matrix3, UnitQuaternion};
 use thiserror::Error;
@@ -48,6 +49,16 @@ pub enum CalibError {
         what: String,
         part: &'static str,
         fix: &'static str,
+    },
+    #[error(
+        "{method}: the poses cannot determine the transform (smallest singular value {ratio:.1e} of \
+         the largest; weakest: {weakest}); {fix}"
+    )]
+    Unobservable {
+        method: &'static str,
+        ratio: f64,
+        weakest: String,
+        fix: String,
     },
 }
 

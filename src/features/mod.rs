@@ -37,6 +37,16 @@ pub struct Chord {
 }
 
 /// Valid points with their column index.
+/// The profile's points on a found ball arc (within four RMS of its circle).
+pub fn arc_points(profile: &Profile, circle: &Circle) -> Vec<Vector2<f64>> {
+    let cut = 4.0 * circle.rms.max(1e-6);
+    valid_points(profile)
+        .into_iter()
+        .map(|(_, p)| p)
+        .filter(|p| ((p - circle.centre).norm() - circle.radius).abs() <= cut)
+        .collect()
+}
+
 pub fn valid_points(profile: &Profile) -> Vec<(usize, Vector2<f64>)> {
     profile
         .points

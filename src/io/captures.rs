@@ -79,6 +79,8 @@ struct ProfileV1 {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     circle_mm: Option<CircleV1>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    arc_mm: Option<Vec<[f64; 2]>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     edge_point_mm: Option<[f64; 2]>,
 }
 
@@ -132,6 +134,7 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
                     intensity: None,
                     chord_mm: None,
                     circle_mm: None,
+                    arc_mm: None,
                     edge_point_mm: None,
                 };
                 match &p.data {
@@ -152,6 +155,7 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
                             radius: ci.radius * 1e3,
                         })
                     }
+                    ProfileData::Arc(a) => rec.arc_mm = Some(a.iter().map(v2).collect()),
                     ProfileData::EdgePoint(q) => rec.edge_point_mm = Some(v2(q)),
                 }
                 rec
@@ -323,6 +327,7 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Stri
             p.points_mm.is_some(),
             p.chord_mm.is_some(),
             p.circle_mm.is_some(),
+            p.arc_mm.is_some(),
             p.edge_point_mm.is_some(),
         ]
         .iter()
@@ -332,7 +337,7 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Stri
             return Err(err(
                 file,
                 &format!("profiles[{i}]"),
-                "give exactly one of points_mm, chord_mm, circle_mm, edge_point_mm",
+                "give exactly one of points_mm, chord_mm, circle_mm, arc_mm, edge_point_mm",
             ));
         }
         let v = |a: [f64; 2]| Vector2::new(a[0] * 1e-3, a[1] * 1e-3);
@@ -382,6 +387,8 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Stri
                 radius: c.radius * 1e-3,
                 rms: 0.0,
             })
+        } else if let Some(a) = &p.arc_mm {
+            ProfileData::Arc(a.iter().map(|q| v(*q)).collect())
         } else if let Some(e) = p.edge_point_mm {
             ProfileData::EdgePoint(v(e))
         } else {

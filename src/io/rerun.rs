@@ -283,6 +283,10 @@ impl Recorder {
                 ),
                 ProfileData::Circle(c) => (vec![], vec![Point3::new(c.centre.x, 0.0, c.centre.y)]),
                 ProfileData::EdgePoint(q) => (vec![], vec![Point3::new(q.x, 0.0, q.y)]),
+                ProfileData::Arc(a) => (
+                    vec![],
+                    a.iter().map(|q| Point3::new(q.x, 0.0, q.y)).collect(),
+                ),
             };
             let in_sensor: Vec<[f32; 3]> = pts.iter().map(|q| f3(&q.coords)).collect();
             let in_base: Vec<[f32; 3]> = pts
