@@ -38,6 +38,26 @@ fn bench(c: &mut Criterion) {
     });
 
     let dir = env!("CARGO_MANIFEST_DIR");
+    // Issue 8: the joint refinement against the closed form on the same captures (the disk
+    // paper's n = 4, m = 100 and the edge paper's 25 x 10, sigma 0.1 and 0.05 mm).
+    for (scen, method) in [("chen2018-disk.toml", "disk"), ("xu2021-edge.toml", "edge")] {
+        let sf =
+            ScenarioFile::load(std::path::Path::new(&format!("{dir}/scenarios/{scen}"))).unwrap();
+        let setup = sf.scenario.build(&sf.file).unwrap();
+        let caps = lasercal::trial::trial_captures(&setup, method, 1, 0)
+            .0
+            .unwrap();
+        let sensor = &setup.rig.sensor;
+        let cal = lasercal::captures::calibrate(&caps, sensor).unwrap();
+        c.bench_function(&format!("refine/{method}_closed_form"), |b| {
+            b.iter(|| black_box(lasercal::captures::calibrate(black_box(&caps), sensor)))
+        });
+        let opts = lasercal::calib::refine::Options::default();
+        c.bench_function(&format!("refine/{method}_refinement"), |b| {
+            b.iter(|| black_box(lasercal::captures::refine(black_box(&cal), &opts)))
+        });
+    }
+
     for (scen, method) in [
         ("chen2018-disk.toml", "disk"),
         ("chen2018-ball.toml", "ball"),

@@ -29,13 +29,14 @@ impl Shard {
     }
 }
 
-/// mean, RMS, standard deviation (n - 1) and 95th percentile (nearest rank) of a sample.
+/// mean, RMS, standard deviation (n - 1), median and 95th percentile (nearest rank) of a sample.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Stats {
     pub n: usize,
     pub mean: f64,
     pub rms: f64,
     pub std: f64,
+    pub median: f64,
     pub p95: f64,
 }
 
@@ -48,6 +49,7 @@ impl Stats {
                 mean: f64::NAN,
                 rms: f64::NAN,
                 std: f64::NAN,
+                median: f64::NAN,
                 p95: f64::NAN,
             };
         }
@@ -66,6 +68,11 @@ impl Stats {
             mean,
             rms,
             std,
+            median: if n % 2 == 1 {
+                s[n / 2]
+            } else {
+                0.5 * (s[n / 2 - 1] + s[n / 2])
+            },
             p95: s[rank - 1],
         }
     }

@@ -207,3 +207,27 @@ fn a_pose_set_that_cannot_fix_the_transform_is_refused() {
     eprintln!("edge observability: {obs:?}");
     assert!(obs.condition.is_finite() && obs.condition > 1.0);
 }
+
+#[test]
+fn the_shootout_refinement_beats_the_closed_form() {
+    // The shootout's rig at sigma 0.1 mm: joint refinement uses every feature at once, so it must
+    // beat each closed form (the edge method's linear rotation step by far).
+    let s = setup("shootout", &|t| t);
+    let median = |method: &str, f: &dyn Fn(&lasercal::calib::PoseError) -> f64| {
+        let mut v: Vec<f64> = (0..40)
+            .map(|t| f(&run_trial(&s, method, 8, t).result.unwrap().error))
+            .collect();
+        v.sort_by(f64::total_cmp);
+        v[20]
+    };
+    let rot = |e: &lasercal::calib::PoseError| e.rotation_error_deg;
+    let tr = |e: &lasercal::calib::PoseError| e.translation_error_mm;
+    for (m, factor) in [("disk", 2.0), ("ball", 2.0), ("edge", 5.0)] {
+        let (c, r) = (median(m, &rot), median(&format!("{m}-refined"), &rot));
+        eprintln!("{m}: median rotation error {c:.4} -> {r:.4} deg");
+        assert!(r * factor < c, "{m}: rotation {c} -> {r}");
+        let (c, r) = (median(m, &tr), median(&format!("{m}-refined"), &tr));
+        eprintln!("{m}: median translation error {c:.4} -> {r:.4} mm");
+        assert!(r < c, "{m}: translation {c} -> {r}");
+    }
+}

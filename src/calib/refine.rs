@@ -132,6 +132,50 @@ struct State {
     q: Rotation3<f64>,
 }
 
+/// A^T B for tall A, B of the same shape whose product is symmetric (J^T W J): dot products of
+/// contiguous columns, the upper triangle mirrored (nalgebra's generic tr_mul was most of the
+/// refinement's time).
+fn ata(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
+    let (n, p) = a.shape();
+    let (sa, sb) = (a.as_slice(), b.as_slice());
+    let mut out = DMatrix::zeros(p, p);
+    for c in 0..p {
+        let ca = &sa[c * n..(c + 1) * n];
+        for d in c..p {
+            let cb = &sb[d * n..(d + 1) * n];
+            let v = dot(ca, cb);
+            out[(c, d)] = v;
+            out[(d, c)] = v;
+        }
+    }
+    out
+}
+
+/// A^T r by contiguous column dot products.
+fn atb(a: &DMatrix<f64>, r: &DVector<f64>) -> DVector<f64> {
+    let n = a.nrows();
+    let (sa, sr) = (a.as_slice(), r.as_slice());
+    DVector::from_fn(a.ncols(), |c, _| dot(&sa[c * n..(c + 1) * n], sr))
+}
+
+/// Dot product with eight independent partial sums (lets the compiler vectorise it).
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut acc = [0.0; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let tail: f64 = ca
+        .remainder()
+        .iter()
+        .zip(cb.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    for (x, y) in ca.zip(cb) {
+        for k in 0..8 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    acc.iter().sum::<f64>() + tail
+}
+
 fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
 }
@@ -199,8 +243,12 @@ impl Data {
         let point = |f: &Isometry3<f64>, p: &Vector2<f64>| {
             let ps = Vector3::new(p.x, 0.0, p.y);
             let fr = *f.rotation.to_rotation_matrix().matrix();
-            let q = f * Point3::from(rmat * ps + st.t);
-            (q.coords, -fr * rmat * skew(&ps), fr)
+            let frr = fr * rmat;
+            let q = frr * ps + fr * st.t + f.translation.vector;
+            if !jac {
+                return (q, Matrix3::zeros(), fr);
+            }
+            (q, -frr * skew(&ps), fr)
         };
         match self {
             Data::Disk { radius, ends } => {
@@ -412,13 +460,17 @@ pub fn observability(
     flange_to_sensor: &Isometry3<f64>,
     specimen: &SpecimenEstimate,
 ) -> Observability {
-    let (_, j) = residuals_and_jacobian(data, flange_to_sensor, specimen);
-    let mut j = j;
-    for c in 0..3 {
-        j.column_mut(c).scale_mut(1.0 / LEVER);
-    }
-    let a = j.transpose() * &j;
+    observability_of(&residuals_and_jacobian(data, flange_to_sensor, specimen).1)
+}
+
+fn observability_of(j: &DMatrix<f64>) -> Observability {
+    // Rotations as displacements LEVER away: scale their rows and columns of J^T J.
+    let mut a = ata(j, j);
     let p = a.nrows();
+    for c in 0..3 {
+        a.row_mut(c).scale_mut(1.0 / LEVER);
+        a.column_mut(c).scale_mut(1.0 / LEVER);
+    }
     let axx = a.view((0, 0), (6, 6)).into_owned();
     let axs = a.view((0, 6), (6, p - 6)).into_owned();
     let ass = a.view((6, 6), (p - 6, p - 6)).into_owned();
@@ -491,7 +543,10 @@ pub fn refine(
             need: (p + 1).div_ceil(n_per_feature(data)),
         });
     }
-    let obs = observability(data, flange_to_sensor, specimen);
+    let mut st = state(flange_to_sensor, specimen);
+    let branch = branches(data, &st);
+    let (r0, j0) = data.eval(&st, &branch, true);
+    let obs = observability_of(&j0);
     if !(obs.singular_values[5] > MIN_SINGULAR_RATIO * obs.singular_values[0]) {
         return Err(CalibError::Unobservable {
             method: data.method(),
@@ -500,9 +555,6 @@ pub fn refine(
             fix: motion_missing(&obs.weakest),
         });
     }
-    let mut st = state(flange_to_sensor, specimen);
-    let branch = branches(data, &st);
-    let (r0, _) = data.eval(&st, &branch, false);
     // Robust scale from the starting residuals (MAD).
     let scale = {
         let mut a: Vec<f64> = r0.iter().map(|v| v.abs()).collect();
@@ -516,13 +568,23 @@ pub fn refine(
         iterations: opts.max_iterations,
     };
     let mut it = 0;
+    // The residuals and Jacobian at the current state (the first ones computed above).
+    let mut at = Some((r0, j0));
+    let mut last_j = None;
     while it < opts.max_iterations {
         it += 1;
-        let (r, j) = data.eval(&st, &branch, true);
-        let w = robust_weights(&r, opts.loss, scale);
-        let jw = DMatrix::from_fn(n, p, |i, c| j[(i, c)] * w[i]);
-        let a = j.transpose() * &jw;
-        let g = jw.transpose() * &r;
+        let (r, j) = at.take().unwrap_or_else(|| data.eval(&st, &branch, true));
+        // Weighted normal equations J^T W J, J^T W r (column dot products: tr_mul).
+        let (a, g) = if opts.loss == Loss::Squared {
+            (ata(&j, &j), atb(&j, &r))
+        } else {
+            let w = robust_weights(&r, opts.loss, scale);
+            let mut jw = j.clone();
+            for mut col in jw.column_iter_mut() {
+                col.component_mul_assign(&w);
+            }
+            (ata(&j, &jw), atb(&jw, &r))
+        };
         if g.amax() <= 1e-15 * (1.0 + cost) {
             status = Status::Converged { iterations: it };
             break;
@@ -557,11 +619,18 @@ pub fn refine(
             // No step lowers the cost: at the minimum to machine precision.
             status = Status::Converged { iterations: it };
         }
+        last_j = Some(j);
         if matches!(status, Status::Converged { .. }) {
             break;
         }
     }
-    let (r, j) = data.eval(&st, &branch, true);
+    // The covariance at the optimum: fresh residuals; the last Jacobian, computed at most one
+    // (converged, hence negligible) step away.
+    let (r, _) = data.eval(&st, &branch, false);
+    let j = match last_j {
+        Some(j) => j,
+        None => data.eval(&st, &branch, true).1,
+    };
     let cov = covariance(&r, &j);
     let (x, s) = estimate(data, &st);
     let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
@@ -584,12 +653,15 @@ pub fn refine(
 /// chord end's distance from the rim is noisier than its distance from the disk plane).
 fn covariance(r: &DVector<f64>, j: &DMatrix<f64>) -> Matrix6<f64> {
     let (n, p) = (j.nrows(), j.ncols());
-    let a = j.transpose() * j;
+    let a = ata(j, j);
     let Some(inv) = a.clone().try_inverse() else {
         return Matrix6::from_element(f64::INFINITY);
     };
-    let jr = DMatrix::from_fn(n, p, |i, c| j[(i, c)] * r[i]);
-    let b = jr.transpose() * &jr;
+    let mut jr = j.clone();
+    for mut col in jr.column_iter_mut() {
+        col.component_mul_assign(r);
+    }
+    let b = ata(&jr, &jr);
     let full = &inv * b * &inv * (n as f64 / (n - p) as f64);
     Matrix6::from_fn(|r, c| full[(r, c)])
 }

@@ -88,7 +88,7 @@ pub fn summary(grid_keys: &[String], rows: &[SummaryRow]) -> String {
     h.extend(grid_keys.iter().cloned());
     h.extend(["method", "trials", "failures"].map(String::from));
     for m in METRICS {
-        for s in ["mean", "rms", "std", "p95"] {
+        for s in ["mean", "rms", "std", "median", "p95"] {
             h.push(format!("{m}_{s}"));
         }
     }
@@ -100,7 +100,7 @@ pub fn summary(grid_keys: &[String], rows: &[SummaryRow]) -> String {
         c.push(r.trials.to_string());
         c.push(r.failures.to_string());
         for s in &r.stats {
-            for x in [s.mean, s.rms, s.std, s.p95] {
+            for x in [s.mean, s.rms, s.std, s.median, s.p95] {
                 c.push(format!("{x}"));
             }
         }
@@ -130,6 +130,7 @@ pub fn summary_value(r: &SummaryRow, column: &str) -> Option<f64> {
                 "mean" => Some(s.mean),
                 "rms" => Some(s.rms),
                 "std" => Some(s.std),
+                "median" => Some(s.median),
                 "p95" => Some(s.p95),
                 _ => None,
             };

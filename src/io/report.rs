@@ -25,7 +25,7 @@ pub fn report(
             s += &format!("- grid `{k}` = {v}\n");
         }
     }
-    s += "\nFiles: `trials.csv` (one row per trial), `summary.csv` (mean, RMS, std, p95 per grid point and method)";
+    s += "\nFiles: `trials.csv` (one row per trial), `summary.csv` (mean, RMS, std, median, p95 per grid point and method)";
     if has_plot {
         s += ", `plot.svg`, `plot.png`.\n\n![plot](plot.svg)\n";
     } else {
@@ -34,7 +34,9 @@ pub fn report(
     s += "\n## Summary\n\n| ";
     let cols = [
         "centre_error_mm_std",
+        "rotation_error_deg_median",
         "rotation_error_deg_p95",
+        "translation_error_mm_median",
         "translation_error_mm_p95",
     ];
     let mut head: Vec<String> = grid_keys.to_vec();
