@@ -292,20 +292,10 @@ pub fn exact_chord_formed(
     };
     let end = |e: Vector2<f64>| {
         let p = sensor_to_specimen.inverse_transform_point(&Point3::new(e.x, 0.0, e.y));
-        let mut t = p.y.atan2(p.x);
-        for _ in 0..8 {
-            let h = 1e-6;
-            let g = rim(t).y;
-            let dg = (rim(t + h).y - rim(t - h).y) / (2.0 * h);
-            if dg.abs() < 1e-15 {
-                break;
-            }
-            t -= g / dg;
-        }
-        let q = rim(t);
-        Vector2::new(q.x, q.z)
+        let q = super::laser_plane_crossing(rim, p.y.atan2(p.x))?;
+        Some(Vector2::new(q.x, q.z))
     };
-    let (a, b) = (end(a), end(b));
+    let (a, b) = (end(a)?, end(b)?);
     Some(if a.x <= b.x { (a, b) } else { (b, a) })
 }
 

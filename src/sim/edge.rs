@@ -225,21 +225,10 @@ pub fn exact_point_formed(
         let p = Point3::new(x, 0.0, 0.0);
         sensor_to_specimen * (p + form.displacement(&p))
     };
-    let mut x = sensor_to_specimen
+    let x = sensor_to_specimen
         .inverse_transform_point(&Point3::new(q.x, 0.0, q.y))
         .x;
-    for _ in 0..8 {
-        let h = 1e-6;
-        let g = edge(x).y;
-        let dg = (edge(x + h).y - edge(x - h).y) / (2.0 * h);
-        if dg.abs() < 1e-15 {
-            return None;
-        }
-        x -= g / dg;
-    }
-    let p = edge(x);
-    // No convergence: the plane (nearly) runs along the edge.
-    (p.y.abs() < 1e-12).then(|| Vector2::new(p.x, p.z))
+    super::laser_plane_crossing(edge, x).map(|p| Vector2::new(p.x, p.z))
 }
 
 /// Exact edge points with Gaussian noise of `sigma` on x and z.

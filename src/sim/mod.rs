@@ -65,3 +65,25 @@ pub fn check_reachable(robot: &Robot, scan: usize, pose: &Isometry3<f64>) -> Res
         }
     })
 }
+
+/// Where a curve `c(s)` given in the sensor frame crosses the laser plane (sensor y = 0), by
+/// Newton's method from `s0` with a central-difference slope: the feature of an imperfect
+/// specimen (a warped rim, a bowed edge) near the perfect one's. None when it does not converge
+/// (the plane nearly runs along the curve).
+pub fn laser_plane_crossing(
+    curve: impl Fn(f64) -> nalgebra::Point3<f64>,
+    s0: f64,
+) -> Option<nalgebra::Point3<f64>> {
+    let h = 1e-6;
+    let mut s = s0;
+    for _ in 0..8 {
+        let g = curve(s).y;
+        let dg = (curve(s + h).y - curve(s - h).y) / (2.0 * h);
+        if dg.abs() < 1e-15 {
+            return None;
+        }
+        s -= g / dg;
+    }
+    let p = curve(s);
+    (p.y.abs() < 1e-12).then_some(p)
+}
