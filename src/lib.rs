@@ -5,9 +5,12 @@
 
 pub mod calib;
 pub mod captures;
+pub mod error;
 pub mod features;
 pub mod io;
 pub mod math;
+pub mod method;
+pub mod metrics;
 pub mod papers;
 pub mod rng;
 pub mod robot;

@@ -5,6 +5,12 @@
 use rand::SeedableRng;
 pub use rand_chacha::ChaCha8Rng as Rng;
 
+/// A standard normal draw.
+pub fn gauss(r: &mut Rng) -> f64 {
+    use rand::RngExt;
+    r.sample(rand_distr::StandardNormal)
+}
+
 /// SplitMix64 finaliser: a fast, well-mixed 64-bit hash.
 fn mix(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);

@@ -1,19 +1,12 @@
 //! Sweeps: every grid point of a scenario times its trials, run in parallel (rayon) with per-trial
 //! seeds, rows streamed to a sink in a fixed order, per-point statistics at the end.
 
-use crate::scenario::{GridPoint, ScenarioError, ScenarioFile};
+use crate::error::Error;
+use crate::method::MethodId;
+use crate::metrics::{Metric, Metrics, Stat};
+use crate::scenario::{GridPoint, ScenarioFile};
 use crate::trial::{TrialOutcome, run_trial};
 use rayon::prelude::*;
-
-/// The metrics summarised per grid point and method.
-pub const METRICS: &[&str] = &[
-    "centre_error_mm",
-    "rotation_error_deg",
-    "translation_error_mm",
-    "edge_angle_dev_deg",
-    "edge_distance_mm",
-    "sphere_radius_mm",
-];
 
 /// Which share of the trials to run: trial t belongs to shard k of n when t % n == k.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -76,6 +69,16 @@ impl Stats {
             p95: s[rank - 1],
         }
     }
+
+    pub fn get(&self, s: Stat) -> f64 {
+        match s {
+            Stat::Mean => self.mean,
+            Stat::Rms => self.rms,
+            Stat::Std => self.std,
+            Stat::Median => self.median,
+            Stat::P95 => self.p95,
+        }
+    }
 }
 
 /// Summary of one (grid point, method).
@@ -83,15 +86,15 @@ impl Stats {
 pub struct SummaryRow {
     pub point: usize,
     pub values: Vec<(String, toml::Value)>,
-    pub method: String,
+    pub method: MethodId,
     pub trials: usize,
     pub failures: usize,
-    /// One `Stats` per entry of `METRICS`.
+    /// One `Stats` per entry of `Metric::SUMMARISED`.
     pub stats: Vec<Stats>,
 }
 
 /// A trial row as written to trials.csv.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct TrialRow {
     pub point: usize,
     pub values: Vec<(String, toml::Value)>,
@@ -99,17 +102,9 @@ pub struct TrialRow {
 }
 
 impl TrialRow {
-    /// The value of metric `k` (index into `METRICS`), when the trial succeeded.
-    pub fn metric(&self, k: usize) -> Option<f64> {
-        let s = self.outcome.result.as_ref().ok()?;
-        match k {
-            0 => s.centre_error_mm,
-            1 => Some(s.error.rotation_error_deg),
-            2 => Some(s.error.translation_error_mm),
-            3 => s.edge_angle_dev_deg,
-            4 => s.edge_distance_mm,
-            _ => s.sphere_radius_mm,
-        }
+    /// The value of a metric, when the trial succeeded and the method reports it.
+    pub fn metric(&self, m: Metric) -> Option<f64> {
+        self.outcome.result.as_ref().ok()?.metrics.get(m)
     }
 }
 
@@ -123,12 +118,8 @@ pub struct SweepPlan {
 
 impl SweepPlan {
     /// The sweep a scenario file describes; `trials` overrides its trial count.
-    pub fn new(
-        sf: &ScenarioFile,
-        trials: Option<usize>,
-        seed: Option<u64>,
-    ) -> Result<SweepPlan, ScenarioError> {
-        let points = sf.grid()?;
+    pub fn new(sf: &ScenarioFile, trials: Option<usize>, seed: Option<u64>) -> SweepPlan {
+        let points = sf.grid().to_vec();
         let trials = trials
             .or(sf.scenario.sweep.as_ref().map(|s| s.trials))
             .unwrap_or(1);
@@ -136,12 +127,12 @@ impl SweepPlan {
             .first()
             .map(|p| p.values.iter().map(|v| v.0.clone()).collect())
             .unwrap_or_default();
-        Ok(SweepPlan {
+        SweepPlan {
             points,
             trials,
             seed: seed.unwrap_or(sf.scenario.seed),
             grid_keys,
-        })
+        }
     }
 
     /// Trials this shard runs, over all points and methods.
@@ -154,6 +145,50 @@ impl SweepPlan {
     }
 }
 
+/// Accumulates one (point, method)'s summarised metrics.
+struct Accumulator {
+    values: Vec<Vec<f64>>,
+    trials: usize,
+    failures: usize,
+}
+
+impl Accumulator {
+    fn new() -> Accumulator {
+        Accumulator {
+            values: vec![Vec::new(); Metric::SUMMARISED.len()],
+            trials: 0,
+            failures: 0,
+        }
+    }
+
+    fn add(&mut self, ok: bool, metrics: &Metrics) {
+        self.trials += 1;
+        if !ok {
+            self.failures += 1;
+            return;
+        }
+        for (k, m) in Metric::SUMMARISED.into_iter().enumerate() {
+            self.values[k].extend(metrics.get(m));
+        }
+    }
+
+    fn finish(
+        self,
+        point: usize,
+        values: Vec<(String, toml::Value)>,
+        method: MethodId,
+    ) -> SummaryRow {
+        SummaryRow {
+            point,
+            values,
+            method,
+            trials: self.trials,
+            failures: self.failures,
+            stats: self.values.iter().map(|v| Stats::of(v)).collect(),
+        }
+    }
+}
+
 /// Run the sweep: for each grid point (in order) build the experiment once, run this shard's trials
 /// in parallel chunks, and hand each chunk's rows, in trial order, to `sink`. `progress` is told
 /// how many trials are done.
@@ -161,18 +196,17 @@ pub fn run(
     plan: &SweepPlan,
     file: &str,
     shard: Shard,
-    mut sink: impl FnMut(&[TrialRow]) -> std::io::Result<()>,
+    mut sink: impl FnMut(&[TrialRow]) -> Result<(), Error>,
     progress: &(dyn Fn(usize) + Sync),
-) -> Result<Vec<SummaryRow>, SweepError> {
+) -> Result<Vec<SummaryRow>, Error> {
     const CHUNK: usize = 512;
     let mut summary = Vec::new();
     let mut done = 0;
+    let mine: Vec<usize> = (0..plan.trials).filter(|t| shard.owns(*t)).collect();
     for point in &plan.points {
-        let setup = point.scenario.build(file).map_err(SweepError::Scenario)?;
-        for method in &point.scenario.methods {
-            let mine: Vec<usize> = (0..plan.trials).filter(|t| shard.owns(*t)).collect();
-            let mut metrics: Vec<Vec<f64>> = vec![Vec::new(); METRICS.len()];
-            let mut failures = 0;
+        let setup = point.scenario.build(file)?;
+        for &method in &point.scenario.methods {
+            let mut acc = Accumulator::new();
             for chunk in mine.chunks(CHUNK) {
                 let rows: Vec<TrialRow> = chunk
                     .par_iter()
@@ -183,23 +217,14 @@ pub fn run(
                     })
                     .collect();
                 for r in &rows {
-                    match r.outcome.result {
-                        Ok(_) => (0..METRICS.len()).for_each(|k| metrics[k].extend(r.metric(k))),
-                        Err(_) => failures += 1,
-                    }
+                    let m = r.outcome.result.as_ref().map(|s| s.metrics);
+                    acc.add(m.is_ok(), &m.unwrap_or_default());
                 }
-                sink(&rows).map_err(|e| SweepError::Io(e.to_string()))?;
+                sink(&rows)?;
                 done += rows.len();
                 progress(done);
             }
-            summary.push(SummaryRow {
-                point: point.index,
-                values: point.values.clone(),
-                method: method.clone(),
-                trials: mine.len(),
-                failures,
-                stats: metrics.iter().map(|m| Stats::of(m)).collect(),
-            });
+            summary.push(acc.finish(point.index, point.values.clone(), method));
         }
     }
     Ok(summary)
@@ -209,22 +234,10 @@ pub fn run(
 #[derive(Debug, Clone, PartialEq)]
 pub struct MetricRow {
     pub point: usize,
-    pub method: String,
+    pub method: MethodId,
     pub trial: u64,
     pub ok: bool,
-    pub metrics: [Option<f64>; 6],
-}
-
-impl From<&TrialRow> for MetricRow {
-    fn from(r: &TrialRow) -> MetricRow {
-        MetricRow {
-            point: r.point,
-            method: r.outcome.method.clone(),
-            trial: r.outcome.trial,
-            ok: r.outcome.result.is_ok(),
-            metrics: std::array::from_fn(|k| r.metric(k)),
-        }
-    }
+    pub metrics: Metrics,
 }
 
 /// Summaries from metric rows in run order (point, method, trial), e.g. merged shards; equal to
@@ -233,72 +246,16 @@ pub fn summarise_metrics(rows: &[MetricRow], points: &[GridPoint]) -> Vec<Summar
     let mut out: Vec<SummaryRow> = Vec::new();
     let mut start = 0;
     while start < rows.len() {
-        let (p, m) = (rows[start].point, &rows[start].method);
+        let (p, m) = (rows[start].point, rows[start].method);
+        let mut acc = Accumulator::new();
         let mut end = start;
-        while end < rows.len() && rows[end].point == p && &rows[end].method == m {
+        while end < rows.len() && rows[end].point == p && rows[end].method == m {
+            acc.add(rows[end].ok, &rows[end].metrics);
             end += 1;
         }
-        let g = &rows[start..end];
-        out.push(SummaryRow {
-            point: p,
-            values: points
-                .get(p)
-                .map(|gp| gp.values.clone())
-                .unwrap_or_default(),
-            method: m.clone(),
-            trials: g.len(),
-            failures: g.iter().filter(|r| !r.ok).count(),
-            stats: (0..METRICS.len())
-                .map(|k| {
-                    Stats::of(
-                        &g.iter()
-                            .filter(|r| r.ok)
-                            .filter_map(|r| r.metrics[k])
-                            .collect::<Vec<_>>(),
-                    )
-                })
-                .collect(),
-        });
+        let values = points.get(p).map(|g| g.values.clone()).unwrap_or_default();
+        out.push(acc.finish(p, values, m));
         start = end;
     }
     out
-}
-
-/// Summaries from trial rows (for merging shards): groups by (point, method) in first-seen order,
-/// which is the run order when the rows are.
-pub fn summarise(rows: &[TrialRow]) -> Vec<SummaryRow> {
-    let mut keys: Vec<(usize, String)> = Vec::new();
-    let mut groups: std::collections::HashMap<(usize, String), Vec<&TrialRow>> =
-        std::collections::HashMap::new();
-    for r in rows {
-        let k = (r.point, r.outcome.method.clone());
-        if !groups.contains_key(&k) {
-            keys.push(k.clone());
-        }
-        groups.entry(k).or_default().push(r);
-    }
-    keys.into_iter()
-        .map(|k| {
-            let g = &groups[&k];
-            let stats = (0..METRICS.len())
-                .map(|m| Stats::of(&g.iter().filter_map(|r| r.metric(m)).collect::<Vec<_>>()))
-                .collect();
-            SummaryRow {
-                point: k.0,
-                values: g[0].values.clone(),
-                method: k.1,
-                trials: g.len(),
-                failures: g.iter().filter(|r| r.outcome.result.is_err()).count(),
-                stats,
-            }
-        })
-        .collect()
-}
-
-#[derive(Debug, thiserror::Error)]
-pub enum SweepError {
-    #[error(transparent)]
-    Scenario(ScenarioError),
-    #[error("writing results: {0}")]
-    Io(String),
 }

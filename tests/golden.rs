@@ -22,7 +22,11 @@ fn sweepable(path: &Path, tmp: &Path) -> PathBuf {
     }
     let seed = text
         .lines()
-        .find_map(|l| l.trim().strip_prefix("seed = ").map(|s| s.trim().to_string()))
+        .find_map(|l| {
+            l.trim()
+                .strip_prefix("seed = ")
+                .map(|s| s.trim().to_string())
+        })
         .unwrap_or_else(|| "1".into());
     let copy = tmp.join(path.file_name().unwrap());
     std::fs::write(

@@ -1,8 +1,10 @@
 //! The capture file (JSON, version 1): the format adapter between `Captures` and the disk. Units
 //! at the edge are the papers' (mm); inside, metres. Documented in docs/captures.md.
 
+use super::FormatError;
 use crate::captures::{CaptureProfile, Captures, Group, ProfileData, Role};
 use crate::features::{Circle, EdgeSense};
+use crate::method::{Kind, method};
 use crate::sensor::{Profile, ProfilePoint, SensorModel};
 use nalgebra::{Isometry3, Matrix3, Quaternion, Translation3, UnitQuaternion, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
@@ -91,7 +93,7 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
     let file = FileV1 {
         format: FORMAT.into(),
         version: VERSION,
-        method: c.method.clone(),
+        method: c.method.to_string(),
         sensor: c.sensor.clone(),
         sensor_noise: Some(NoiseV1 {
             z_sigma_near_mm: n.z_sigma_near * 1e3,
@@ -165,15 +167,22 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
     serde_json::to_string(&file).unwrap_or_default()
 }
 
-fn err(file: &str, at: &str, msg: impl std::fmt::Display) -> String {
-    format!("{file}: {at}: {msg}")
+fn err(file: &str, at: &str, msg: impl std::fmt::Display) -> FormatError {
+    FormatError::Field {
+        file: file.to_string(),
+        at: at.to_string(),
+        message: msg.to_string(),
+    }
 }
 
 /// Parse a capture file; errors name the file, the record and the field. Returns the captures and
 /// the sensor model to extract features with (the preset, with the file's noise figures).
-pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), String> {
-    let f: FileV1 =
-        serde_json::from_str(text).map_err(|e| format!("{file}: not a valid capture file: {e}"))?;
+pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), FormatError> {
+    let f: FileV1 = serde_json::from_str(text).map_err(|e| FormatError::Invalid {
+        file: file.to_string(),
+        what: "capture file",
+        message: e.to_string(),
+    })?;
     if f.format != FORMAT {
         return Err(err(
             file,
@@ -191,13 +200,11 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Stri
             ),
         ));
     }
-    if !["disk", "ball", "edge"].contains(&f.method.as_str()) {
-        return Err(err(
-            file,
-            "method",
-            format!("'{}': use disk, ball or edge", f.method),
-        ));
-    }
+    let kind: Kind = f
+        .method
+        .parse()
+        .map_err(|e: crate::method::UnknownMethod| err(file, "method", e))?;
+    let m = method(kind);
     let mut sensor = SensorModel::preset(&f.sensor).map_err(|e| err(file, "sensor", e))?;
     if let Some(n) = &f.sensor_noise {
         for (k, v) in [
@@ -229,7 +236,7 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Stri
                 format!("{r} must be a positive length"),
             ));
         }
-        None if f.method != "edge" => {
+        None if m.needs_radius() => {
             return Err(err(
                 file,
                 "specimen.radius_mm",
@@ -259,20 +266,17 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Stri
     });
     let mut groups = Vec::new();
     for (i, g) in f.groups.iter().enumerate() {
-        let role = match g.role.as_str() {
-            "scan" => Role::Scan,
-            "rotation" => Role::Rotation,
-            "translation" => Role::Translation,
-            "rotation-group" => Role::RotationGroup,
-            r => {
-                return Err(err(
-                    file,
-                    &format!("groups[{i}].role"),
-                    format!("'{r}': use scan, rotation, translation or rotation-group"),
-                ));
-            }
+        let Some(role) = Role::ALL.into_iter().find(|r| r.name() == g.role) else {
+            return Err(err(
+                file,
+                &format!("groups[{i}].role"),
+                format!(
+                    "'{}': use scan, rotation, translation or rotation-group",
+                    g.role
+                ),
+            ));
         };
-        if f.method != "edge" && g.sign != 1.0 && g.sign != -1.0 {
+        if m.uses_group_signs() && g.sign != 1.0 && g.sign != -1.0 {
             return Err(err(
                 file,
                 &format!("groups[{i}].sign"),
@@ -392,7 +396,7 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Stri
         } else if let Some(e) = p.edge_point_mm {
             ProfileData::EdgePoint(v(e))
         } else {
-            unreachable!("exactly one data field was checked above")
+            return Err(err(file, &format!("profiles[{i}]"), "no data field"));
         };
         profiles.push(CaptureProfile {
             group: p.group,
@@ -402,7 +406,7 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Stri
     }
     Ok((
         Captures {
-            method: f.method,
+            method: kind,
             sensor: f.sensor,
             specimen_kind: f.specimen.kind,
             specimen_radius: radius,

@@ -1,8 +1,14 @@
-//! CSV rows of sweeps. Numbers are printed in Rust's shortest round-trip form, so equal values
-//! always give equal bytes (merging shards reproduces an unsharded run exactly).
+//! trials.csv and summary.csv, written and read with the `csv` crate. Numbers are printed in
+//! Rust's shortest round-trip form, so equal values always give equal bytes (merging shards
+//! reproduces an unsharded run exactly). The columns come from `metrics::Metric`.
 
-use crate::sweep::{METRICS, SummaryRow, TrialRow};
+use super::FormatError;
+use crate::method::MethodId;
+use crate::metrics::{Metric, Metrics, Stat, parse_column, summary_columns};
+use crate::sweep::{MetricRow, SummaryRow, TrialRow};
+use std::io::{Read, Write};
 
+/// A grid value as a cell: strings bare, floats in shortest form.
 fn cell(v: &toml::Value) -> String {
     match v {
         toml::Value::String(s) => s.clone(),
@@ -11,102 +17,135 @@ fn cell(v: &toml::Value) -> String {
     }
 }
 
-fn quote(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
+fn num(x: f64) -> String {
+    format!("{x}")
+}
+
+/// The columns of trials.csv after the point and the grid keys.
+const TRIAL_HEAD: [&str; 3] = ["method", "trial", "ok"];
+const TRIAL_TAIL: [&str; 2] = ["missed_profiles", "error"];
+
+/// Header of trials.csv.
+pub fn trials_header(grid_keys: &[String]) -> Vec<String> {
+    let mut h = vec!["point".to_string()];
+    h.extend(grid_keys.iter().cloned());
+    h.extend(TRIAL_HEAD.map(String::from));
+    h.extend(Metric::ALL.map(|m| m.name().to_string()));
+    h.extend(TRIAL_TAIL.map(String::from));
+    h
+}
+
+fn writer<W: Write>(w: W) -> csv::Writer<W> {
+    csv::WriterBuilder::new()
+        .terminator(csv::Terminator::Any(b'\n'))
+        .from_writer(w)
+}
+
+fn csv_err(file: &str, e: csv::Error) -> FormatError {
+    FormatError::Field {
+        file: file.to_string(),
+        at: e
+            .position()
+            .map(|p| format!("line {}", p.line()))
+            .unwrap_or_else(|| "CSV".into()),
+        message: e.to_string(),
     }
 }
 
-/// Header of trials.csv.
-pub fn trials_header(grid_keys: &[String]) -> String {
-    let mut h = vec!["point".to_string()];
-    h.extend(grid_keys.iter().cloned());
-    h.extend(
-        [
-            "method",
-            "trial",
-            "ok",
-            "rotation_error_deg",
-            "translation_error_mm",
-            "frobenius_rotation",
-            "centre_error_mm",
-            "accuracy_mm",
-            "edge_angle_dev_deg",
-            "edge_distance_mm",
-            "sphere_radius_mm",
-            "missed_profiles",
-            "error",
-        ]
-        .map(String::from),
-    );
-    h.join(",") + "\n"
+/// Streams trial rows to trials.csv.
+pub struct TrialsWriter<W: Write> {
+    w: csv::Writer<W>,
+    file: String,
 }
 
-/// One line of trials.csv.
-pub fn trial_line(r: &TrialRow) -> String {
+impl<W: Write> TrialsWriter<W> {
+    /// Write the header; `file` names the output in errors.
+    pub fn new(w: W, grid_keys: &[String], file: &str) -> Result<Self, FormatError> {
+        let mut w = writer(w);
+        w.write_record(trials_header(grid_keys))
+            .map_err(|e| csv_err(file, e))?;
+        Ok(TrialsWriter {
+            w,
+            file: file.to_string(),
+        })
+    }
+
+    pub fn write(&mut self, r: &TrialRow) -> Result<(), FormatError> {
+        self.w
+            .write_record(trial_record(r))
+            .map_err(|e| csv_err(&self.file, e))
+    }
+
+    /// Write a record read back from a shard as it is.
+    pub fn write_raw(&mut self, record: &csv::StringRecord) -> Result<(), FormatError> {
+        self.w
+            .write_record(record)
+            .map_err(|e| csv_err(&self.file, e))
+    }
+
+    pub fn finish(mut self) -> Result<W, FormatError> {
+        self.w.flush().map_err(|e| FormatError::Field {
+            file: self.file.clone(),
+            at: "flush".into(),
+            message: e.to_string(),
+        })?;
+        let file = self.file.clone();
+        self.w.into_inner().map_err(|e| FormatError::Field {
+            file,
+            at: "flush".into(),
+            message: e.to_string(),
+        })
+    }
+}
+
+/// One record of trials.csv.
+fn trial_record(r: &TrialRow) -> Vec<String> {
     let mut c = vec![r.point.to_string()];
-    c.extend(r.values.iter().map(|(_, v)| quote(&cell(v))));
-    c.push(r.outcome.method.clone());
+    c.extend(r.values.iter().map(|(_, v)| cell(v)));
+    c.push(r.outcome.method.to_string());
     c.push(r.outcome.trial.to_string());
     match &r.outcome.result {
         Ok(s) => {
             c.push("true".into());
-            for x in [
-                s.error.rotation_error_deg,
-                s.error.translation_error_mm,
-                s.error.frobenius_rotation,
-            ] {
-                c.push(format!("{x}"));
-            }
-            for x in [
-                s.centre_error_mm,
-                s.accuracy_mm,
-                s.edge_angle_dev_deg,
-                s.edge_distance_mm,
-                s.sphere_radius_mm,
-            ] {
-                c.push(x.map(|v| format!("{v}")).unwrap_or_default());
-            }
+            c.extend(Metric::ALL.map(|m| s.metrics.get(m).map(num).unwrap_or_default()));
             c.push(r.outcome.missed_profiles.to_string());
             c.push(String::new());
         }
         Err(e) => {
             c.push("false".into());
-            c.extend(std::iter::repeat_n(String::new(), 8));
+            c.extend(Metric::ALL.map(|_| String::new()));
             c.push(r.outcome.missed_profiles.to_string());
-            c.push(quote(e));
+            c.push(e.to_string());
         }
     }
-    c.join(",") + "\n"
+    c
 }
 
 /// The whole summary.csv.
-pub fn summary(grid_keys: &[String], rows: &[SummaryRow]) -> String {
+pub fn summary(grid_keys: &[String], rows: &[SummaryRow]) -> Result<Vec<u8>, FormatError> {
+    let mut w = writer(Vec::new());
+    let err = |e| csv_err("summary.csv", e);
     let mut h = vec!["point".to_string()];
     h.extend(grid_keys.iter().cloned());
     h.extend(["method", "trials", "failures"].map(String::from));
-    for m in METRICS {
-        for s in ["mean", "rms", "std", "median", "p95"] {
-            h.push(format!("{m}_{s}"));
-        }
-    }
-    let mut out = h.join(",") + "\n";
+    h.extend(summary_columns());
+    w.write_record(&h).map_err(err)?;
     for r in rows {
         let mut c = vec![r.point.to_string()];
-        c.extend(r.values.iter().map(|(_, v)| quote(&cell(v))));
-        c.push(r.method.clone());
+        c.extend(r.values.iter().map(|(_, v)| cell(v)));
+        c.push(r.method.to_string());
         c.push(r.trials.to_string());
         c.push(r.failures.to_string());
         for s in &r.stats {
-            for x in [s.mean, s.rms, s.std, s.median, s.p95] {
-                c.push(format!("{x}"));
-            }
+            c.extend(Stat::ALL.map(|k| num(s.get(k))));
         }
-        out += &(c.join(",") + "\n");
+        w.write_record(&c).map_err(err)?;
     }
-    out
+    w.into_inner().map_err(|e| FormatError::Field {
+        file: "summary.csv".into(),
+        at: "flush".into(),
+        message: e.to_string(),
+    })
 }
 
 /// The value of a summary column for a row (grid keys, `trials`, `failures`, `<metric>_<stat>`).
@@ -123,112 +162,86 @@ pub fn summary_value(r: &SummaryRow, column: &str) -> Option<f64> {
         "failures" => return Some(r.failures as f64),
         _ => {}
     }
-    for (k, m) in METRICS.iter().enumerate() {
-        if let Some(stat) = column.strip_prefix(m).and_then(|s| s.strip_prefix('_')) {
-            let s = r.stats.get(k)?;
-            return match stat {
-                "mean" => Some(s.mean),
-                "rms" => Some(s.rms),
-                "std" => Some(s.std),
-                "median" => Some(s.median),
-                "p95" => Some(s.p95),
-                _ => None,
-            };
-        }
-    }
-    None
+    let (m, s) = parse_column(column)?;
+    let k = Metric::SUMMARISED.iter().position(|x| *x == m)?;
+    r.stats.get(k).map(|st| st.get(s))
 }
 
-/// Split one CSV line into fields (double-quoted fields may hold commas and doubled quotes).
-pub fn split_line(line: &str) -> Vec<String> {
-    let mut out = Vec::new();
-    let mut cur = String::new();
-    let mut quoted = false;
-    let mut chars = line.chars().peekable();
-    while let Some(c) = chars.next() {
-        match (c, quoted) {
-            ('"', true) if chars.peek() == Some(&'"') => {
-                cur.push('"');
-                chars.next();
-            }
-            ('"', _) => quoted = !quoted,
-            (',', false) => out.push(std::mem::take(&mut cur)),
-            (c, _) => cur.push(c),
-        }
-    }
-    out.push(cur);
-    out
+/// Whether `column` names a summary column (for checking plot keys before a sweep runs).
+pub fn is_summary_column(grid_keys: &[String], column: &str) -> bool {
+    grid_keys.iter().any(|k| k == column)
+        || matches!(column, "trials" | "failures")
+        || parse_column(column).is_some()
 }
 
-/// Parse trials.csv back into the numbers a summary needs, keeping each line's text. Errors name
-/// the line and the field.
-pub fn parse_trials(
-    text: &str,
+/// Read trials.csv back: each row's metrics and its record (to copy it unchanged). Errors name
+/// the file, the line and the field.
+pub fn read_trials<R: Read>(
+    input: R,
     grid_keys: &[String],
     file: &str,
-) -> Result<Vec<(crate::sweep::MetricRow, String)>, String> {
-    let mut lines = text.lines();
-    let header = lines.next().ok_or_else(|| format!("{file}: empty file"))?;
-    if format!("{header}\n") != trials_header(grid_keys) {
-        return Err(format!(
-            "{file}: line 1: the header does not match this scenario's grid ({})",
-            grid_keys.join(", ")
-        ));
+) -> Result<impl Iterator<Item = Result<(MetricRow, csv::StringRecord), FormatError>>, FormatError>
+{
+    let mut rd = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .flexible(false)
+        .from_reader(input);
+    let header = rd.headers().map_err(|e| csv_err(file, e))?.clone();
+    let want = trials_header(grid_keys);
+    if header.iter().ne(want.iter().map(String::as_str)) {
+        return Err(FormatError::Field {
+            file: file.to_string(),
+            at: "line 1".into(),
+            message: format!(
+                "the header does not match this scenario's grid ({})",
+                grid_keys.join(", ")
+            ),
+        });
     }
     let g = grid_keys.len();
-    let mut out = Vec::new();
-    for (i, line) in lines.enumerate() {
-        let n = i + 2;
-        let f = split_line(line);
-        if f.len() != g + 14 {
-            return Err(format!(
-                "{file}: line {n}: {} fields, expected {}",
-                f.len(),
-                g + 14
-            ));
-        }
-        let num = |k: usize, what: &str| -> Result<Option<f64>, String> {
-            if f[k].is_empty() {
-                Ok(None)
-            } else {
-                f[k].parse::<f64>()
-                    .map(Some)
-                    .map_err(|_| format!("{file}: line {n}: {what} = '{}' is not a number", f[k]))
-            }
+    let file = file.to_string();
+    Ok(rd.into_records().map(move |rec| {
+        let rec = rec.map_err(|e| csv_err(&file, e))?;
+        let line = rec.position().map(|p| p.line()).unwrap_or(0);
+        let bad = |what: &str, v: &str, expected: &str| FormatError::Field {
+            file: file.clone(),
+            at: format!("line {line}"),
+            message: format!("{what} = '{v}': {expected}"),
         };
-        let point = f[0]
+        let f = |k: usize| rec.get(k).unwrap_or("");
+        let point = f(0)
             .parse::<usize>()
-            .map_err(|_| format!("{file}: line {n}: point = '{}' is not an index", f[0]))?;
-        let trial = f[g + 2]
+            .map_err(|_| bad("point", f(0), "not an index"))?;
+        let method = f(g + 1)
+            .parse::<MethodId>()
+            .map_err(|e| bad("method", f(g + 1), &e.to_string()))?;
+        let trial = f(g + 2)
             .parse::<u64>()
-            .map_err(|_| format!("{file}: line {n}: trial = '{}' is not an index", f[g + 2]))?;
-        let ok = match f[g + 3].as_str() {
+            .map_err(|_| bad("trial", f(g + 2), "not an index"))?;
+        let ok = match f(g + 3) {
             "true" => true,
             "false" => false,
-            v => {
-                return Err(format!(
-                    "{file}: line {n}: ok = '{v}', expected true or false"
-                ));
-            }
+            v => return Err(bad("ok", v, "expected true or false")),
         };
-        let metrics = [
-            num(g + 7, "centre_error_mm")?,
-            num(g + 4, "rotation_error_deg")?,
-            num(g + 5, "translation_error_mm")?,
-            num(g + 9, "edge_angle_dev_deg")?,
-            num(g + 10, "edge_distance_mm")?,
-            num(g + 11, "sphere_radius_mm")?,
-        ];
-        out.push((
-            crate::sweep::MetricRow {
+        let mut metrics = Metrics::default();
+        for (i, m) in Metric::ALL.into_iter().enumerate() {
+            let v = f(g + 4 + i);
+            if !v.is_empty() {
+                let x = v
+                    .parse::<f64>()
+                    .map_err(|_| bad(m.name(), v, "not a number"))?;
+                metrics.set(m, Some(x));
+            }
+        }
+        Ok((
+            MetricRow {
                 point,
-                method: f[g + 1].clone(),
+                method,
                 trial,
                 ok,
                 metrics,
             },
-            format!("{line}\n"),
-        ));
-    }
-    Ok(out)
+            rec,
+        ))
+    }))
 }

@@ -1,6 +1,7 @@
 //! Line plots (SVG and PNG) in the style of the papers' figures. The font is bundled so no system
 //! font is needed.
 
+use super::FormatError;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -72,12 +73,15 @@ fn bounds(f: &Figure) -> ((f64, f64), (f64, f64)) {
 fn draw<DB: DrawingBackend>(
     root: DrawingArea<DB, plotters::coord::Shift>,
     f: &Figure,
-) -> Result<(), String>
+) -> Result<(), FormatError>
 where
     DB::ErrorType: 'static,
 {
     register_font();
-    let e = |err: DrawingAreaErrorKind<DB::ErrorType>| format!("plot: {err:?}");
+    let e = |err: DrawingAreaErrorKind<DB::ErrorType>| FormatError::Render {
+        what: "plot".into(),
+        message: format!("{err:?}"),
+    };
     root.fill(&WHITE).map_err(e)?;
     let ((x0, x1), (y0, y1)) = bounds(f);
     let mut b = ChartBuilder::on(&root);
@@ -141,7 +145,7 @@ where
 }
 
 /// The figure as SVG text.
-pub fn svg(f: &Figure) -> Result<String, String> {
+pub fn svg(f: &Figure) -> Result<String, FormatError> {
     let mut out = String::new();
     {
         let root = SVGBackend::with_string(&mut out, (900, 600)).into_drawing_area();
@@ -151,7 +155,7 @@ pub fn svg(f: &Figure) -> Result<String, String> {
 }
 
 /// Write the figure as a PNG file.
-pub fn png(f: &Figure, path: &Path) -> Result<(), String> {
+pub fn png(f: &Figure, path: &Path) -> Result<(), FormatError> {
     let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
     draw(root, f)
 }
@@ -164,9 +168,8 @@ pub fn from_summary(
     scenario: &str,
 ) -> Figure {
     use crate::io::csv::summary_value;
-    let methods: Vec<&str> = {
-        let mut m: Vec<&str> = rows.iter().map(|r| r.method.as_str()).collect();
-        m.dedup();
+    let methods: Vec<crate::method::MethodId> = {
+        let mut m: Vec<_> = rows.iter().map(|r| r.method).collect();
         m.sort();
         m.dedup();
         m

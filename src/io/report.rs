@@ -17,7 +17,11 @@ pub fn report(
     let mut s = format!("# Sweep report: {}\n\n{}\n\n", sc.name, sc.description);
     s += &format!(
         "- scenario file: `{file_name}`\n- seed: {seed}\n- trials per grid point: {trials}\n- methods: {}\n",
-        sc.methods.join(", ")
+        sc.methods
+            .iter()
+            .map(|m| m.to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
     );
     s += &format!("- software: lasercal {}\n", env!("CARGO_PKG_VERSION"));
     if let Some(sw) = &sc.sweep {
@@ -48,7 +52,7 @@ pub fn report(
     s += "\n";
     for r in rows {
         let mut c: Vec<String> = r.values.iter().map(|(_, v)| v.to_string()).collect();
-        c.push(r.method.clone());
+        c.push(r.method.to_string());
         c.push(r.trials.to_string());
         c.push(r.failures.to_string());
         for k in cols {

@@ -9,6 +9,7 @@
 //! - `sweep/<series>/<column>`: a sweep's curves as scalar series on the timeline `x`.
 //! Timelines: `capture` (profile index) for runs, `x` for sweeps.
 
+use super::FormatError;
 use crate::captures::{Captures, ProfileData};
 use crate::robot::{Geometry, Robot};
 use crate::scenario::Setup;
@@ -16,7 +17,7 @@ use crate::scene::{PartShape, Scene, Specimen};
 use crate::sensor::SensorModel;
 use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
 
-type Res = Result<(), String>;
+type Res = Result<(), FormatError>;
 
 fn f3(v: &Vector3<f64>) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
@@ -35,22 +36,35 @@ pub struct Recorder {
     rec: rerun::RecordingStream,
 }
 
-fn e(x: impl std::fmt::Display) -> String {
-    format!("rerun: {x}")
+fn e(x: impl std::fmt::Display) -> FormatError {
+    FormatError::Render {
+        what: "rerun".into(),
+        message: x.to_string(),
+    }
 }
 
 impl Recorder {
     /// Record into an .rrd file.
-    pub fn save(path: &std::path::Path) -> Result<Recorder, String> {
+    pub fn save(path: &std::path::Path) -> Result<Recorder, FormatError> {
         let rec = rerun::RecordingStreamBuilder::new("lasercal")
             .save(path)
-            .map_err(|x| format!("{}: {x}", path.display()))?;
+            .map_err(|x| FormatError::Render {
+                what: path.display().to_string(),
+                message: x.to_string(),
+            })?;
         Ok(Recorder { rec })
     }
 
     /// Record into a newly spawned viewer (needs the `rerun` viewer on PATH).
-    pub fn spawn() -> Result<Recorder, String> {
-        let rec = rerun::RecordingStreamBuilder::new("lasercal").spawn().map_err(|x| format!("cannot spawn the Rerun viewer ({x}); install it with `pip install rerun-sdk==0.36.3`"))?;
+    pub fn spawn() -> Result<Recorder, FormatError> {
+        let rec = rerun::RecordingStreamBuilder::new("lasercal")
+            .spawn()
+            .map_err(|x| FormatError::Render {
+                what: "rerun".into(),
+                message: format!(
+                    "cannot spawn the Rerun viewer ({x}); install it with `pip install rerun-sdk==0.36.3`"
+                ),
+            })?;
         Ok(Recorder { rec })
     }
 
@@ -236,12 +250,10 @@ impl Recorder {
     /// true and the recovered sensor poses, on the timeline `capture`.
     pub fn log_run(&self, setup: &Setup, caps: &Captures, estimate: &Isometry3<f64>) -> Res {
         let rig = &setup.rig;
-        let scene = match caps.method.as_str() {
-            "ball" => setup.ball.as_ref().map(|b| &b.scene),
-            "edge" => setup.edge.as_ref().map(|x| &x.scene),
-            _ => None,
-        }
-        .unwrap_or(&setup.scene);
+        let scene = setup
+            .plan(caps.method)
+            .map(|p| p.scene())
+            .unwrap_or(&setup.scene);
         self.scene(scene)?;
         self.arm_geometry(&rig.robot)?;
         self.fan(&rig.sensor)?;

@@ -11,7 +11,7 @@
 //! Edge rounding is a change of shape, not a small displacement: see `Specimen::edge_radius`.
 
 use super::{Specimen, SpecimenKind};
-use crate::sensor::gauss;
+use crate::rng::gauss;
 use nalgebra::{Point3, Vector3};
 use rand::RngExt;
 

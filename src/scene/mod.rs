@@ -252,3 +252,38 @@ impl Scene {
         self.cast_ray(from, &(d / len), len).is_some()
     }
 }
+
+/// The scene with its first specimen's form error (the scene itself for a perfect part).
+pub fn with_form(
+    scene: std::borrow::Cow<'_, Scene>,
+    form: FormError,
+) -> std::borrow::Cow<'_, Scene> {
+    if form.is_none() {
+        return scene;
+    }
+    let mut s = scene.into_owned();
+    s.set_form(0, form);
+    std::borrow::Cow::Owned(s)
+}
+
+/// The scene with its first specimen's disk or ball radius set to `radius` (when the tolerance is
+/// non-zero; otherwise the scene itself).
+pub fn with_radius(scene: &Scene, radius: f64, tolerance: f64) -> std::borrow::Cow<'_, Scene> {
+    if tolerance == 0.0 {
+        return std::borrow::Cow::Borrowed(scene);
+    }
+    let mut out = Scene::new(scene.table);
+    for (i, (spec, pose)) in scene.specimens.iter().enumerate() {
+        let mut s = spec.clone();
+        if i == 0 {
+            match &mut s.kind {
+                SpecimenKind::DiskOnCylinder { radius: r, .. }
+                | SpecimenKind::DiskOnPaper { radius: r, .. }
+                | SpecimenKind::BallOnPost { radius: r, .. } => *r = radius,
+                _ => {}
+            }
+        }
+        out.add(&s, *pose);
+    }
+    std::borrow::Cow::Owned(out)
+}

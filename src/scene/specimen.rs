@@ -42,6 +42,44 @@ pub enum SpecimenKind {
     },
 }
 
+impl SpecimenKind {
+    pub const DISK_CYLINDER: &str = "disk-cylinder";
+    pub const DISK_PAPER: &str = "disk-paper";
+    pub const BALL: &str = "ball";
+    pub const PARALLEL_BAR: &str = "parallel-bar";
+    pub const SCALE: &str = "scale";
+    pub const KNIFE_BLADE: &str = "knife-blade";
+    /// Every kind's name, as scenario files write it.
+    pub const NAMES: [&str; 6] = [
+        Self::DISK_CYLINDER,
+        Self::DISK_PAPER,
+        Self::BALL,
+        Self::PARALLEL_BAR,
+        Self::SCALE,
+        Self::KNIFE_BLADE,
+    ];
+
+    /// The name scenario files and capture files use.
+    pub fn name(&self) -> &'static str {
+        match self {
+            SpecimenKind::DiskOnCylinder { .. } => Self::DISK_CYLINDER,
+            SpecimenKind::DiskOnPaper { .. } => Self::DISK_PAPER,
+            SpecimenKind::BallOnPost { .. } => Self::BALL,
+            SpecimenKind::ParallelBar { .. } => Self::PARALLEL_BAR,
+            SpecimenKind::Scale { .. } => Self::SCALE,
+            SpecimenKind::KnifeBlade { .. } => Self::KNIFE_BLADE,
+        }
+    }
+
+    /// A disk on a cylinder or on paper.
+    pub fn is_disk(&self) -> bool {
+        matches!(
+            self,
+            SpecimenKind::DiskOnCylinder { .. } | SpecimenKind::DiskOnPaper { .. }
+        )
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct Specimen {
     pub kind: SpecimenKind,
@@ -71,14 +109,7 @@ impl Specimen {
 
     /// Short name used in scenario files and the CLI.
     pub fn name(&self) -> &'static str {
-        match self.kind {
-            SpecimenKind::DiskOnCylinder { .. } => "disk-cylinder",
-            SpecimenKind::DiskOnPaper { .. } => "disk-paper",
-            SpecimenKind::BallOnPost { .. } => "ball",
-            SpecimenKind::ParallelBar { .. } => "parallel-bar",
-            SpecimenKind::Scale { .. } => "scale",
-            SpecimenKind::KnifeBlade { .. } => "knife-blade",
-        }
+        self.kind.name()
     }
 
     /// Disk radius, for disk specimens.

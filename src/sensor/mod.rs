@@ -6,8 +6,6 @@ pub use noise::NoiseModel;
 
 use crate::scene::Scene;
 use nalgebra::{Isometry3, Point3, Vector3};
-use rand::RngExt;
-use rand_distr::StandardNormal;
 use thiserror::Error;
 
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -232,9 +230,4 @@ impl SensorModel {
         }
         Profile { points }
     }
-}
-
-/// A standard normal draw.
-pub(crate) fn gauss(r: &mut crate::rng::Rng) -> f64 {
-    r.sample(StandardNormal)
 }

@@ -1,6 +1,7 @@
 //! Sensor noise: every model off by default, every draw from the caller's seeded stream.
 
-use super::{ProfilePoint, SensorModel, gauss};
+use super::{ProfilePoint, SensorModel};
+use crate::rng::gauss;
 use nalgebra::Point3;
 use rand::RngExt;
 

@@ -4,7 +4,7 @@
 use super::{PlanError, Rig, check_reachable, flange_pose};
 use crate::calib::disk::{DiskChord, DiskScan};
 
-use crate::sensor::gauss;
+use crate::rng::gauss;
 use nalgebra::{Isometry3, Point3, Rotation3, Unit, Vector2, Vector3};
 
 /// The disk as the simulator knows it (base frame, metres).

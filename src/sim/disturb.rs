@@ -5,8 +5,8 @@
 //! one exactly.
 
 use crate::rng::Rng;
+use crate::rng::gauss;
 use crate::robot::{Joints, Robot};
-use crate::sensor::gauss;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use rand::RngExt;
 

@@ -58,21 +58,32 @@ pub struct ArmDynamics {
     robot: Robot,
 }
 
+/// An arm the dynamic model cannot simulate.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum DynamicsError {
+    #[error("time step {dt_s} s: use 0 < dt <= 0.01 s")]
+    TimeStep { dt_s: f64 },
+    #[error("{urdf}: joint origins with a rotation are not supported by the dynamic model yet")]
+    RotatedJointOrigin { urdf: String },
+    #[error("joint '{joint}' could not join the multibody")]
+    Multibody { joint: String },
+}
+
 impl ArmDynamics {
     /// Build the multibody at joint angles zero with gravity along -z (base frame).
-    pub fn new(robot: &Robot, gains: ServoGains, dt: f64) -> Result<ArmDynamics, String> {
+    pub fn new(robot: &Robot, gains: ServoGains, dt: f64) -> Result<ArmDynamics, DynamicsError> {
         if !(dt > 0.0 && dt <= 0.01) {
-            return Err(format!("time step {dt} s: use 0 < dt <= 0.01 s"));
+            return Err(DynamicsError::TimeStep { dt_s: dt });
         }
         if robot
             .joints
             .iter()
             .any(|j| j.prev_to_joint.rotation.angle() > 1e-12)
         {
-            return Err(format!(
-                "{}: joint origins with a rotation are not supported by the dynamic model yet",
-                robot.source
-            ));
+            return Err(DynamicsError::RotatedJointOrigin {
+                urdf: robot.source.to_string(),
+            });
         }
         let mut bodies = RigidBodySet::new();
         let mut multibody = MultibodyJointSet::new();
@@ -115,7 +126,9 @@ impl ArmDynamics {
                 .motor_position(0.0, gains.stiffness, gains.damping);
             let h = multibody
                 .insert(parent, child, joint, true)
-                .ok_or_else(|| format!("joint '{}' could not join the multibody", j.name))?;
+                .ok_or_else(|| DynamicsError::Multibody {
+                    joint: j.name.clone(),
+                })?;
             joints.push(h);
             parent = child;
         }

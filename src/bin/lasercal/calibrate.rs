@@ -2,15 +2,18 @@ use super::common::matrix_text;
 use anyhow::{Context, Result, bail};
 use lasercal::calib::PoseError;
 use lasercal::math::pose_to_rows_mm;
+use lasercal::method::{Estimator, MethodId};
+use lasercal::metrics::Metric;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
     /// Capture file (JSON, docs/captures.md), from a real rig or `lasercal simulate`
     file: PathBuf,
-    /// Method: disk, ball or edge (must match the file's)
+    /// Method: the file's specimen method (disk, ball or edge), closed form by default, or its
+    /// refined variant (disk-refined, ball-refined, edge-refined)
     #[arg(long)]
-    method: Option<String>,
+    method: Option<MethodId>,
     /// Write the result as JSON
     #[arg(long)]
     json: Option<PathBuf>,
@@ -19,19 +22,23 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let name = a.file.display().to_string();
     let text = std::fs::read_to_string(&a.file).with_context(|| format!("{name}: cannot read"))?;
-    let (caps, sensor) =
-        lasercal::io::captures::from_json(&text, &name).map_err(anyhow::Error::msg)?;
-    if let Some(m) = &a.method
-        && *m != caps.method
-    {
-        bail!("--method {m}: {name} holds {} captures", caps.method);
+    let (caps, sensor) = lasercal::io::captures::from_json(&text, &name)?;
+    let method = a
+        .method
+        .unwrap_or(MethodId::new(caps.method, Estimator::ClosedForm));
+    if method.kind != caps.method {
+        bail!(
+            "--method {method}: {name} holds {} captures; use {} or {}-refined",
+            caps.method,
+            caps.method,
+            caps.method
+        );
     }
-    let cal = lasercal::captures::calibrate(&caps, &sensor)
-        .map_err(|e| anyhow::anyhow!("{name}: {} calibration failed: {e}", caps.method))?;
+    let (cal, refined) = lasercal::method::estimate(method, &caps, &sensor)
+        .with_context(|| format!("{name}: {method} calibration failed"))?;
     let est = pose_to_rows_mm(&cal.flange_to_sensor);
     println!(
-        "{}: recovered flange_to_sensor (mm) from {} profiles:\n{}",
-        caps.method,
+        "{method}: recovered flange_to_sensor (mm) from {} profiles:\n{}",
         caps.profiles.len(),
         matrix_text(&est)
     );
@@ -42,15 +49,35 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     let mut doc = serde_json::json!({
-        "method": caps.method,
+        "method": method,
         "flange_to_sensor": est,
         "centre_in_base_mm": cal.centre_in_base.map(|c| [c.x * 1e3, c.y * 1e3, c.z * 1e3]),
-        "accuracy_mm": cal.accuracy.map(|x| x * 1e3),
-        "edge_angle_dev_deg": cal.edge_angle_dev.map(f64::to_degrees),
-        "edge_distance_mm": cal.edge_distance.map(|x| x * 1e3),
         "missed_profiles": cal.missed,
         "status": cal.status,
     });
+    for m in [Metric::Accuracy, Metric::EdgeAngleDev, Metric::EdgeDistance] {
+        doc[m.name()] = serde_json::json!(cal.figures.get(m));
+    }
+    if let Some(r) = &refined {
+        println!(
+            "{method}: predicted sd: rotation about sensor x/y/z {:.4} / {:.4} / {:.4} deg, \
+             translation along flange x/y/z {:.4} / {:.4} / {:.4} mm; residual RMS {:.4} mm",
+            r.sd_rotation_deg.x,
+            r.sd_rotation_deg.y,
+            r.sd_rotation_deg.z,
+            r.sd_translation_mm.x,
+            r.sd_translation_mm.y,
+            r.sd_translation_mm.z,
+            r.residual_rms * 1e3
+        );
+        doc["refinement"] = serde_json::json!({
+            "sd_rotation_deg": [r.sd_rotation_deg.x, r.sd_rotation_deg.y, r.sd_rotation_deg.z],
+            "sd_translation_mm": [r.sd_translation_mm.x, r.sd_translation_mm.y, r.sd_translation_mm.z],
+            "residual_rms_mm": r.residual_rms * 1e3,
+            "condition": r.observability.condition,
+            "weakest": r.observability.weakest,
+        });
+    }
     if let Some(t) = &caps.truth {
         let e = PoseError::between(&cal.flange_to_sensor, t);
         println!(
@@ -62,8 +89,7 @@ pub fn run(a: Args) -> Result<()> {
         doc["translation_error_mm"] = serde_json::json!(e.translation_error_mm);
     }
     if let Some(p) = &a.json {
-        lasercal::io::write(p, serde_json::to_string_pretty(&doc)?.as_bytes())
-            .map_err(anyhow::Error::msg)?;
+        lasercal::io::write(p, serde_json::to_string_pretty(&doc)?.as_bytes())?;
     }
     Ok(())
 }

@@ -43,8 +43,8 @@ pub fn run(a: Args) -> Result<i32> {
     let setup = sf.scenario.build(&sf.file)?;
     let seed = a.seed.unwrap_or(sf.scenario.seed);
     let mut code = 0;
-    for method in &sf.scenario.methods {
-        let pb = progress(a.trials as u64, method);
+    for &method in &sf.scenario.methods {
+        let pb = progress(a.trials as u64, &method.to_string());
         let outs: Vec<_> = (0..a.trials as u64)
             .into_par_iter()
             .map(|t| {
@@ -60,11 +60,16 @@ pub fn run(a: Args) -> Result<i32> {
             .collect();
         let mut rot: Vec<f64> = outs
             .iter()
-            .filter_map(|o| o.result.as_ref().ok().map(|s| s.error.rotation_error_deg))
+            .filter_map(|o| o.result.as_ref().ok().map(|s| s.error().rotation_error_deg))
             .collect();
         let mut tr: Vec<f64> = outs
             .iter()
-            .filter_map(|o| o.result.as_ref().ok().map(|s| s.error.translation_error_mm))
+            .filter_map(|o| {
+                o.result
+                    .as_ref()
+                    .ok()
+                    .map(|s| s.error().translation_error_mm)
+            })
             .collect();
         if !failed.is_empty() {
             println!(

@@ -6,7 +6,7 @@ use std::path::Path;
 
 /// Load a scenario file with a clear error.
 pub fn load_scenario(path: &Path) -> Result<ScenarioFile> {
-    ScenarioFile::load(path).map_err(anyhow::Error::from)
+    Ok(ScenarioFile::load(path)?)
 }
 
 /// A progress bar on stderr when it is a terminal and not under CI; hidden otherwise.

@@ -1,8 +1,10 @@
 use super::sweep::{Meta, finish};
 use anyhow::{Context, Result, bail};
 use lasercal::io;
+use lasercal::method::MethodId;
 use lasercal::scenario::ScenarioFile;
 use lasercal::sweep::{SweepPlan, summarise_metrics};
+use std::io::Write;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -49,25 +51,23 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     let sf = ScenarioFile::parse(&first.scenario_text, &first.scenario_file)?;
-    let plan = SweepPlan::new(&sf, Some(first.trials), Some(first.seed))?;
-    let method_rank = |m: &str| {
+    let plan = SweepPlan::new(&sf, Some(first.trials), Some(first.seed));
+    let method_rank = |m: MethodId| {
         sf.scenario
             .methods
             .iter()
-            .position(|x| x == m)
+            .position(|x| *x == m)
             .unwrap_or(usize::MAX)
     };
     let mut rows = Vec::new();
     for (d, _) in &metas {
         let p = d.join("trials.csv");
-        let text =
-            std::fs::read_to_string(&p).with_context(|| format!("{}: cannot read", p.display()))?;
-        rows.extend(
-            io::csv::parse_trials(&text, &plan.grid_keys, &p.display().to_string())
-                .map_err(anyhow::Error::msg)?,
-        );
+        let f = std::fs::File::open(&p).with_context(|| format!("{}: cannot read", p.display()))?;
+        for row in io::csv::read_trials(f, &plan.grid_keys, &p.display().to_string())? {
+            rows.push(row?);
+        }
     }
-    rows.sort_by_key(|(m, _)| (m.point, method_rank(&m.method), m.trial));
+    rows.sort_by_key(|(m, _)| (m.point, method_rank(m.method), m.trial));
     let expected = plan.work(lasercal::sweep::Shard::ALL);
     if rows.len() != expected {
         bail!(
@@ -79,11 +79,18 @@ pub fn run(a: Args) -> Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&sf.scenario.name));
-    let mut csv = io::csv::trials_header(&plan.grid_keys);
-    for (_, line) in &rows {
-        csv += line;
+    let trials_path = out.join("trials.csv");
+    let mut csv = io::csv::TrialsWriter::new(
+        io::create(&trials_path)?,
+        &plan.grid_keys,
+        &trials_path.display().to_string(),
+    )?;
+    for (_, record) in &rows {
+        csv.write_raw(record)?;
     }
-    io::write(&out.join("trials.csv"), csv.as_bytes()).map_err(anyhow::Error::msg)?;
+    csv.finish()?
+        .flush()
+        .with_context(|| format!("{}: cannot write", trials_path.display()))?;
     let metrics: Vec<_> = rows.into_iter().map(|(m, _)| m).collect();
     let summary = summarise_metrics(&metrics, &plan.points);
     finish(&out, &sf, &plan, &summary)?;
@@ -95,8 +102,7 @@ pub fn run(a: Args) -> Result<()> {
     io::write(
         &out.join("sweep.json"),
         serde_json::to_string_pretty(&meta)?.as_bytes(),
-    )
-    .map_err(anyhow::Error::msg)?;
+    )?;
     eprintln!(
         "merged {} shards ({} trials) into {}",
         metas.len(),

@@ -1,6 +1,8 @@
 use super::common::{load_scenario, matrix_text};
 use anyhow::{Result, bail};
 use lasercal::math::pose_to_rows_mm;
+use lasercal::method::MethodId;
+use lasercal::metrics::Metric;
 use lasercal::trial::run_trial;
 use std::path::PathBuf;
 
@@ -26,33 +28,33 @@ pub struct Args {
     spawn: bool,
     /// Method to record with --rerun/--spawn (default: the scenario's first)
     #[arg(long)]
-    rerun_method: Option<String>,
+    rerun_method: Option<MethodId>,
 }
 
 #[cfg(feature = "rerun")]
 fn record(
     a: &Args,
     setup: &lasercal::scenario::Setup,
-    methods: &[String],
+    methods: &[MethodId],
     seed: u64,
-    estimates: &[(String, nalgebra::Isometry3<f64>)],
+    estimates: &[(MethodId, nalgebra::Isometry3<f64>)],
 ) -> Result<()> {
     use lasercal::io::rerun::Recorder;
-    let method = a.rerun_method.clone().unwrap_or_else(|| methods[0].clone());
+    let method = a.rerun_method.unwrap_or(methods[0]);
     let Some((_, est)) = estimates.iter().find(|(m, _)| *m == method) else {
         bail!("--rerun-method {method}: no calibration of that method in this run");
     };
-    let (caps, _) = lasercal::trial::trial_captures(setup, &method, seed, a.trial);
-    let caps = caps.map_err(anyhow::Error::msg)?;
+    let (caps, _) = lasercal::trial::trial_captures(setup, method.kind, seed, a.trial);
+    let caps = caps?;
     let mut recorders = Vec::new();
     if let Some(p) = &a.rerun {
-        recorders.push(Recorder::save(p).map_err(anyhow::Error::msg)?);
+        recorders.push(Recorder::save(p)?);
     }
     if a.spawn {
-        recorders.push(Recorder::spawn().map_err(anyhow::Error::msg)?);
+        recorders.push(Recorder::spawn()?);
     }
     for r in &recorders {
-        r.log_run(setup, &caps, est).map_err(anyhow::Error::msg)?;
+        r.log_run(setup, &caps, est)?;
     }
     Ok(())
 }
@@ -61,9 +63,9 @@ fn record(
 fn record(
     _: &Args,
     _: &lasercal::scenario::Setup,
-    _: &[String],
+    _: &[MethodId],
     _: u64,
-    _: &[(String, nalgebra::Isometry3<f64>)],
+    _: &[(MethodId, nalgebra::Isometry3<f64>)],
 ) -> Result<()> {
     bail!(
         "this lasercal was built without the `rerun` feature: rebuild with default features for --rerun/--spawn"
@@ -81,11 +83,12 @@ pub fn run(a: Args) -> Result<()> {
     let mut results = Vec::new();
     let mut estimates = Vec::new();
     let mut failed = false;
-    for method in &sc.methods {
+    for &method in &sc.methods {
         let out = run_trial(&setup, method, seed, a.trial);
         match &out.result {
             Ok(s) => {
-                estimates.push((method.clone(), s.estimate));
+                let error = s.error();
+                estimates.push((method, s.estimate));
                 let est = pose_to_rows_mm(&s.estimate);
                 println!(
                     "\n{method}: recovered flange_to_sensor (mm):\n{}",
@@ -93,20 +96,10 @@ pub fn run(a: Args) -> Result<()> {
                 );
                 let mut line = format!(
                     "{method}: rotation error {:.6} deg, translation error {:.6} mm, |dR|_F {:.3e}",
-                    s.error.rotation_error_deg,
-                    s.error.translation_error_mm,
-                    s.error.frobenius_rotation
+                    error.rotation_error_deg, error.translation_error_mm, error.frobenius_rotation
                 );
-                for (name, v, unit) in [
-                    ("centre error", s.centre_error_mm, "mm"),
-                    ("centre spread (accuracy)", s.accuracy_mm, "mm"),
-                    ("mean edge-direction deviation", s.edge_angle_dev_deg, "deg"),
-                    ("mean point-to-edge distance", s.edge_distance_mm, "mm"),
-                    ("reconstructed ball radius", s.sphere_radius_mm, "mm"),
-                ] {
-                    if let Some(v) = v {
-                        line += &format!(", {name} {v:.4} {unit}");
-                    }
+                for (m, v) in s.metrics.present().skip(3) {
+                    line += &format!(", {} {v:.4} {}", m.words(), m.unit());
                 }
                 if out.missed_profiles > 0 {
                     line += &format!(", {} profiles without the feature", out.missed_profiles);
@@ -143,26 +136,24 @@ pub fn run(a: Args) -> Result<()> {
                         "weakest": o.weakest,
                     })
                 });
-                results.push(serde_json::json!({
+                let mut doc = serde_json::json!({
                     "refinement": refined,
                     "method": method,
                     "flange_to_sensor": est,
                     "truth": truth,
-                    "rotation_error_deg": s.error.rotation_error_deg,
-                    "translation_error_mm": s.error.translation_error_mm,
-                    "frobenius_rotation": s.error.frobenius_rotation,
-                    "centre_error_mm": s.centre_error_mm,
-                    "accuracy_mm": s.accuracy_mm,
-                    "edge_angle_dev_deg": s.edge_angle_dev_deg,
-                    "edge_distance_mm": s.edge_distance_mm,
-                    "sphere_radius_mm": s.sphere_radius_mm,
                     "missed_profiles": out.missed_profiles,
                     "status": s.status,
-                }));
+                });
+                for m in Metric::ALL {
+                    doc[m.name()] = serde_json::json!(s.metrics.get(m));
+                }
+                results.push(doc);
             }
             Err(e) => {
                 eprintln!("{method}: calibration failed: {e}");
-                results.push(serde_json::json!({ "method": method, "error": e, "truth": truth }));
+                results.push(
+                    serde_json::json!({ "method": method, "error": e.to_string(), "truth": truth }),
+                );
                 failed = true;
             }
         }
@@ -178,8 +169,7 @@ pub fn run(a: Args) -> Result<()> {
         } else {
             serde_json::json!({ "scenario": sc.name, "seed": seed, "trial": a.trial, "methods": results })
         };
-        lasercal::io::write(path, serde_json::to_string_pretty(&doc)?.as_bytes())
-            .map_err(anyhow::Error::msg)?;
+        lasercal::io::write(path, serde_json::to_string_pretty(&doc)?.as_bytes())?;
     }
     if a.rerun.is_some() || a.spawn {
         record(&a, &setup, &sc.methods, seed, &estimates)?;

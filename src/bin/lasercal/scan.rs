@@ -1,6 +1,8 @@
 use super::common::load_scenario;
 use anyhow::{Context, Result, bail};
+use lasercal::method::Kind;
 use lasercal::robot::Robot;
+use lasercal::scene::SpecimenKind;
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use std::io::Write;
 use std::path::PathBuf;
@@ -20,7 +22,7 @@ pub struct Args {
     quat_wxyz: Option<String>,
     /// Which specimen to scan when a method has its own: disk, ball or edge
     #[arg(long)]
-    method: Option<String>,
+    method: Option<Kind>,
     /// Scan another specimen kind at the scenario's specimen position (its default size):
     /// disk-cylinder, disk-paper, ball, parallel-bar, scale, knife-blade
     #[arg(long)]
@@ -76,26 +78,16 @@ pub fn run(a: Args) -> Result<()> {
         robot.ik(&pose, None).with_context(|| "the TCP pose")?;
         pose
     } else {
-        // The centre of the first planned scan.
-        match (&setup.disk, &setup.ball, &setup.edge) {
-            (Some(d), _, _) => {
-                lasercal::sim::flange_pose(&d.plans[0].r_tcp, &d.plans[0].tcp(d.plans[0].m / 2))
-            }
-            (_, Some(b), _) => lasercal::sim::flange_pose(
-                &b.plan.rotation_set[0].r_tcp,
-                &b.plan.rotation_set[0].t_tcp,
-            ),
-            (_, _, Some(e)) => lasercal::sim::flange_pose(
-                &e.plans[0].r_tcp,
-                &e.plans[0].tcps[e.plans[0].tcps.len() / 2],
-            ),
-            _ => bail!(
+        // The middle of the first planned scan.
+        match setup.plans.first() {
+            Some((_, plan)) => plan.first_flange_pose(),
+            None => bail!(
                 "give --joints-deg or --tcp-mm and --quat-wxyz (the scenario plans no scan to default to)"
             ),
         }
     };
     let own_scene;
-    let scene = match (&a.specimen, a.method.as_deref()) {
+    let scene = match (&a.specimen, a.method) {
         (Some(kind), _) => {
             let mut sc = sf.scenario.clone();
             let s = &mut sc.specimen;
@@ -109,29 +101,21 @@ pub fn run(a: Args) -> Result<()> {
             ) = (None, None, None, None);
             (s.length_mm, s.width_mm, s.thickness_mm, s.bevel_mm) = (None, None, None, None);
             if s.radius_mm.is_none()
-                && matches!(kind.as_str(), "disk-cylinder" | "disk-paper" | "ball")
+                && matches!(
+                    kind.as_str(),
+                    SpecimenKind::DISK_CYLINDER | SpecimenKind::DISK_PAPER | SpecimenKind::BALL
+                )
             {
                 s.radius_mm = Some(50.0);
             }
-            own_scene = sc.rig_and_scene(&sf.file)?.1;
+            own_scene = sc.common(&sf.file)?.scene;
             &own_scene
         }
-        (None, None | Some("disk")) => &setup.scene,
-        (None, Some("ball")) => {
-            &setup
-                .ball
-                .as_ref()
-                .context("the scenario has no [ball] plan")?
-                .scene
-        }
-        (None, Some("edge")) => {
-            &setup
-                .edge
-                .as_ref()
-                .context("the scenario has no [edge] plan")?
-                .scene
-        }
-        (None, Some(m)) => bail!("--method {m}: use disk, ball or edge"),
+        (None, None) => &setup.scene,
+        (None, Some(kind)) => setup
+            .plan(kind)
+            .with_context(|| format!("--method {kind}: the scenario has no [{kind}] plan"))?
+            .scene(),
     };
     let base_to_sensor = setup.rig.base_to_sensor(&base_to_flange);
     let mut rng = a
@@ -156,7 +140,7 @@ pub fn run(a: Args) -> Result<()> {
         setup.rig.sensor.frame
     );
     match &a.out {
-        Some(p) => lasercal::io::write(p, csv.as_bytes()).map_err(anyhow::Error::msg)?,
+        Some(p) => lasercal::io::write(p, csv.as_bytes())?,
         None => std::io::stdout().write_all(csv.as_bytes())?,
     }
     Ok(())

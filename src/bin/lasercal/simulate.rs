@@ -1,5 +1,6 @@
 use super::common::load_scenario;
 use anyhow::{Result, bail};
+use lasercal::method::MethodId;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -11,7 +12,7 @@ pub struct Args {
     out: PathBuf,
     /// Method whose captures to simulate (default: the scenario's first)
     #[arg(long)]
-    method: Option<String>,
+    method: Option<MethodId>,
     /// Seed (default: the scenario's)
     #[arg(long)]
     seed: Option<u64>,
@@ -22,22 +23,24 @@ pub struct Args {
 
 pub fn run(a: Args) -> Result<()> {
     let sf = load_scenario(&a.scenario)?;
-    let method = a
-        .method
-        .clone()
-        .unwrap_or_else(|| sf.scenario.methods[0].clone());
+    let method = a.method.unwrap_or(sf.scenario.methods[0]);
     if !sf.scenario.methods.contains(&method) {
         bail!(
             "--method {method}: the scenario runs {}",
-            sf.scenario.methods.join(", ")
+            sf.scenario
+                .methods
+                .iter()
+                .map(|m| m.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
         );
     }
     let setup = sf.scenario.build(&sf.file)?;
     let seed = a.seed.unwrap_or(sf.scenario.seed);
-    let (caps, _) = lasercal::trial::trial_captures(&setup, &method, seed, a.trial);
-    let caps = caps.map_err(anyhow::Error::msg)?;
+    let (caps, _) = lasercal::trial::trial_captures(&setup, method.kind, seed, a.trial);
+    let caps = caps?;
     let json = lasercal::io::captures::to_json(&caps, &setup.rig.sensor);
-    lasercal::io::write(&a.out, json.as_bytes()).map_err(anyhow::Error::msg)?;
+    lasercal::io::write(&a.out, json.as_bytes())?;
     eprintln!(
         "{method}: {} profiles in {} groups written to {}",
         caps.profiles.len(),

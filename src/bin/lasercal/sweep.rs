@@ -71,18 +71,13 @@ pub fn finish(
 ) -> Result<()> {
     io::write(
         &out.join("summary.csv"),
-        io::csv::summary(&plan.grid_keys, summary).as_bytes(),
-    )
-    .map_err(anyhow::Error::msg)?;
+        &io::csv::summary(&plan.grid_keys, summary)?,
+    )?;
     let plot = sf.scenario.sweep.as_ref().and_then(|s| s.plot.as_ref());
     if let Some(p) = plot {
         let fig = io::plot::from_summary(summary, p, &sf.scenario.name);
-        io::write(
-            &out.join("plot.svg"),
-            io::plot::svg(&fig).map_err(anyhow::Error::msg)?.as_bytes(),
-        )
-        .map_err(anyhow::Error::msg)?;
-        io::plot::png(&fig, &out.join("plot.png")).map_err(anyhow::Error::msg)?;
+        io::write(&out.join("plot.svg"), io::plot::svg(&fig)?.as_bytes())?;
+        io::plot::png(&fig, &out.join("plot.png"))?;
     }
     let name = Path::new(&sf.file)
         .file_name()
@@ -97,7 +92,7 @@ pub fn finish(
         summary,
         plot.is_some(),
     );
-    io::write(&out.join("report.md"), report.as_bytes()).map_err(anyhow::Error::msg)?;
+    io::write(&out.join("report.md"), report.as_bytes())?;
     Ok(())
 }
 
@@ -118,7 +113,7 @@ pub fn run(a: Args) -> Result<()> {
         .map(parse_shard)
         .transpose()?
         .unwrap_or(Shard::ALL);
-    let plan = SweepPlan::new(&sf, a.trials, a.seed)?;
+    let plan = SweepPlan::new(&sf, a.trials, a.seed);
     let out = a
         .out
         .clone()
@@ -141,8 +136,12 @@ pub fn run(a: Args) -> Result<()> {
         rayon::current_num_threads(),
         out.display()
     );
-    let mut trials_csv = io::create(&out.join("trials.csv")).map_err(anyhow::Error::msg)?;
-    trials_csv.write_all(io::csv::trials_header(&plan.grid_keys).as_bytes())?;
+    let trials_path = out.join("trials.csv");
+    let mut trials_csv = io::csv::TrialsWriter::new(
+        io::create(&trials_path)?,
+        &plan.grid_keys,
+        &trials_path.display().to_string(),
+    )?;
     let pb = progress(total as u64, &sf.scenario.name);
     let started = std::time::Instant::now();
     let summary = sweep::run(
@@ -151,14 +150,17 @@ pub fn run(a: Args) -> Result<()> {
         shard,
         |rows| {
             for r in rows {
-                trials_csv.write_all(io::csv::trial_line(r).as_bytes())?;
+                trials_csv.write(r)?;
             }
             Ok(())
         },
         &|done| pb.set_position(done as u64),
     )?;
     pb.finish_and_clear();
-    trials_csv.flush().context("flushing trials.csv")?;
+    trials_csv
+        .finish()?
+        .flush()
+        .with_context(|| format!("{}: cannot write", trials_path.display()))?;
     let meta = Meta {
         format: "lasercal-sweep".into(),
         version: 1,
@@ -174,8 +176,7 @@ pub fn run(a: Args) -> Result<()> {
     io::write(
         &out.join("sweep.json"),
         serde_json::to_string_pretty(&meta)?.as_bytes(),
-    )
-    .map_err(anyhow::Error::msg)?;
+    )?;
     let failures: usize = summary.iter().map(|s| s.failures).sum();
     if shard.count == 1 {
         finish(&out, &sf, &plan, &summary)?;
@@ -204,8 +205,8 @@ fn record_curves(path: &Path, sf: &ScenarioFile, summary: &[SummaryRow]) -> Resu
         bail!("--rerun: the scenario's sweep has no [sweep.plot] saying which curves to record");
     };
     let fig = io::plot::from_summary(summary, plot, &sf.scenario.name);
-    let r = io::rerun::Recorder::save(path).map_err(anyhow::Error::msg)?;
-    r.log_curves(&fig).map_err(anyhow::Error::msg)
+    let r = io::rerun::Recorder::save(path)?;
+    Ok(r.log_curves(&fig)?)
 }
 
 #[cfg(not(feature = "rerun"))]

@@ -1,0 +1,568 @@
+//! Joint nonlinear refinement (beyond both papers): flange_to_sensor and the specimen's unknown pose
+//! estimated together from every raw feature at once, by Levenberg-Marquardt from the closed-form
+//! solution, with analytic Jacobians, an optional Huber loss, a covariance of the six transform
+//! parameters, and an observability check that refuses a pose set which cannot fix them.
+//!
+//! The solver is generic: a specimen supplies a `Model` (its residuals, their Jacobian and the step
+//! of its own parameters; `disk`, `ball`, `edge` here). Parameters: the rotation as a right
+//! increment, R <- R exp([w]) (w in the sensor frame, rad), the translation t in the flange frame
+//! (m), then the specimen's. A profile point p_s = (x, 0, z) seen from flange pose F lies at
+//! q = F (R p_s + t) in the base frame.
+
+pub mod ball;
+pub mod disk;
+pub mod edge;
+
+use super::{CalibError, Status};
+use nalgebra::{
+    DMatrix, DVector, Isometry3, Matrix3, Matrix6, Point3, Rotation3, Translation3, UnitQuaternion,
+    Vector2, Vector3, Vector6,
+};
+use std::fmt;
+
+/// The transform being estimated: R (flange to sensor rotation) and t (flange frame, m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Transform {
+    pub rot: Rotation3<f64>,
+    pub t: Vector3<f64>,
+}
+
+impl Transform {
+    pub fn from_isometry(x: &Isometry3<f64>) -> Transform {
+        Transform {
+            rot: x.rotation.to_rotation_matrix(),
+            t: x.translation.vector,
+        }
+    }
+
+    pub fn to_isometry(&self) -> Isometry3<f64> {
+        Isometry3::from_parts(
+            Translation3::from(self.t),
+            UnitQuaternion::from_rotation_matrix(&self.rot),
+        )
+    }
+
+    fn step(&self, dx: &[f64]) -> Transform {
+        Transform {
+            rot: self.rot * exp(&Vector3::new(dx[0], dx[1], dx[2])),
+            t: self.t + Vector3::new(dx[3], dx[4], dx[5]),
+        }
+    }
+
+    /// A profile point (sensor x, z) seen from flange pose `f`, in the base frame:
+    /// q = F (R p + t), with dq/dw = -F_R R [p]x and dq/dt = F_R (zero and F_R without `jac`).
+    pub fn point_in_base(
+        &self,
+        f: &Isometry3<f64>,
+        p: &Vector2<f64>,
+        jac: bool,
+    ) -> (Vector3<f64>, Matrix3<f64>, Matrix3<f64>) {
+        let ps = Vector3::new(p.x, 0.0, p.y);
+        let fr = *f.rotation.to_rotation_matrix().matrix();
+        let frr = fr * self.rot.matrix();
+        let q = frr * ps + fr * self.t + f.translation.vector;
+        if !jac {
+            return (q, Matrix3::zeros(), fr);
+        }
+        (q, -frr * skew(&ps), fr)
+    }
+}
+
+/// A specimen's residual model: what the generic Levenberg-Marquardt drives.
+pub trait Model: Clone + Send + Sync + fmt::Debug {
+    /// The specimen's estimated pose (in the model's own parametrisation).
+    type Specimen: Copy + fmt::Debug + Send + Sync;
+
+    /// For messages, e.g. "disk refinement".
+    fn name(&self) -> &'static str;
+    fn n_specimen_params(&self) -> usize;
+    /// Features (chord ends, arc points, edge points) and residuals per feature.
+    fn n_features(&self) -> usize;
+    fn residuals_per_feature(&self) -> usize;
+
+    /// Discrete labels fixed at the start so the residual stays smooth (the side of the sphere an
+    /// arc point is on); none by default.
+    fn labels(&self, _x: &Transform, _s: &Self::Specimen) -> Vec<f64> {
+        Vec::new()
+    }
+
+    /// Residuals (metres) into `r`; with `j`, their Jacobian (columns: rotation 3, translation 3,
+    /// then the specimen's parameters).
+    fn eval(
+        &self,
+        x: &Transform,
+        s: &Self::Specimen,
+        labels: &[f64],
+        r: &mut DVector<f64>,
+        j: Option<&mut DMatrix<f64>>,
+    );
+
+    /// The specimen after a step `dx` of its parameters.
+    fn step(&self, s: &Self::Specimen, dx: &[f64]) -> Self::Specimen;
+
+    /// The specimen's fixed point (disk or ball centre), when it has one.
+    fn centre(&self, _s: &Self::Specimen) -> Option<Point3<f64>> {
+        None
+    }
+}
+
+/// Loss on the residuals.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Loss {
+    Squared,
+    /// Huber: quadratic within `k` robust standard deviations (1.4826 MAD of the starting
+    /// residuals), linear beyond, so outliers pull with a bounded force.
+    Huber {
+        k: f64,
+    },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Options {
+    pub loss: Loss,
+    pub max_iterations: usize,
+}
+
+impl Default for Options {
+    fn default() -> Options {
+        Options {
+            loss: Loss::Squared,
+            max_iterations: 100,
+        }
+    }
+}
+
+/// How well a pose set constrains the six transform parameters: singular values of the
+/// Jacobian's transform block once the specimen's parameters are eliminated (rotations expressed
+/// as the displacement they cause 100 mm away, so all six are in metres), largest first.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Observability {
+    pub singular_values: [f64; 6],
+    /// Largest over smallest singular value.
+    pub condition: f64,
+    /// The least determined combination, in words (e.g. "rotation about the sensor's z axis").
+    pub weakest: String,
+    /// Its unit vector over (rx, ry, rz, tx, ty, tz).
+    pub weakest_direction: [f64; 6],
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Refined {
+    pub flange_to_sensor: Isometry3<f64>,
+    /// The specimen's fixed point (disk or ball centre) as refined, when it has one.
+    pub centre: Option<Point3<f64>>,
+    pub status: Status,
+    /// Cost (half the sum of squared, or Huber, residuals) at the start and the end.
+    pub initial_cost: f64,
+    pub cost: f64,
+    pub residual_rms: f64,
+    /// Covariance of (rotation increment rad in the sensor frame, translation m in the flange
+    /// frame) at the optimum: the residual-scaled (sandwich) estimate, valid for unequal noise.
+    pub covariance: Matrix6<f64>,
+    /// Standard deviations from it: rotation about the sensor x, y, z (deg) and translation along
+    /// the flange x, y, z (mm).
+    pub sd_rotation_deg: Vector3<f64>,
+    pub sd_translation_mm: Vector3<f64>,
+    pub observability: Observability,
+}
+
+/// A refinement problem whose specimen model is hidden: what a calibration carries so that the
+/// generic code can refine it without knowing the specimen.
+pub trait Refinable: Send + Sync + fmt::Debug {
+    /// Refine from `start`; see `refine`.
+    fn refine(&self, start: &Isometry3<f64>, opts: &Options) -> Result<Refined, CalibError>;
+    /// Observability at `x` with the problem's specimen estimate.
+    fn observability(&self, x: &Isometry3<f64>) -> Observability;
+    /// Residuals and Jacobian at `x` (for tests and tools).
+    fn residuals_and_jacobian(&self, x: &Isometry3<f64>) -> (DVector<f64>, DMatrix<f64>);
+    /// Residuals after a full parameter step `dx` from `x` (labels fixed at `x`).
+    fn residuals_after_step(&self, x: &Isometry3<f64>, dx: &DVector<f64>) -> DVector<f64>;
+    /// The same problem with the specimen estimate moved by `dx` (its own parameters).
+    fn with_specimen_step(&self, dx: &[f64]) -> Box<dyn Refinable>;
+    fn n_params(&self) -> usize;
+}
+
+/// A model with its starting specimen estimate.
+#[derive(Debug, Clone)]
+pub struct Problem<M: Model> {
+    pub model: M,
+    pub specimen: M::Specimen,
+}
+
+impl<M: Model + 'static> Refinable for Problem<M> {
+    fn refine(&self, start: &Isometry3<f64>, opts: &Options) -> Result<Refined, CalibError> {
+        refine(&self.model, start, &self.specimen, opts).map(|(r, _)| r)
+    }
+    fn observability(&self, x: &Isometry3<f64>) -> Observability {
+        observability_of(&self.residuals_and_jacobian(x).1)
+    }
+    fn residuals_and_jacobian(&self, x: &Isometry3<f64>) -> (DVector<f64>, DMatrix<f64>) {
+        let x = Transform::from_isometry(x);
+        let labels = self.model.labels(&x, &self.specimen);
+        eval(&self.model, &x, &self.specimen, &labels, true)
+    }
+    fn residuals_after_step(&self, x: &Isometry3<f64>, dx: &DVector<f64>) -> DVector<f64> {
+        let x = Transform::from_isometry(x);
+        let labels = self.model.labels(&x, &self.specimen);
+        let (x1, s1) = apply(&self.model, &x, &self.specimen, dx);
+        eval(&self.model, &x1, &s1, &labels, false).0
+    }
+    fn with_specimen_step(&self, dx: &[f64]) -> Box<dyn Refinable> {
+        Box::new(Problem {
+            model: self.model.clone(),
+            specimen: self.model.step(&self.specimen, dx),
+        })
+    }
+    fn n_params(&self) -> usize {
+        6 + self.model.n_specimen_params()
+    }
+}
+
+/// Characteristic length that puts rotations and translations on one scale (m).
+const LEVER: f64 = 0.1;
+/// Below this ratio of smallest to largest singular value a pose set is refused.
+const MIN_SINGULAR_RATIO: f64 = 1e-7;
+
+/// A^T B for tall A, B of the same shape whose product is symmetric (J^T W J): dot products of
+/// contiguous columns, the upper triangle mirrored (nalgebra's generic tr_mul was most of the
+/// refinement's time).
+fn ata(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
+    let (n, p) = a.shape();
+    let (sa, sb) = (a.as_slice(), b.as_slice());
+    let mut out = DMatrix::zeros(p, p);
+    for c in 0..p {
+        let ca = &sa[c * n..(c + 1) * n];
+        for d in c..p {
+            let cb = &sb[d * n..(d + 1) * n];
+            let v = dot(ca, cb);
+            out[(c, d)] = v;
+            out[(d, c)] = v;
+        }
+    }
+    out
+}
+
+/// A^T r by contiguous column dot products.
+fn atb(a: &DMatrix<f64>, r: &DVector<f64>) -> DVector<f64> {
+    let n = a.nrows();
+    let (sa, sr) = (a.as_slice(), r.as_slice());
+    DVector::from_fn(a.ncols(), |c, _| dot(&sa[c * n..(c + 1) * n], sr))
+}
+
+/// Dot product with eight independent partial sums (lets the compiler vectorise it).
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut acc = [0.0; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let tail: f64 = ca
+        .remainder()
+        .iter()
+        .zip(cb.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    for (x, y) in ca.zip(cb) {
+        for k in 0..8 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    acc.iter().sum::<f64>() + tail
+}
+
+pub fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
+}
+
+pub fn exp(w: &Vector3<f64>) -> Rotation3<f64> {
+    Rotation3::from_scaled_axis(*w)
+}
+
+/// A rotation whose `axis` column (0 = x, 2 = z) is `v`.
+pub fn frame_with(v: &Vector3<f64>, axis: usize) -> Rotation3<f64> {
+    let v = v.normalize();
+    let from = if axis == 0 {
+        Vector3::x()
+    } else {
+        Vector3::z()
+    };
+    Rotation3::rotation_between(&from, &v)
+        .unwrap_or_else(|| Rotation3::from_axis_angle(&Vector3::y_axis(), std::f64::consts::PI))
+}
+
+fn n_residuals<M: Model>(m: &M) -> usize {
+    m.n_features() * m.residuals_per_feature()
+}
+
+/// Residuals and, with `jac`, the Jacobian (an empty matrix without).
+fn eval<M: Model>(
+    m: &M,
+    x: &Transform,
+    s: &M::Specimen,
+    labels: &[f64],
+    jac: bool,
+) -> (DVector<f64>, DMatrix<f64>) {
+    let n = n_residuals(m);
+    let mut r = DVector::zeros(n);
+    if !jac {
+        m.eval(x, s, labels, &mut r, None);
+        return (r, DMatrix::zeros(0, 0));
+    }
+    let mut j = DMatrix::zeros(n, 6 + m.n_specimen_params());
+    m.eval(x, s, labels, &mut r, Some(&mut j));
+    (r, j)
+}
+
+fn apply<M: Model>(
+    m: &M,
+    x: &Transform,
+    s: &M::Specimen,
+    dx: &DVector<f64>,
+) -> (Transform, M::Specimen) {
+    let dx = dx.as_slice();
+    (x.step(dx), m.step(s, &dx[6..]))
+}
+
+fn robust_weights(r: &DVector<f64>, loss: Loss, scale: f64) -> DVector<f64> {
+    match loss {
+        Loss::Squared => DVector::from_element(r.len(), 1.0),
+        Loss::Huber { k } => r.map(|v| {
+            let c = k * scale;
+            if v.abs() <= c { 1.0 } else { c / v.abs() }
+        }),
+    }
+}
+
+fn cost_of(r: &DVector<f64>, loss: Loss, scale: f64) -> f64 {
+    match loss {
+        Loss::Squared => 0.5 * r.norm_squared(),
+        Loss::Huber { k } => {
+            let c = k * scale;
+            r.iter()
+                .map(|v| {
+                    if v.abs() <= c {
+                        0.5 * v * v
+                    } else {
+                        c * (v.abs() - 0.5 * c)
+                    }
+                })
+                .sum()
+        }
+    }
+}
+
+fn observability_of(j: &DMatrix<f64>) -> Observability {
+    // Rotations as displacements LEVER away: scale their rows and columns of J^T J.
+    let mut a = ata(j, j);
+    let p = a.nrows();
+    for c in 0..3 {
+        a.row_mut(c).scale_mut(1.0 / LEVER);
+        a.column_mut(c).scale_mut(1.0 / LEVER);
+    }
+    let axx = a.view((0, 0), (6, 6)).into_owned();
+    let axs = a.view((0, 6), (6, p - 6)).into_owned();
+    let ass = a.view((6, 6), (p - 6, p - 6)).into_owned();
+    // Eliminate the specimen (Schur complement); a singular specimen block leaves its null space.
+    let schur = match ass.clone().pseudo_inverse(1e-14 * ass.norm().max(1e-300)) {
+        Ok(inv) => axx - &axs * inv * axs.transpose(),
+        Err(_) => axx,
+    };
+    let eig = nalgebra::SymmetricEigen::new(Matrix6::from_fn(|r, c| schur[(r, c)]));
+    let mut idx: Vec<usize> = (0..6).collect();
+    idx.sort_by(|&x, &y| eig.eigenvalues[y].total_cmp(&eig.eigenvalues[x]));
+    let sv: [f64; 6] = std::array::from_fn(|i| eig.eigenvalues[idx[i]].max(0.0).sqrt());
+    let weakest_v: Vector6<f64> = eig.eigenvectors.column(idx[5]).into_owned();
+    let k = weakest_v.iamax();
+    let axis = ["x", "y", "z"][k % 3];
+    let weakest = if k < 3 {
+        format!("rotation about the sensor's {axis} axis")
+    } else {
+        format!("translation along the flange's {axis} axis")
+    };
+    let sign = if weakest_v[k] < 0.0 { -1.0 } else { 1.0 };
+    Observability {
+        singular_values: sv,
+        condition: if sv[5] > 0.0 {
+            sv[0] / sv[5]
+        } else {
+            f64::INFINITY
+        },
+        weakest,
+        weakest_direction: std::array::from_fn(|i| weakest_v[i] * sign),
+    }
+}
+
+fn motion_missing(weakest: &str) -> String {
+    if weakest.starts_with("rotation") {
+        format!(
+            "the poses do not turn the sensor enough to fix its {weakest}: add captures with the \
+             flange rotated differently (tilt it about more than one axis)"
+        )
+    } else {
+        format!(
+            "the poses cannot separate the {weakest} from the specimen's position: add captures \
+             from more varied flange orientations"
+        )
+    }
+}
+
+/// Refine a closed-form estimate over all raw features. Refuses a pose set that cannot determine
+/// the transform (typed error naming the missing motion); "did not converge" is a status.
+pub fn refine<M: Model>(
+    model: &M,
+    flange_to_sensor: &Isometry3<f64>,
+    specimen: &M::Specimen,
+    opts: &Options,
+) -> Result<(Refined, M::Specimen), CalibError> {
+    let p = 6 + model.n_specimen_params();
+    let n = n_residuals(model);
+    if n < p + 1 {
+        return Err(CalibError::TooFewData {
+            method: model.name(),
+            what: "features",
+            got: model.n_features(),
+            need: (p + 1).div_ceil(model.residuals_per_feature()),
+        });
+    }
+    let mut x = Transform::from_isometry(flange_to_sensor);
+    let mut s = *specimen;
+    let labels = model.labels(&x, &s);
+    let (r0, j0) = eval(model, &x, &s, &labels, true);
+    let obs = observability_of(&j0);
+    if !(obs.singular_values[5] > MIN_SINGULAR_RATIO * obs.singular_values[0]) {
+        return Err(CalibError::Unobservable {
+            method: model.name(),
+            ratio: obs.singular_values[5] / obs.singular_values[0].max(1e-300),
+            weakest: obs.weakest.clone(),
+            fix: motion_missing(&obs.weakest),
+        });
+    }
+    // Robust scale from the starting residuals (MAD).
+    let scale = {
+        let mut a: Vec<f64> = r0.iter().map(|v| v.abs()).collect();
+        a.sort_by(f64::total_cmp);
+        (1.4826 * a[a.len() / 2]).max(1e-12)
+    };
+    let initial_cost = cost_of(&r0, opts.loss, scale);
+    let mut cost = initial_cost;
+    let mut lambda = 1e-4;
+    let mut status = Status::NotConverged {
+        iterations: opts.max_iterations,
+    };
+    let mut it = 0;
+    // The residuals and Jacobian at the current state (the first ones computed above).
+    let mut at = Some((r0, j0));
+    let mut last_j = None;
+    while it < opts.max_iterations {
+        it += 1;
+        let (r, j) = at
+            .take()
+            .unwrap_or_else(|| eval(model, &x, &s, &labels, true));
+        // Weighted normal equations J^T W J, J^T W r (column dot products: tr_mul).
+        let (a, g) = if opts.loss == Loss::Squared {
+            (ata(&j, &j), atb(&j, &r))
+        } else {
+            let w = robust_weights(&r, opts.loss, scale);
+            let mut jw = j.clone();
+            for mut col in jw.column_iter_mut() {
+                col.component_mul_assign(&w);
+            }
+            (ata(&j, &jw), atb(&jw, &r))
+        };
+        if g.amax() <= 1e-15 * (1.0 + cost) {
+            status = Status::Converged { iterations: it };
+            break;
+        }
+        let mut improved = false;
+        while lambda < 1e16 {
+            let mut m = a.clone();
+            for d in 0..p {
+                m[(d, d)] += lambda * a[(d, d)].max(1e-300);
+            }
+            let Some(ch) = m.cholesky() else {
+                lambda *= 10.0;
+                continue;
+            };
+            let dx = -ch.solve(&g);
+            let (tx, ts) = apply(model, &x, &s, &dx);
+            let c = cost_of(&eval(model, &tx, &ts, &labels, false).0, opts.loss, scale);
+            if c < cost {
+                let gain = cost - c;
+                (x, s) = (tx, ts);
+                cost = c;
+                lambda = (lambda / 3.0).max(1e-12);
+                improved = true;
+                if gain <= 1e-12 * cost || dx.amax() < 1e-13 {
+                    status = Status::Converged { iterations: it };
+                }
+                break;
+            }
+            lambda *= 4.0;
+        }
+        if !improved {
+            // No step lowers the cost: at the minimum to machine precision.
+            status = Status::Converged { iterations: it };
+        }
+        last_j = Some(j);
+        if matches!(status, Status::Converged { .. }) {
+            break;
+        }
+    }
+    // The covariance at the optimum: fresh residuals; the last Jacobian, computed at most one
+    // (converged, hence negligible) step away.
+    let (r, _) = eval(model, &x, &s, &labels, false);
+    let j = match last_j {
+        Some(j) => j,
+        None => eval(model, &x, &s, &labels, true).1,
+    };
+    let cov = covariance(&r, &j);
+    let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
+    Ok((
+        Refined {
+            flange_to_sensor: x.to_isometry(),
+            centre: model.centre(&s),
+            status,
+            initial_cost,
+            cost,
+            residual_rms: (r.norm_squared() / n as f64).sqrt(),
+            covariance: cov,
+            sd_rotation_deg: Vector3::new(sd(0), sd(1), sd(2)).map(f64::to_degrees),
+            sd_translation_mm: Vector3::new(sd(3), sd(4), sd(5)) * 1e3,
+            observability: obs,
+        },
+        s,
+    ))
+}
+
+/// The transform block of the sandwich covariance A^-1 (sum J_i^T r_i^2 J_i) A^-1 (A = J^T J),
+/// with the small-sample factor N / (N - p): consistent when residuals have unequal variances (a
+/// chord end's distance from the rim is noisier than its distance from the disk plane).
+fn covariance(r: &DVector<f64>, j: &DMatrix<f64>) -> Matrix6<f64> {
+    let (n, p) = (j.nrows(), j.ncols());
+    let a = ata(j, j);
+    let Some(inv) = a.clone().try_inverse() else {
+        return Matrix6::from_element(f64::INFINITY);
+    };
+    let mut jr = j.clone();
+    for mut col in jr.column_iter_mut() {
+        col.component_mul_assign(r);
+    }
+    let b = ata(&jr, &jr);
+    let full = &inv * b * &inv * (n as f64 / (n - p) as f64);
+    Matrix6::from_fn(|r, c| full[(r, c)])
+}
+
+/// Writes the transform columns (rotation, translation) of Jacobian row `k` from a residual's
+/// gradient `g` with respect to the base-frame point, and returns nothing: shared by the models
+/// whose residuals are functions of q = F (R p + t).
+pub fn transform_columns(
+    j: &mut DMatrix<f64>,
+    k: usize,
+    g: &Vector3<f64>,
+    dq_dw: &Matrix3<f64>,
+    dq_dt: &Matrix3<f64>,
+) {
+    let gw = g.transpose() * dq_dw;
+    let gt = g.transpose() * dq_dt;
+    for c in 0..3 {
+        j[(k, c)] = gw[c];
+        j[(k, 3 + c)] = gt[c];
+    }
+}

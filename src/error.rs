@@ -1,0 +1,64 @@
+//! The crate's one error type. Each module keeps its own typed enum (`ScenarioError`,
+//! `CalibError`, `FeatureError`, ...) whose variants carry the offending values; `Error` gathers
+//! them with their sources, so the binary and the per-trial CSV column see one type. Messages name
+//! the file, field and value and say how to fix it.
+
+use crate::calib::CalibError;
+use crate::captures::CaptureError;
+use crate::features::FeatureError;
+use crate::io::FormatError;
+use crate::robot::RobotError;
+use crate::scenario::ScenarioError;
+use crate::sensor::SensorError;
+use crate::sim::PlanError;
+use crate::sim::dynamics::DynamicsError;
+use std::path::PathBuf;
+use std::sync::Arc;
+use thiserror::Error;
+
+#[derive(Debug, Error, Clone)]
+#[non_exhaustive]
+pub enum Error {
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+    #[error(transparent)]
+    Calib(#[from] CalibError),
+    #[error(transparent)]
+    Feature(#[from] FeatureError),
+    #[error(transparent)]
+    Captures(#[from] CaptureError),
+    #[error(transparent)]
+    Robot(#[from] RobotError),
+    #[error(transparent)]
+    Plan(#[from] PlanError),
+    #[error(transparent)]
+    Sensor(#[from] SensorError),
+    #[error(transparent)]
+    Dynamics(#[from] DynamicsError),
+    #[error(transparent)]
+    Format(#[from] FormatError),
+    /// A trial asked for a method the scenario does not plan.
+    #[error("the scenario has no {method} plan")]
+    NoPlan { method: crate::method::Kind },
+    /// A file could not be read or written.
+    #[error("{}: cannot {action}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        action: &'static str,
+        #[source]
+        source: Arc<std::io::Error>,
+    },
+}
+
+impl Error {
+    /// An I/O error on `path` while doing `action` ("create", "write", "read", ...).
+    pub fn io(path: impl Into<PathBuf>, action: &'static str, source: std::io::Error) -> Error {
+        Error::Io {
+            path: path.into(),
+            action,
+            source: Arc::new(source),
+        }
+    }
+}
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,418 @@
+//! The ball two-step method (Chen et al. 2018, Sec. IV-A and V-D): a rotation set at one flange
+//! orientation fixes R_sensor, a translation set fixes T_sensor. Its `[ball]` scenario section,
+//! plan, simulation, arc features and solve, with the arc-point refinement model.
+
+use super::{Kind, Method, Plan, Sim};
+use crate::calib::ball::{BallCapture, BallProblem, centre_from_arc};
+use crate::calib::refine::Problem;
+use crate::calib::refine::ball::BallModel;
+use crate::captures::{CaptureError, CaptureProfile, Captures, Group, ProfileData, Role};
+use crate::error::Error;
+use crate::features::{self, SplitMerge};
+use crate::math::rot_zyx;
+use crate::metrics::{Metric, Metrics};
+use crate::scenario::{Common, Scenario, ScenarioError, Source, SpecimenSection, Validator};
+use crate::scene::{FormError, FormTolerance, Scene, SpecimenKind};
+use crate::sensor::SensorModel;
+use crate::sim::ball::{BallPlan, BallTarget, Pose};
+use crate::sim::{Rig, flange_pose};
+use nalgebra::{Isometry3, Point3, Vector3};
+use serde::Deserialize;
+
+/// `[ball]`: the ball two-step method's data collection.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Section {
+    /// Exact arcs sampled every x_step_mm with Gaussian z noise, or ray-cast profiles.
+    #[serde(default)]
+    pub source: Source,
+    /// Gaussian noise on each arc point's z, mm (analytic).
+    #[serde(default)]
+    pub sigma_mm: f64,
+    #[serde(default = "d_step")]
+    pub x_step_mm: f64,
+    /// m: arcs per translation-set capture (averaged).
+    #[serde(default = "d_one")]
+    pub arcs: usize,
+    /// Flange positions of the rotation set (one shared orientation, at least 4).
+    pub rotation_tcp_mm: Vec<[f64; 3]>,
+    /// That orientation, (rx, ry, rz) radians, R = Rz Ry Rx.
+    pub rotation_rpy_rad: [f64; 3],
+    /// Flange positions and orientations of the translation set (at least 3).
+    pub translation_tcp_mm: Vec<[f64; 3]>,
+    pub translation_rpy_rad: Vec<[f64; 3]>,
+    /// The ball, when the scenario's [specimen] is another specimen.
+    #[serde(default)]
+    pub specimen: Option<SpecimenSection>,
+}
+
+fn d_step() -> f64 {
+    0.1
+}
+fn d_one() -> usize {
+    1
+}
+
+/// The ball two-step method.
+pub struct Ball;
+
+impl Ball {
+    fn section<'a>(sc: &'a Scenario, v: &Validator) -> Result<&'a Section, ScenarioError> {
+        sc.ball.as_ref().ok_or_else(|| {
+            v.bad(
+                "ball",
+                "(missing)",
+                "the ball method needs a [ball] section",
+            )
+        })
+    }
+}
+
+impl Method for Ball {
+    fn kind(&self) -> Kind {
+        Kind::Ball
+    }
+
+    fn validate(&self, sc: &Scenario, v: &Validator) -> Result<(), ScenarioError> {
+        let b = Self::section(sc, v)?;
+        let kind = match &b.specimen {
+            Some(sp) => sp.kind_checked("ball.specimen", v)?,
+            None => sc.specimen_kind(v)?,
+        };
+        if !matches!(kind, SpecimenKind::BallOnPost { .. }) {
+            return Err(v.bad(
+                "specimen.kind",
+                format!("\"{}\"", sc.specimen.kind),
+                "the ball method needs a ball (here or in [ball.specimen])",
+            ));
+        }
+        if b.rotation_tcp_mm.len() < 4 {
+            return Err(v.bad(
+                "ball.rotation_tcp_mm",
+                format!("{} positions", b.rotation_tcp_mm.len()),
+                "R_sensor needs at least 4 captures at one orientation",
+            ));
+        }
+        if b.translation_tcp_mm.len() < 3
+            || b.translation_tcp_mm.len() != b.translation_rpy_rad.len()
+        {
+            return Err(v.bad(
+                "ball.translation_tcp_mm",
+                format!(
+                    "{} positions, {} orientations",
+                    b.translation_tcp_mm.len(),
+                    b.translation_rpy_rad.len()
+                ),
+                "T_sensor needs at least 3 captures, one orientation each",
+            ));
+        }
+        v.non_negative("ball.sigma_mm", b.sigma_mm)?;
+        if !(b.x_step_mm > 0.0) || b.arcs == 0 {
+            return Err(v.bad(
+                "ball.x_step_mm",
+                b.x_step_mm,
+                "x_step_mm must be > 0 and arcs >= 1",
+            ));
+        }
+        Ok(())
+    }
+
+    fn plan(
+        &self,
+        sc: &Scenario,
+        common: &Common,
+        v: &Validator,
+    ) -> Result<Box<dyn Plan>, ScenarioError> {
+        let b = Self::section(sc, v)?;
+        let (spec, pose, scene) = common.own(b.specimen.as_ref(), "ball.specimen", v)?;
+        let radius = spec.ball_radius().ok_or_else(|| {
+            v.bad(
+                "ball.specimen.kind",
+                spec.name(),
+                "the ball method needs a ball specimen",
+            )
+        })?;
+        let target = BallTarget {
+            centre: pose * Point3::origin(),
+            radius,
+        };
+        let rr = b.rotation_rpy_rad;
+        let plan = BallPlan {
+            rotation_set: b
+                .rotation_tcp_mm
+                .iter()
+                .map(|t| Pose {
+                    r_tcp: rot_zyx(rr[0], rr[1], rr[2]),
+                    t_tcp: Vector3::from(*t) * 1e-3,
+                })
+                .collect(),
+            translation_set: b
+                .translation_tcp_mm
+                .iter()
+                .zip(&b.translation_rpy_rad)
+                .map(|(t, r)| Pose {
+                    r_tcp: rot_zyx(r[0], r[1], r[2]),
+                    t_tcp: Vector3::from(*t) * 1e-3,
+                })
+                .collect(),
+            arcs: b.arcs,
+        };
+        crate::sim::ball::check(&common.rig, &target, &plan)
+            .map_err(|e| v.bad("ball.rotation_tcp_mm", "..", e.to_string()))?;
+        let section = b.specimen.as_ref().unwrap_or(&sc.specimen);
+        Ok(Box::new(BallPlanned {
+            target,
+            plan,
+            scene,
+            raycast: b.source == Source::Raycast,
+            sigma: b.sigma_mm * 1e-3,
+            x_step: b.x_step_mm * 1e-3,
+            radius_tolerance: section.radius_tolerance_mm.unwrap_or(0.0) * 1e-3,
+            form: section.form(),
+        }))
+    }
+
+    fn calibrate(
+        &self,
+        c: &Captures,
+        sensor: &SensorModel,
+    ) -> Result<crate::captures::Calibration, Error> {
+        calibrate(c, sensor)
+    }
+
+    fn scale_causes(&self, sc: &mut Scenario, sensor: f64, specimen: f64) {
+        if let Some(b) = &mut sc.ball {
+            b.sigma_mm *= sensor;
+            if let Some(sp) = &mut b.specimen {
+                sp.scale_imperfection(specimen);
+            }
+        }
+    }
+
+    fn needs_radius(&self) -> bool {
+        true
+    }
+
+    fn uses_group_signs(&self) -> bool {
+        true
+    }
+}
+
+/// The ball method's plan on one rig.
+#[derive(Debug)]
+pub struct BallPlanned {
+    pub target: BallTarget,
+    pub plan: BallPlan,
+    pub scene: Scene,
+    pub raycast: bool,
+    /// z noise on arc points and the arc sampling step (analytic), metres.
+    pub sigma: f64,
+    pub x_step: f64,
+    /// Standard deviation of the true radius (metres).
+    pub radius_tolerance: f64,
+    pub form: FormTolerance,
+}
+
+impl Plan for BallPlanned {
+    fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    fn first_flange_pose(&self) -> Isometry3<f64> {
+        let p = &self.plan.rotation_set[0];
+        flange_pose(&p.r_tcp, &p.t_tcp)
+    }
+
+    fn true_centre(&self) -> Option<Point3<f64>> {
+        Some(self.target.centre)
+    }
+
+    fn truth_checks(&self, _: &Rig, _: &Isometry3<f64>, _: u64) -> Metrics {
+        Metrics::default()
+    }
+
+    fn simulate(&self, rig: &Rig, sim: &mut Sim) -> Result<Captures, Error> {
+        let target = BallTarget {
+            radius: self.target.radius + sim.radius_z * self.radius_tolerance,
+            ..self.target
+        };
+        let (spec, frame) = &self.scene.specimens[0];
+        let form = FormError::draw(spec, &self.form, sim.specimen_rng);
+        let scene = crate::scene::with_form(
+            crate::scene::with_radius(&self.scene, target.radius, self.radius_tolerance),
+            form,
+        );
+        let noisy = !rig.sensor.noise.is_off();
+        let mut k = 0usize;
+        let Sim {
+            rng, disturbance, ..
+        } = sim;
+        let mut actual = |f: &Isometry3<f64>| {
+            let a = disturbance.actual(&rig.robot, f, k);
+            k += 1;
+            a
+        };
+        let poses = self
+            .plan
+            .rotation_set
+            .iter()
+            .map(|p| (Role::Rotation, p, 1))
+            .chain(
+                self.plan
+                    .translation_set
+                    .iter()
+                    .map(|p| (Role::Translation, p, self.plan.arcs.max(1))),
+            );
+        let mut groups = vec![Group {
+            id: 0,
+            role: Role::Rotation,
+            sign: 0.0,
+        }];
+        let mut profiles = Vec::new();
+        let mut gid = 0;
+        for (role, p, m) in poses {
+            let f = flange_pose(&p.r_tcp, &p.t_tcp);
+            let sign = crate::sim::ball::sign(&rig.base_to_sensor(&f), &target);
+            let id = if role == Role::Rotation {
+                groups[0].sign = sign;
+                0
+            } else {
+                gid += 1;
+                groups.push(Group {
+                    id: gid,
+                    role,
+                    sign,
+                });
+                gid
+            };
+            for _ in 0..m {
+                let pose = rig.base_to_sensor(&actual(&f));
+                let data = if self.raycast {
+                    ProfileData::Raw(
+                        rig.sensor
+                            .profile(&scene, &pose, noisy.then_some(&mut **rng)),
+                    )
+                } else {
+                    ProfileData::Arc(crate::sim::ball::analytic_arc_formed(
+                        rig,
+                        &target,
+                        Some((frame, &form)),
+                        &pose,
+                        self.x_step,
+                        self.sigma,
+                        0.9,
+                        rng,
+                    ))
+                };
+                profiles.push(CaptureProfile {
+                    group: id,
+                    base_to_flange: f,
+                    data,
+                });
+            }
+        }
+        Ok(Captures {
+            method: Kind::Ball,
+            sensor: rig.sensor.name.clone(),
+            specimen_kind: SpecimenKind::BALL.to_string(),
+            specimen_radius: Some(self.target.radius),
+            edge_sense: None,
+            truth: Some(rig.flange_to_sensor),
+            groups,
+            profiles,
+        })
+    }
+}
+
+/// The circle of one capture's arc: given, fitted to its points, or extracted from the profile.
+fn circle_of(
+    g: &Group,
+    p: &CaptureProfile,
+    radius: f64,
+    cfg: &SplitMerge,
+) -> Result<features::Circle, CaptureError> {
+    let circle = match &p.data {
+        ProfileData::Circle(ci) => Ok(*ci),
+        ProfileData::Arc(a) => {
+            features::fit_circle(a).ok_or(CaptureError::NoCircle { points: a.len() })
+        }
+        ProfileData::Raw(prof) => features::ball_arc(prof, radius, cfg).map_err(CaptureError::from),
+        _ => {
+            return Err(CaptureError::WrongData {
+                group: g.id,
+                method: Kind::Ball,
+                need: "a circle or raw points",
+            });
+        }
+    };
+    circle.map_err(|e| CaptureError::InGroup {
+        group: g.id,
+        source: Box::new(e),
+    })
+}
+
+/// Arc circles and their centres per group, the two-step solve, and the refinement problem (when
+/// every capture kept its arc points).
+fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<crate::captures::Calibration, Error> {
+    let cfg = SplitMerge::for_sensor(sensor);
+    let radius = c
+        .specimen_radius
+        .ok_or(CaptureError::MissingRadius { method: Kind::Ball })?;
+    let (mut rotation_set, mut translation_set) = (Vec::new(), Vec::new());
+    let mut arc_points = Some(Vec::new());
+    for g in &c.groups {
+        let mut centres = Vec::new();
+        for p in c.group_profiles(g.id) {
+            let circle = circle_of(g, p, radius, &cfg)?;
+            match (&p.data, &mut arc_points) {
+                (ProfileData::Arc(a), Some(all)) => {
+                    all.extend(a.iter().map(|q| (p.base_to_flange, *q)))
+                }
+                (ProfileData::Raw(prof), Some(all)) => all.extend(
+                    features::arc_points(prof, &circle)
+                        .into_iter()
+                        .map(|q| (p.base_to_flange, q)),
+                ),
+                _ => arc_points = None,
+            }
+            centres.push((p, centre_from_arc(&circle, radius, g.sign)));
+        }
+        match g.role {
+            Role::Rotation => rotation_set.extend(centres.iter().map(|(p, q)| BallCapture {
+                r_tcp: p.base_to_flange.rotation.to_rotation_matrix(),
+                t_tcp: p.base_to_flange.translation.vector,
+                q_in_sensor: *q,
+            })),
+            Role::Translation => {
+                let Some((p, _)) = centres.first() else {
+                    continue;
+                };
+                let q =
+                    centres.iter().map(|(_, q)| *q).sum::<Vector3<f64>>() / centres.len() as f64;
+                translation_set.push(BallCapture {
+                    r_tcp: p.base_to_flange.rotation.to_rotation_matrix(),
+                    t_tcp: p.base_to_flange.translation.vector,
+                    q_in_sensor: q,
+                });
+            }
+            _ => return Err(CaptureError::WrongRole { group: g.id }.into()),
+        }
+    }
+    let sol = crate::calib::ball::solve(&BallProblem {
+        rotation_set,
+        translation_set,
+    })?;
+    Ok(crate::captures::Calibration {
+        refinable: arc_points.map(|points| {
+            std::sync::Arc::new(Problem {
+                model: BallModel { radius, points },
+                specimen: sol.centre_in_base,
+            }) as std::sync::Arc<dyn crate::calib::refine::Refinable>
+        }),
+        flange_to_sensor: sol.flange_to_sensor,
+        centre_in_base: Some(sol.centre_in_base),
+        figures: Metrics::default().with(Metric::Accuracy, Some(sol.spread * 1e3)),
+        status: sol.status,
+        missed: 0,
+    })
+}

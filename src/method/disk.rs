@@ -1,0 +1,442 @@
+//! The disk method (Chen et al. 2018): a planar disk of arbitrary orientation scanned by straight
+//! moves (Sec. III-A); its `[disk]` scenario section, plan, simulation, chord features and the
+//! transformation solution (Eqs. 14-19), with the chord-end refinement model.
+
+use super::{Kind, Method, Plan, Sim};
+use crate::calib::disk::{DiskChord, DiskProblem, DiskScan};
+use crate::calib::refine::Problem;
+use crate::calib::refine::disk::{DiskModel, DiskPose};
+use crate::captures::{CaptureError, CaptureProfile, Captures, Group, ProfileData, Role};
+use crate::error::Error;
+use crate::features::{self, SplitMerge};
+use crate::math::rot_zyx;
+use crate::metrics::{Metric, Metrics};
+use crate::scenario::{Common, Scenario, ScenarioError, Source, Validator};
+use crate::scene::{FormError, FormTolerance, Scene, Specimen, SpecimenKind};
+use crate::sensor::SensorModel;
+use crate::sim::disk::{Coverage, Direction, DiskPlanSpec, DiskScanPlan, DiskTarget, ScanRequest};
+use crate::sim::{Rig, flange_pose};
+use nalgebra::{Isometry3, Point3, Vector2, Vector3};
+use serde::Deserialize;
+
+/// `[disk]`: the disk method's data collection.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Section {
+    /// m: profiles (chords) per scan.
+    pub chords: usize,
+    /// How much of the disk a scan sweeps (Fig. 4).
+    #[serde(default)]
+    pub coverage: CoverageKey,
+    #[serde(default = "d_span")]
+    pub span_fraction: f64,
+    /// Analytic chords + Eq. 52 noise, or the sensor model + feature extraction.
+    #[serde(default)]
+    pub source: Source,
+    /// Eq. 52: Gaussian noise along each chord, mm (analytic source).
+    #[serde(default)]
+    pub sigma_mm: f64,
+    /// Eq. 2: least angle between the move and the disk plane or normal.
+    #[serde(default = "d_min_angle")]
+    pub min_angle_deg: f64,
+    /// R_tcp,i as (rx, ry, rz) radians, R = Rz Ry Rx (the disk paper's tables).
+    pub orientations_rpy_rad: Vec<[f64; 3]>,
+    /// Optional TCP positions where the laser plane crosses the disk centre (mm).
+    #[serde(default)]
+    pub centre_tcp_mm: Option<Vec<[f64; 3]>>,
+    /// Move directions in the base frame (the disk paper's D_i^b)...
+    #[serde(default)]
+    pub directions_in_base: Option<Vec<[f64; 3]>>,
+    /// ...or in the sensor frame (D_i^i); one list or the other, one entry per orientation.
+    #[serde(default)]
+    pub directions_in_sensor: Option<Vec<[f64; 3]>>,
+}
+
+fn d_span() -> f64 {
+    0.9
+}
+fn d_min_angle() -> f64 {
+    5.0
+}
+
+/// `coverage` in a scenario.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum CoverageKey {
+    #[default]
+    Whole,
+    Half,
+}
+
+/// The disk method.
+pub struct Disk;
+
+impl Disk {
+    fn section<'a>(sc: &'a Scenario, v: &Validator) -> Result<&'a Section, ScenarioError> {
+        sc.disk.as_ref().ok_or_else(|| {
+            v.bad(
+                "disk",
+                "(missing)",
+                "the disk method needs a [disk] section",
+            )
+        })
+    }
+}
+
+impl Method for Disk {
+    fn kind(&self) -> Kind {
+        Kind::Disk
+    }
+
+    fn validate(&self, sc: &Scenario, v: &Validator) -> Result<(), ScenarioError> {
+        let d = Self::section(sc, v)?;
+        if !sc.specimen_kind(v)?.is_disk() {
+            return Err(v.bad(
+                "specimen.kind",
+                format!("\"{}\"", sc.specimen.kind),
+                "the disk method needs disk-cylinder or disk-paper",
+            ));
+        }
+        v.at_least(
+            "disk.chords",
+            d.chords,
+            3,
+            "at least 3 chords per scan are needed for the ellipse fit",
+        )?;
+        let n = d.orientations_rpy_rad.len();
+        if n < 4 {
+            return Err(v.bad(
+                "disk.orientations_rpy_rad",
+                format!("{n} orientations"),
+                "the disk method needs at least 4 sensing data",
+            ));
+        }
+        v.open_interval("disk.span_fraction", d.span_fraction, 0.0, 1.0)?;
+        v.non_negative("disk.sigma_mm", d.sigma_mm)?;
+        if !(d.min_angle_deg >= 0.0 && d.min_angle_deg < 45.0) {
+            return Err(v.bad("disk.min_angle_deg", d.min_angle_deg, "must be in [0, 45)"));
+        }
+        v.one_of(
+            ("disk.directions_in_base", d.directions_in_base.is_some()),
+            (
+                "disk.directions_in_sensor",
+                d.directions_in_sensor.is_some(),
+            ),
+            "the move direction of each scan",
+        )?;
+        for (k, list) in [
+            ("disk.centre_tcp_mm", &d.centre_tcp_mm),
+            ("disk.directions_in_base", &d.directions_in_base),
+            ("disk.directions_in_sensor", &d.directions_in_sensor),
+        ] {
+            if let Some(l) = list
+                && l.len() != n
+            {
+                return Err(v.bad(
+                    k,
+                    format!("{} entries", l.len()),
+                    format!("give one per orientation ({n})"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn plan(
+        &self,
+        sc: &Scenario,
+        common: &Common,
+        v: &Validator,
+    ) -> Result<Box<dyn Plan>, ScenarioError> {
+        let d = Self::section(sc, v)?;
+        let radius = common.specimen.disk_radius().ok_or_else(|| {
+            v.bad(
+                "specimen.kind",
+                common.specimen.name(),
+                "the disk method needs disk-cylinder or disk-paper",
+            )
+        })?;
+        let target = DiskTarget::from_pose(&common.base_to_specimen, radius);
+        let scans = d
+            .orientations_rpy_rad
+            .iter()
+            .enumerate()
+            .map(|(i, r)| ScanRequest {
+                r_tcp: rot_zyx(r[0], r[1], r[2]),
+                centre_tcp: d.centre_tcp_mm.as_ref().map(|c| Vector3::from(c[i]) * 1e-3),
+                direction: match (&d.directions_in_base, &d.directions_in_sensor) {
+                    (Some(b), _) => Direction::InBase(Vector3::from(b[i])),
+                    (None, Some(s)) => Direction::InSensor(Vector3::from(s[i])),
+                    (None, None) => Direction::InSensor(Vector3::y()),
+                },
+            })
+            .collect();
+        let spec = DiskPlanSpec {
+            scans,
+            coverage: match d.coverage {
+                CoverageKey::Whole => Coverage::Whole,
+                CoverageKey::Half => Coverage::Half,
+            },
+            span_fraction: d.span_fraction,
+            m: d.chords,
+            min_angle: d.min_angle_deg.to_radians(),
+        };
+        let plans = crate::sim::disk::plan(&common.rig, &target, &spec)
+            .map_err(|e| v.bad("disk.orientations_rpy_rad", "..", e.to_string()))?;
+        Ok(Box::new(DiskPlan {
+            target,
+            plans,
+            raycast: d.source == Source::Raycast,
+            sigma: d.sigma_mm * 1e-3,
+            radius_tolerance: sc.specimen.radius_tolerance_mm.unwrap_or(0.0) * 1e-3,
+            form: sc.specimen.form(),
+            scene: common.scene.clone(),
+            specimen: common.specimen.clone(),
+            base_to_specimen: common.base_to_specimen,
+        }))
+    }
+
+    fn calibrate(
+        &self,
+        c: &Captures,
+        sensor: &SensorModel,
+    ) -> Result<crate::captures::Calibration, Error> {
+        calibrate(c, sensor)
+    }
+
+    fn scale_causes(&self, sc: &mut Scenario, sensor: f64, _specimen: f64) {
+        if let Some(d) = &mut sc.disk {
+            d.sigma_mm *= sensor;
+        }
+    }
+
+    fn needs_radius(&self) -> bool {
+        true
+    }
+
+    fn uses_group_signs(&self) -> bool {
+        true
+    }
+}
+
+/// The disk method's plan on one rig.
+#[derive(Debug)]
+pub struct DiskPlan {
+    pub target: DiskTarget,
+    pub plans: Vec<DiskScanPlan>,
+    pub raycast: bool,
+    /// Eq. 52 sigma, metres.
+    pub sigma: f64,
+    /// Standard deviation of the true radius (metres).
+    pub radius_tolerance: f64,
+    pub form: FormTolerance,
+    pub scene: Scene,
+    pub specimen: Specimen,
+    pub base_to_specimen: Isometry3<f64>,
+}
+
+impl Plan for DiskPlan {
+    fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    fn first_flange_pose(&self) -> Isometry3<f64> {
+        let p = &self.plans[0];
+        flange_pose(&p.r_tcp, &p.tcp(p.m / 2))
+    }
+
+    fn true_centre(&self) -> Option<Point3<f64>> {
+        Some(self.target.centre)
+    }
+
+    fn truth_checks(&self, _: &Rig, _: &Isometry3<f64>, _: u64) -> Metrics {
+        Metrics::default()
+    }
+
+    fn simulate(&self, rig: &Rig, sim: &mut Sim) -> Result<Captures, Error> {
+        let target = DiskTarget {
+            radius: self.target.radius + sim.radius_z * self.radius_tolerance,
+            ..self.target
+        };
+        let form = FormError::draw(&self.specimen, &self.form, sim.specimen_rng);
+        let scene = crate::scene::with_form(
+            crate::scene::with_radius(&self.scene, target.radius, self.radius_tolerance),
+            form,
+        );
+        let noisy = !rig.sensor.noise.is_off();
+        let (mut groups, mut profiles) = (Vec::new(), Vec::new());
+        // Profiles are numbered in the order they are taken (the vibration's clock).
+        let mut k = 0usize;
+        let Sim {
+            rng, disturbance, ..
+        } = sim;
+        let mut actual = |f: &Isometry3<f64>| {
+            let a = disturbance.actual(&rig.robot, f, k);
+            k += 1;
+            a
+        };
+        for (i, p) in self.plans.iter().enumerate() {
+            groups.push(Group {
+                id: i,
+                role: Role::Scan,
+                sign: crate::sim::disk::scan_sign(rig, p),
+            });
+            if self.raycast {
+                for j in 0..p.m {
+                    let f = flange_pose(&p.r_tcp, &p.tcp(j));
+                    let prof = rig.sensor.profile(
+                        &scene,
+                        &rig.base_to_sensor(&actual(&f)),
+                        noisy.then_some(&mut **rng),
+                    );
+                    profiles.push(CaptureProfile {
+                        group: i,
+                        base_to_flange: f,
+                        data: ProfileData::Raw(prof),
+                    });
+                }
+            } else {
+                let scan = crate::sim::disk::analytic_scan_with(
+                    rig,
+                    &target,
+                    Some((&self.base_to_specimen, &form)),
+                    p,
+                    self.sigma,
+                    rng,
+                    &mut |f, _| actual(f),
+                );
+                for ch in scan.chords {
+                    let f = flange_pose(&p.r_tcp, &(p.t_start + (p.t_end - p.t_start) * ch.u));
+                    profiles.push(CaptureProfile {
+                        group: i,
+                        base_to_flange: f,
+                        data: ProfileData::Chord { a: ch.a, b: ch.b },
+                    });
+                }
+            }
+        }
+        Ok(Captures {
+            method: Kind::Disk,
+            sensor: rig.sensor.name.clone(),
+            specimen_kind: self.specimen.name().to_string(),
+            specimen_radius: Some(self.target.radius),
+            edge_sense: None,
+            truth: Some(rig.flange_to_sensor),
+            groups,
+            profiles,
+        })
+    }
+}
+
+/// Unit normal of the plane through the chord ends, seen through `flange_to_sensor`.
+fn plane_normal(
+    ends: &[(Isometry3<f64>, Vector2<f64>)],
+    flange_to_sensor: &Isometry3<f64>,
+) -> Vector3<f64> {
+    let pts: Vec<Vector3<f64>> = ends
+        .iter()
+        .map(|(f, p)| (f * flange_to_sensor * Point3::new(p.x, 0.0, p.y)).coords)
+        .collect();
+    let mean = pts.iter().sum::<Vector3<f64>>() / pts.len().max(1) as f64;
+    let cov = pts
+        .iter()
+        .map(|p| (p - mean) * (p - mean).transpose())
+        .sum::<nalgebra::Matrix3<f64>>();
+    let eig = nalgebra::SymmetricEigen::new(cov);
+    let k = eig.eigenvalues.imin();
+    let n: Vector3<f64> = eig.eigenvectors.column(k).into_owned();
+    if n.z < 0.0 { -n } else { n }
+}
+
+/// The chord of one capture: given, or extracted from the raw profile.
+fn chord_of(
+    c: &Captures,
+    g: &Group,
+    p: &CaptureProfile,
+    sensor: &SensorModel,
+    radius: f64,
+    cfg: &SplitMerge,
+) -> Result<Result<features::Chord, features::FeatureError>, CaptureError> {
+    Ok(match &p.data {
+        ProfileData::Chord { a, b } => Ok(features::Chord { a: *a, b: *b }),
+        ProfileData::Raw(prof) => {
+            if c.specimen_kind == SpecimenKind::DISK_PAPER {
+                features::disk_chord_intensity(prof, sensor, cfg.min_points)
+            } else {
+                features::disk_chord_step(prof, sensor, radius, cfg)
+            }
+        }
+        _ => {
+            return Err(CaptureError::WrongData {
+                group: g.id,
+                method: Kind::Disk,
+                need: "a chord or raw points",
+            });
+        }
+    })
+}
+
+/// Chords from every scan, the disk paper's transformation solution, and the refinement problem.
+fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<crate::captures::Calibration, Error> {
+    let cfg = SplitMerge::for_sensor(sensor);
+    let mut missed = 0;
+    let radius = c
+        .specimen_radius
+        .ok_or(CaptureError::MissingRadius { method: Kind::Disk })?;
+    let mut scans = Vec::new();
+    let mut ends = Vec::new();
+    for g in &c.groups {
+        let ps = c.group_profiles(g.id);
+        let (Some(first), Some(last)) = (ps.first(), ps.last()) else {
+            continue;
+        };
+        let (t0, t1) = (
+            first.base_to_flange.translation.vector,
+            last.base_to_flange.translation.vector,
+        );
+        let span = t1 - t0;
+        let mut chords = Vec::new();
+        for p in &ps {
+            let flange = p.base_to_flange;
+            let u = if span.norm_squared() > 0.0 {
+                (p.base_to_flange.translation.vector - t0).dot(&span) / span.norm_squared()
+            } else {
+                0.0
+            };
+            match chord_of(c, g, p, sensor, radius, &cfg)? {
+                Ok(ch) => {
+                    ends.push((flange, ch.a));
+                    ends.push((flange, ch.b));
+                    chords.push(DiskChord {
+                        u,
+                        a: ch.a,
+                        b: ch.b,
+                    })
+                }
+                Err(_) => missed += 1,
+            }
+        }
+        scans.push(DiskScan {
+            r_tcp: first.base_to_flange.rotation.to_rotation_matrix(),
+            t_start: t0,
+            t_end: t1,
+            s: g.sign,
+            chords,
+        });
+    }
+    let mut problem = DiskProblem::new(radius, scans);
+    problem.min_scan_angle = 0.5f64.to_radians();
+    let sol = crate::calib::disk::solve(&problem)?;
+    let normal = plane_normal(&ends, &sol.flange_to_sensor);
+    Ok(crate::captures::Calibration {
+        refinable: Some(std::sync::Arc::new(Problem {
+            model: DiskModel { radius, ends },
+            specimen: DiskPose::new(sol.centre_in_base.into(), &normal),
+        })),
+        flange_to_sensor: sol.flange_to_sensor,
+        centre_in_base: Some(sol.centre_in_base),
+        figures: Metrics::default().with(Metric::Accuracy, Some(sol.accuracy * 1e3)),
+        status: sol.status,
+        missed,
+    })
+}

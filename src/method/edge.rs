@@ -1,0 +1,400 @@
+//! The straight-edge method (Xu et al.): rotation groups of translations along an arc, every
+//! profile crossing the specimen's edge. Its `[edge]` scenario section, plan, simulation, edge-point
+//! features and solve (Eqs. 9-24), the Table 3 ball check, and the edge-point refinement model.
+
+use super::{Kind, Method, Plan, Sim};
+use crate::calib::edge::{EdgeCapture, EdgeProblem};
+use crate::calib::refine::Problem;
+use crate::calib::refine::edge::{EdgeLine, EdgeModel};
+use crate::captures::{CaptureError, Captures, Group, ProfileData, Role};
+use crate::error::Error;
+use crate::features::{self, EdgeSense, SplitMerge};
+use crate::metrics::{Metric, Metrics};
+use crate::rng::{self, tag};
+use crate::scenario::{Common, Scenario, ScenarioError, Source, SpecimenSection, Validator};
+use crate::scene::{FormError, FormTolerance, Scene};
+use crate::sensor::SensorModel;
+use crate::sim::ball::BallTarget;
+use crate::sim::edge::{EdgeGroupPlan, EdgePlanSpec, EdgeTarget};
+use crate::sim::{Rig, flange_pose};
+use nalgebra::{Isometry3, Point3, Vector2, Vector3};
+use serde::Deserialize;
+
+/// `[edge]`: the straight-edge method's data collection.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Section {
+    /// Exact edge points plus Gaussian noise, or ray-cast profiles.
+    #[serde(default)]
+    pub source: Source,
+    /// Gaussian noise on the edge point's x and z, mm (analytic).
+    #[serde(default)]
+    pub sigma_mm: f64,
+    pub rotations: usize,
+    pub translations: usize,
+    pub tilt_deg: f64,
+    pub arc_radius_mm: f64,
+    pub arc_span_deg: f64,
+    /// Angle of the arc's chord from the edge toward the open side: 0 moves along the edge (the
+    /// profile never changes), 90 straight across it (the points do not spread along the edge).
+    #[serde(default = "d_heading")]
+    pub arc_heading_deg: f64,
+    /// Sensor z at which the laser line crosses the edge (default: the range centre).
+    #[serde(default)]
+    pub edge_z_mm: Option<f64>,
+    /// The edge specimen, when the scenario's [specimen] is another specimen.
+    #[serde(default)]
+    pub specimen: Option<SpecimenSection>,
+    /// The edge paper's Table 3 check with a precision ball.
+    #[serde(default)]
+    pub validation: Option<Validation>,
+}
+
+/// `[edge.validation]`: the edge paper's Table 3 check.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Validation {
+    pub ball_radius_mm: f64,
+    pub position_mm: [f64; 3],
+    #[serde(default = "d_ten")]
+    pub groups: usize,
+    #[serde(default = "d_six")]
+    pub translations: usize,
+    #[serde(default)]
+    pub sigma_mm: f64,
+}
+
+fn d_heading() -> f64 {
+    45.0
+}
+fn d_ten() -> usize {
+    10
+}
+fn d_six() -> usize {
+    6
+}
+
+/// The straight-edge method.
+pub struct Edge;
+
+impl Edge {
+    fn section<'a>(sc: &'a Scenario, v: &Validator) -> Result<&'a Section, ScenarioError> {
+        sc.edge.as_ref().ok_or_else(|| {
+            v.bad(
+                "edge",
+                "(missing)",
+                "the edge method needs an [edge] section",
+            )
+        })
+    }
+}
+
+impl Method for Edge {
+    fn kind(&self) -> Kind {
+        Kind::Edge
+    }
+
+    fn validate(&self, sc: &Scenario, v: &Validator) -> Result<(), ScenarioError> {
+        let e = Self::section(sc, v)?;
+        if let Some(sp) = &e.specimen {
+            sp.kind_checked("edge.specimen", v)?;
+        }
+        v.at_least(
+            "edge.rotations",
+            e.rotations,
+            2,
+            "at least 2 rotation groups",
+        )?;
+        v.at_least(
+            "edge.translations",
+            e.translations,
+            3,
+            "at least 3 translations per group",
+        )?;
+        if !(e.arc_radius_mm > 0.0 && e.arc_span_deg > 0.0 && e.arc_span_deg < 180.0) {
+            return Err(v.bad(
+                "edge.arc_span_deg",
+                e.arc_span_deg,
+                "the arc needs a radius > 0 and a span in (0, 180) deg: a straight line makes the rotation equations degenerate",
+            ));
+        }
+        if !(e.arc_heading_deg > 0.0 && e.arc_heading_deg < 90.0) {
+            return Err(v.bad(
+                "edge.arc_heading_deg",
+                e.arc_heading_deg,
+                "must be in (0, 90): along the edge the profile never changes, straight across it the points do not spread along the edge",
+            ));
+        }
+        if !(e.tilt_deg > 0.0 && e.tilt_deg <= 45.0) {
+            return Err(v.bad("edge.tilt_deg", e.tilt_deg, "must be in (0, 45]"));
+        }
+        v.non_negative("edge.sigma_mm", e.sigma_mm)
+    }
+
+    fn plan(
+        &self,
+        sc: &Scenario,
+        common: &Common,
+        v: &Validator,
+    ) -> Result<Box<dyn Plan>, ScenarioError> {
+        let e = Self::section(sc, v)?;
+        let rig = &common.rig;
+        let (spec, pose, scene) = common.own(e.specimen.as_ref(), "edge.specimen", v)?;
+        if !spec.is_edge() {
+            return Err(v.bad(
+                "edge.specimen.kind",
+                spec.name(),
+                "the edge method needs parallel-bar, scale or knife-blade",
+            ));
+        }
+        let target = EdgeTarget::from_pose(&pose, spec.edge_length().unwrap_or(f64::INFINITY));
+        let espec = EdgePlanSpec {
+            rotations: e.rotations,
+            translations: e.translations,
+            tilt: e.tilt_deg.to_radians(),
+            arc_radius: e.arc_radius_mm * 1e-3,
+            arc_span: e.arc_span_deg.to_radians(),
+            arc_heading: e.arc_heading_deg.to_radians(),
+            edge_z: e
+                .edge_z_mm
+                .map(|z| z * 1e-3)
+                .unwrap_or(rig.sensor.range_centre().z),
+        };
+        let plans = crate::sim::edge::plan(rig, &target, &espec)
+            .map_err(|er| v.bad("edge", "..", er.to_string()))?;
+        let validation = e.validation.as_ref().map(|val| BallCheck {
+            ball: BallTarget {
+                centre: Point3::from(Vector3::from(val.position_mm) * 1e-3),
+                radius: val.ball_radius_mm * 1e-3,
+            },
+            groups: val.groups,
+            translations: val.translations,
+            sigma: val.sigma_mm * 1e-3,
+        });
+        if e.source != Source::Raycast && spec.edge_radius > 0.0 {
+            return Err(v.bad(
+                "edge.specimen.edge_radius_mm",
+                spec.edge_radius * 1e3,
+                "a rounded edge needs edge.source = \"raycast\": where the profile's \
+                 corner lands on the round depends on the profile, which only the \
+                 ray-cast sensor sees",
+            ));
+        }
+        Ok(Box::new(EdgePlan {
+            target,
+            plans,
+            scene,
+            raycast: e.source == Source::Raycast,
+            sigma: e.sigma_mm * 1e-3,
+            validation,
+            form: e.specimen.as_ref().unwrap_or(&sc.specimen).form(),
+            sense: crate::sim::edge::sense(rig, &target),
+        }))
+    }
+
+    fn calibrate(
+        &self,
+        c: &Captures,
+        sensor: &SensorModel,
+    ) -> Result<crate::captures::Calibration, Error> {
+        calibrate(c, sensor)
+    }
+
+    fn scale_causes(&self, sc: &mut Scenario, sensor: f64, specimen: f64) {
+        if let Some(e) = &mut sc.edge {
+            e.sigma_mm *= sensor;
+            if let Some(sp) = &mut e.specimen {
+                sp.scale_imperfection(specimen);
+            }
+        }
+    }
+
+    fn needs_radius(&self) -> bool {
+        false
+    }
+
+    fn uses_group_signs(&self) -> bool {
+        false
+    }
+}
+
+/// The edge paper's Table 3 check: a precision ball scanned with the estimate.
+#[derive(Debug, Clone, Copy)]
+pub struct BallCheck {
+    pub ball: BallTarget,
+    pub groups: usize,
+    pub translations: usize,
+    /// z noise on its arcs, metres.
+    pub sigma: f64,
+}
+
+/// The edge method's plan on one rig.
+#[derive(Debug)]
+pub struct EdgePlan {
+    pub target: EdgeTarget,
+    pub plans: Vec<EdgeGroupPlan>,
+    pub scene: Scene,
+    pub raycast: bool,
+    /// Noise on the edge point's x and z (analytic), metres.
+    pub sigma: f64,
+    pub validation: Option<BallCheck>,
+    pub form: FormTolerance,
+    /// Which way the profiles cross the edge.
+    pub sense: EdgeSense,
+}
+
+impl Plan for EdgePlan {
+    fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    fn first_flange_pose(&self) -> Isometry3<f64> {
+        let p = &self.plans[0];
+        flange_pose(&p.r_tcp, &p.tcps[p.tcps.len() / 2])
+    }
+
+    fn true_centre(&self) -> Option<Point3<f64>> {
+        None
+    }
+
+    fn truth_checks(&self, rig: &Rig, estimate: &Isometry3<f64>, validation_seed: u64) -> Metrics {
+        let radius = self.validation.and_then(|v| {
+            let mut vr = rng::stream(validation_seed, &[tag::SPECIMEN]);
+            crate::sim::edge::ball_radius_check(
+                rig,
+                estimate,
+                &v.ball,
+                v.groups,
+                v.translations,
+                v.sigma,
+                0.1e-3,
+                &mut vr,
+            )
+        });
+        Metrics::default().with(Metric::SphereRadius, radius.map(|x| x * 1e3))
+    }
+
+    fn simulate(&self, rig: &Rig, sim: &mut Sim) -> Result<Captures, Error> {
+        let (spec, frame) = &self.scene.specimens[0];
+        let form = FormError::draw(spec, &self.form, sim.specimen_rng);
+        let scene = crate::scene::with_form(std::borrow::Cow::Borrowed(&self.scene), form);
+        let noisy = !rig.sensor.noise.is_off();
+        let mut k = 0usize;
+        let Sim {
+            rng, disturbance, ..
+        } = sim;
+        let (mut groups, mut profiles) = (Vec::new(), Vec::new());
+        for (g, p) in self.plans.iter().enumerate() {
+            groups.push(Group {
+                id: g,
+                role: Role::RotationGroup,
+                sign: 0.0,
+            });
+            for t in &p.tcps {
+                let f = flange_pose(&p.r_tcp, t);
+                let pose = rig.base_to_sensor(&disturbance.actual(&rig.robot, &f, k));
+                k += 1;
+                let data = if self.raycast {
+                    ProfileData::Raw(
+                        rig.sensor
+                            .profile(&scene, &pose, noisy.then_some(&mut **rng)),
+                    )
+                } else {
+                    let (nx, nz) = (
+                        crate::rng::gauss(rng) * self.sigma,
+                        crate::rng::gauss(rng) * self.sigma,
+                    );
+                    let q = crate::sim::edge::exact_point_formed(&pose, &self.target, frame, &form)
+                        .ok_or(CaptureError::ParallelToEdge { group: g })?;
+                    ProfileData::EdgePoint(q + Vector2::new(nx, nz))
+                };
+                profiles.push(crate::captures::CaptureProfile {
+                    group: g,
+                    base_to_flange: f,
+                    data,
+                });
+            }
+        }
+        Ok(Captures {
+            method: Kind::Edge,
+            sensor: rig.sensor.name.clone(),
+            specimen_kind: spec.name().to_string(),
+            specimen_radius: None,
+            edge_sense: Some(self.sense),
+            truth: Some(rig.flange_to_sensor),
+            groups,
+            profiles,
+        })
+    }
+}
+
+/// The edge point of one capture: given, or extracted from the raw profile.
+fn point_of(
+    g: &Group,
+    data: &ProfileData,
+    sensor: &SensorModel,
+    sense: EdgeSense,
+    cfg: &SplitMerge,
+) -> Result<Result<Vector2<f64>, features::FeatureError>, CaptureError> {
+    match data {
+        ProfileData::EdgePoint(q) => Ok(Ok(*q)),
+        ProfileData::Raw(prof) => Ok(features::edge_point(prof, sensor, sense, cfg)),
+        _ => Err(CaptureError::WrongData {
+            group: g.id,
+            method: Kind::Edge,
+            need: "an edge point or raw points",
+        }),
+    }
+}
+
+/// Edge points per rotation group, the Kronecker solve, the paper's Tables 1-2 figures, and the
+/// refinement problem.
+fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<crate::captures::Calibration, Error> {
+    let sense = c.edge_sense.unwrap_or(EdgeSense::Falling);
+    let tuned = SplitMerge::for_sensor(sensor);
+    let exact = sensor.noise.is_off() && sensor.z_quantum.is_none();
+    // Edges are small features: a fine tolerance for an exact sensor, else the noise's.
+    let cfg = SplitMerge {
+        split_tol: if exact { 0.1e-3 } else { tuned.split_tol },
+        jump: tuned.jump.max(0.5e-3),
+        min_points: 4,
+    };
+    let mut missed = 0;
+    let mut groups = Vec::new();
+    let mut points = Vec::new();
+    for g in &c.groups {
+        let mut caps = Vec::new();
+        for p in c.group_profiles(g.id) {
+            match point_of(g, &p.data, sensor, sense, &cfg)? {
+                Ok(q) => {
+                    points.push((p.base_to_flange, q));
+                    caps.push(EdgeCapture {
+                        r_tcp: p.base_to_flange.rotation.to_rotation_matrix(),
+                        t_tcp: p.base_to_flange.translation.vector,
+                        p_in_sensor: q,
+                    })
+                }
+                Err(_) => missed += 1,
+            }
+        }
+        groups.push(caps);
+    }
+    let sol = crate::calib::edge::solve(&EdgeProblem { groups })?;
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    Ok(crate::captures::Calibration {
+        refinable: Some(std::sync::Arc::new(Problem {
+            model: EdgeModel { points },
+            specimen: EdgeLine::new(sol.edge_point.into(), &sol.edge_direction),
+        })),
+        flange_to_sensor: sol.flange_to_sensor,
+        centre_in_base: None,
+        figures: Metrics::default()
+            .with(
+                Metric::EdgeAngleDev,
+                Some(mean(&sol.group_angle_dev).to_degrees()),
+            )
+            .with(Metric::EdgeDistance, Some(mean(&sol.point_distances) * 1e3)),
+        status: sol.status,
+        missed,
+    })
+}

@@ -1,0 +1,374 @@
+//! The scenario file's sections that every method shares (the methods' own sections live in
+//! `method::<kind>`). Lengths in mm and angles in the unit their name says, as the user writes
+//! them; `build` converts to SI once.
+
+use super::{ScenarioError, Validator};
+use crate::scene::{FormTolerance, Specimen, SpecimenKind};
+use serde::Deserialize;
+
+fn d_true() -> bool {
+    true
+}
+fn d_reflectance() -> f64 {
+    0.3
+}
+
+/// Where a method's features come from.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Source {
+    /// Exact features from the analytic geometry plus the paper's noise model.
+    #[default]
+    Analytic,
+    /// Profiles ray-cast through the sensor model, features extracted from them.
+    Raycast,
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RobotSection {
+    /// irb120, irb2600 or a path to a .urdf (relative to the scenario file).
+    pub name: String,
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SensorSection {
+    pub preset: String,
+    /// The true flange_to_sensor translation (mm).
+    pub mount_position_mm: [f64; 3],
+    /// The true flange_to_sensor rotation as a row-major matrix (made orthonormal)...
+    #[serde(default)]
+    pub mount_rotation: Option<[[f64; 3]; 3]>,
+    /// ...or as (rx, ry, rz) degrees, R = Rz Ry Rx.
+    #[serde(default)]
+    pub mount_rpy_deg: Option<[f64; 3]>,
+    /// Quantise z as the real sensor does.
+    #[serde(default = "d_true")]
+    pub quantise: bool,
+    #[serde(default)]
+    pub noise: NoiseSection,
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct NoiseSection {
+    #[serde(default)]
+    pub z_sigma_near_mm: f64,
+    #[serde(default)]
+    pub z_sigma_far_mm: f64,
+    #[serde(default)]
+    pub x_sigma_mm: f64,
+    #[serde(default)]
+    pub dropout: f64,
+    #[serde(default)]
+    pub outlier_rate: f64,
+    #[serde(default)]
+    pub outlier_amplitude_mm: f64,
+    #[serde(default)]
+    pub dark_threshold: f64,
+    #[serde(default)]
+    pub dark_noise_factor: f64,
+    #[serde(default)]
+    pub dark_dropout: f64,
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SpecimenSection {
+    /// disk-cylinder, disk-paper, ball, parallel-bar, scale, knife-blade.
+    pub kind: String,
+    pub position_mm: [f64; 3],
+    /// Orientation (rx, ry, rz) degrees, R = Rz Ry Rx; for a disk its z axis is the normal.
+    #[serde(default)]
+    pub rpy_deg: [f64; 3],
+    pub radius_mm: Option<f64>,
+    pub height_mm: Option<f64>,
+    pub paper_half_mm: Option<f64>,
+    pub post_radius_mm: Option<f64>,
+    pub post_height_mm: Option<f64>,
+    pub length_mm: Option<f64>,
+    pub width_mm: Option<f64>,
+    pub thickness_mm: Option<f64>,
+    pub bevel_mm: Option<f64>,
+    pub reflectance: Option<f64>,
+    /// Specimen imperfection: standard deviation of the true disk or ball radius around the nominal
+    /// one (drawn per trial; the calibration is told the nominal radius).
+    pub radius_tolerance_mm: Option<f64>,
+    /// Form tolerances, peak-to-valley (the form error's orientation is drawn per trial): disk
+    /// flatness (a saddle warp), ball sphericity (an ellipsoid), edge straightness (a bow).
+    pub flatness_mm: Option<f64>,
+    pub sphericity_mm: Option<f64>,
+    pub straightness_mm: Option<f64>,
+    /// Radius to which a parallel bar's or scale's edge is rounded (ray-cast sources only).
+    pub edge_radius_mm: Option<f64>,
+}
+
+impl SpecimenSection {
+    /// The form tolerances, metres.
+    pub fn form(&self) -> FormTolerance {
+        FormTolerance {
+            flatness: self.flatness_mm.unwrap_or(0.0) * 1e-3,
+            sphericity: self.sphericity_mm.unwrap_or(0.0) * 1e-3,
+            straightness: self.straightness_mm.unwrap_or(0.0) * 1e-3,
+        }
+    }
+
+    pub fn scale_imperfection(&mut self, k: f64) {
+        for v in [
+            &mut self.radius_tolerance_mm,
+            &mut self.flatness_mm,
+            &mut self.sphericity_mm,
+            &mut self.straightness_mm,
+            &mut self.edge_radius_mm,
+        ]
+        .into_iter()
+        .flatten()
+        {
+            *v *= k;
+        }
+    }
+
+    /// The specimen this section describes (SI units), its values checked; `key` prefixes the
+    /// keys in errors ("specimen", "ball.specimen").
+    pub fn kind_checked(&self, key: &str, v: &Validator) -> Result<SpecimenKind, ScenarioError> {
+        let k = |name: &str| format!("{key}.{name}");
+        let need = |name: &str, value: Option<f64>| -> Result<f64, ScenarioError> {
+            match value {
+                Some(x) => v.length(&k(name), x),
+                None => Err(v.bad(
+                    &k(name),
+                    "(missing)",
+                    format!("a {} needs {name}", self.kind),
+                )),
+            }
+        };
+        let opt = |value: Option<f64>, default_mm: f64, name: &str| {
+            need(name, Some(value.unwrap_or(default_mm)))
+        };
+        let kind = match self.kind.as_str() {
+            SpecimenKind::DISK_CYLINDER => SpecimenKind::DiskOnCylinder {
+                radius: need("radius_mm", self.radius_mm)?,
+                height: opt(self.height_mm, 20.0, "height_mm")?,
+            },
+            SpecimenKind::DISK_PAPER => SpecimenKind::DiskOnPaper {
+                radius: need("radius_mm", self.radius_mm)?,
+                paper_half: opt(self.paper_half_mm, 150.0, "paper_half_mm")?,
+            },
+            SpecimenKind::BALL => SpecimenKind::BallOnPost {
+                radius: need("radius_mm", self.radius_mm)?,
+                post_radius: opt(self.post_radius_mm, 8.0, "post_radius_mm")?,
+                post_height: opt(self.post_height_mm, 80.0, "post_height_mm")?,
+            },
+            SpecimenKind::PARALLEL_BAR => SpecimenKind::ParallelBar {
+                length: opt(self.length_mm, 150.0, "length_mm")?,
+                width: opt(self.width_mm, 25.0, "width_mm")?,
+                height: opt(self.height_mm, 12.0, "height_mm")?,
+            },
+            SpecimenKind::SCALE => SpecimenKind::Scale {
+                length: opt(self.length_mm, 300.0, "length_mm")?,
+                width: opt(self.width_mm, 30.0, "width_mm")?,
+                thickness: opt(self.thickness_mm, 1.0, "thickness_mm")?,
+            },
+            SpecimenKind::KNIFE_BLADE => SpecimenKind::KnifeBlade {
+                length: opt(self.length_mm, 125.0, "length_mm")?,
+                width: opt(self.width_mm, 18.0, "width_mm")?,
+                thickness: opt(self.thickness_mm, 0.6, "thickness_mm")?,
+                bevel: opt(self.bevel_mm, 1.0, "bevel_mm")?,
+            },
+            other => {
+                return Err(v.bad(
+                    &k("kind"),
+                    format!("\"{other}\""),
+                    format!("use {}", SpecimenKind::NAMES.join(", ")),
+                ));
+            }
+        };
+        if let Some(t) = self.radius_tolerance_mm {
+            v.non_negative(&k("radius_tolerance_mm"), t)?;
+        }
+        let is_edge = Specimen::new(kind.clone()).is_edge();
+        let rounded = matches!(
+            kind,
+            SpecimenKind::ParallelBar { .. } | SpecimenKind::Scale { .. }
+        );
+        for (field, value, allowed, applies) in [
+            ("flatness_mm", self.flatness_mm, kind.is_disk(), "a disk"),
+            (
+                "sphericity_mm",
+                self.sphericity_mm,
+                matches!(kind, SpecimenKind::BallOnPost { .. }),
+                "a ball",
+            ),
+            (
+                "straightness_mm",
+                self.straightness_mm,
+                is_edge,
+                "an edge specimen",
+            ),
+            (
+                "edge_radius_mm",
+                self.edge_radius_mm,
+                rounded,
+                "a parallel bar or a scale",
+            ),
+        ] {
+            let Some(value) = value else { continue };
+            v.non_negative(&k(field), value)?;
+            if !allowed {
+                return Err(v.bad(
+                    &k(field),
+                    value,
+                    format!("applies to {applies}, not to {}", self.kind),
+                ));
+            }
+        }
+        if let Some(r) = self.reflectance {
+            v.probability_like(&k("reflectance"), r, "must be in 0..1")?;
+        }
+        Ok(kind)
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct TableSection {
+    pub height_mm: f64,
+    #[serde(default = "d_reflectance")]
+    pub reflectance: f64,
+}
+
+/// Robot pose error applied to the robot that moves (the calibration sees the commanded poses).
+#[derive(Debug, Clone, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RobotErrorSection {
+    /// ISO 9283 position repeatability (IRB 120: 0.01 mm, IRB 2600: 0.04 mm).
+    #[serde(default)]
+    pub repeatability_mm: f64,
+    /// Encoder noise per joint and pose (standard deviation).
+    #[serde(default)]
+    pub joint_noise_deg: f64,
+    /// Systematic kinematic error per trial: joint origin offsets and joint zero offsets (std).
+    #[serde(default)]
+    pub link_error_mm: f64,
+    #[serde(default)]
+    pub joint_offset_error_deg: f64,
+}
+
+/// Arm dynamics (rapier): each capture is taken after moving there and settling.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DynamicsSection {
+    /// Time the robot waits after each move before the profile (the edge paper's delays).
+    pub settle_ms: f64,
+    /// Servo gains (acceleration-based: 1/s^2 and 1/s).
+    #[serde(default = "d_stiffness")]
+    pub stiffness: f64,
+    #[serde(default = "d_damping")]
+    pub damping: f64,
+    /// Joint speed as a fraction of the axis limits.
+    #[serde(default = "d_speed")]
+    pub speed_fraction: f64,
+    #[serde(default = "d_dt")]
+    pub dt_ms: f64,
+}
+
+fn d_stiffness() -> f64 {
+    1.0e4
+}
+fn d_damping() -> f64 {
+    40.0
+}
+fn d_speed() -> f64 {
+    0.5
+}
+fn d_dt() -> f64 {
+    1.0
+}
+
+/// Cheap arm-vibration model: a band-limited random TCP perturbation.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct VibrationSection {
+    /// RMS of the TCP displacement per axis.
+    pub amplitude_mm: f64,
+    pub band_low_hz: f64,
+    pub band_high_hz: f64,
+    /// The rate at which profiles are taken (the Gocator: about 170 Hz).
+    pub profile_rate_hz: f64,
+}
+
+/// A physical cause of error a scenario can keep alone (`[causes] only`).
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Cause {
+    All,
+    None,
+    /// Sensor noise.
+    Sensor,
+    Repeatability,
+    /// Joint (encoder) noise.
+    Encoder,
+    /// Link-length and joint-offset error.
+    Kinematic,
+    Vibration,
+    /// Radius tolerance and form error.
+    Specimen,
+}
+
+/// The causes that can be kept alone, by name.
+pub const CAUSES: &[&str] = &[
+    "sensor",
+    "repeatability",
+    "encoder",
+    "kinematic",
+    "vibration",
+    "specimen",
+];
+
+/// Cause studies: keep one of the configured causes of error (or all) and scale its magnitude, so
+/// that a sweep over `causes.only` and `causes.scale` shows each cause alone and all combined.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CausesSection {
+    #[serde(default = "d_all")]
+    pub only: Cause,
+    /// Multiplies the magnitude of every cause kept (1 = as configured).
+    #[serde(default = "d_scale")]
+    pub scale: f64,
+}
+
+fn d_all() -> Cause {
+    Cause::All
+}
+fn d_scale() -> f64 {
+    1.0
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SweepSection {
+    pub trials: usize,
+    /// Dotted scenario keys and the values each takes; the sweep runs their Cartesian product.
+    pub grid: toml::Table,
+    #[serde(default)]
+    pub plot: Option<PlotSection>,
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PlotSection {
+    /// Grid key on the x axis.
+    pub x: String,
+    /// Grid key that makes one curve per value.
+    #[serde(default)]
+    pub series: Option<String>,
+    /// Summary column on the y axis, e.g. centre_error_mm_std.
+    pub y: String,
+    #[serde(default)]
+    pub log_x: bool,
+    #[serde(default)]
+    pub log_y: bool,
+    #[serde(default)]
+    pub title: Option<String>,
+}
