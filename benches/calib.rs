@@ -44,7 +44,7 @@ fn bench(c: &mut Criterion) {
         let sf =
             ScenarioFile::load(std::path::Path::new(&format!("{dir}/scenarios/{scen}"))).unwrap();
         let setup = sf.scenario.build(&sf.file).unwrap();
-        let caps = lasercal::trial::trial_captures(&setup, method, 1, 0)
+        let caps = lasercal::trial::trial_captures(&setup, method.parse().unwrap(), 1, 0)
             .0
             .unwrap();
         let sensor = &setup.rig.sensor;
@@ -54,7 +54,7 @@ fn bench(c: &mut Criterion) {
         });
         let opts = lasercal::calib::refine::Options::default();
         c.bench_function(&format!("refine/{method}_refinement"), |b| {
-            b.iter(|| black_box(lasercal::captures::refine(black_box(&cal), &opts)))
+            b.iter(|| black_box(black_box(&cal).refine(&opts)))
         });
     }
 
@@ -66,11 +66,12 @@ fn bench(c: &mut Criterion) {
         let sf =
             ScenarioFile::load(std::path::Path::new(&format!("{dir}/scenarios/{scen}"))).unwrap();
         let setup = sf.scenario.build(&sf.file).unwrap();
+        let id: lasercal::method::MethodId = method.parse().unwrap();
         let mut t = 0u64;
         c.bench_function(&format!("trial/{method}_{}", sf.scenario.name), |b| {
             b.iter(|| {
                 t += 1;
-                black_box(lasercal::trial::run_trial(&setup, method, 1, t))
+                black_box(lasercal::trial::run_trial(&setup, id, 1, t))
             })
         });
     }

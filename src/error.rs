@@ -50,6 +50,38 @@ pub enum Error {
     },
 }
 
+/// Errors compare by value; an I/O error by its path, action and kind.
+impl PartialEq for Error {
+    fn eq(&self, other: &Error) -> bool {
+        use Error::*;
+        match (self, other) {
+            (Scenario(a), Scenario(b)) => a == b,
+            (Calib(a), Calib(b)) => a == b,
+            (Feature(a), Feature(b)) => a == b,
+            (Captures(a), Captures(b)) => a == b,
+            (Robot(a), Robot(b)) => a == b,
+            (Plan(a), Plan(b)) => a == b,
+            (Sensor(a), Sensor(b)) => a == b,
+            (Dynamics(a), Dynamics(b)) => a == b,
+            (Format(a), Format(b)) => a == b,
+            (NoPlan { method: a }, NoPlan { method: b }) => a == b,
+            (
+                Io {
+                    path: p1,
+                    action: a1,
+                    source: s1,
+                },
+                Io {
+                    path: p2,
+                    action: a2,
+                    source: s2,
+                },
+            ) => p1 == p2 && a1 == a2 && s1.kind() == s2.kind(),
+            _ => false,
+        }
+    }
+}
+
 impl Error {
     /// An I/O error on `path` while doing `action` ("create", "write", "read", ...).
     pub fn io(path: impl Into<PathBuf>, action: &'static str, source: std::io::Error) -> Error {

@@ -94,7 +94,7 @@ pub struct SummaryRow {
 }
 
 /// A trial row as written to trials.csv.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct TrialRow {
     pub point: usize,
     pub values: Vec<(String, toml::Value)>,

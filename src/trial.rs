@@ -13,7 +13,7 @@ use crate::sim::disturb::Disturbance;
 use nalgebra::Isometry3;
 
 /// What a successful calibration gave.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Score {
     pub estimate: Isometry3<f64>,
     /// Every figure the method reports (errors against the truth and its own figures).
@@ -35,7 +35,7 @@ impl Score {
     }
 }
 
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct TrialOutcome {
     pub trial: u64,
     pub method: MethodId,

@@ -166,13 +166,13 @@ fn ball_raycast_recovers_truth() {
         );
     let sf = ScenarioFile::parse(&text, "ball-raycast.toml").unwrap();
     let setup = sf.scenario.build(&sf.file).unwrap();
-    let out = lasercal::trial::run_trial(&setup, "ball", 1, 0);
+    let out = lasercal::trial::run_trial(&setup, "ball".parse().unwrap(), 1, 0);
     let s = out.result.unwrap();
-    eprintln!("ray-cast ball: {:?}", s.error);
+    eprintln!("ray-cast ball: {:?}", s.error());
     assert!(
-        s.error.rotation_error_deg < 1e-6 && s.error.translation_error_mm < 1e-6,
+        s.error().rotation_error_deg < 1e-6 && s.error().translation_error_mm < 1e-6,
         "{:?}",
-        s.error
+        s.error()
     );
 }
 
@@ -184,7 +184,7 @@ fn reduced_fig17_sweep_more_arcs_do_not_help() {
         std::fs::read_to_string(path).unwrap()
     );
     let sf = ScenarioFile::parse(&text, "fig17.toml").unwrap();
-    let plan = SweepPlan::new(&sf, None, None).unwrap();
+    let plan = SweepPlan::new(&sf, None, None);
     let summary = sweep::run(&plan, &sf.file, Shard::ALL, |_| Ok(()), &|_| {}).unwrap();
     let e: Vec<f64> = summary
         .iter()

@@ -28,8 +28,8 @@ fn every_cause_off_equals_the_ideal_simulator() {
     );
     for t in 0..5 {
         assert_eq!(
-            run_trial(&a, "disk", 3, t),
-            run_trial(&b, "disk", 3, t),
+            run_trial(&a, "disk".parse().unwrap(), 3, t),
+            run_trial(&b, "disk".parse().unwrap(), 3, t),
             "trial {t}"
         );
     }
@@ -40,8 +40,14 @@ fn every_cause_off_equals_the_ideal_simulator() {
     )
     .unwrap();
     let c = on.scenario.build("c").unwrap();
-    assert_ne!(run_trial(&a, "disk", 3, 0), run_trial(&c, "disk", 3, 0));
-    assert_eq!(run_trial(&c, "disk", 3, 0), run_trial(&c, "disk", 3, 0));
+    assert_ne!(
+        run_trial(&a, "disk".parse().unwrap(), 3, 0),
+        run_trial(&c, "disk".parse().unwrap(), 3, 0)
+    );
+    assert_eq!(
+        run_trial(&c, "disk".parse().unwrap(), 3, 0),
+        run_trial(&c, "disk".parse().unwrap(), 3, 0)
+    );
 }
 
 #[test]
@@ -181,10 +187,10 @@ fn every_simulation_path_feels_the_robot_error() {
             .build(file)
             .unwrap();
         let (a, b) = (
-            run_trial(&ideal, method, 1, 0),
-            run_trial(&shaken, method, 1, 0),
+            run_trial(&ideal, method.parse().unwrap(), 1, 0),
+            run_trial(&shaken, method.parse().unwrap(), 1, 0),
         );
-        let (ea, eb) = (a.result.unwrap().error, b.result.unwrap().error);
+        let (ea, eb) = (a.result.unwrap().error(), b.result.unwrap().error());
         assert!(ea != eb, "{file}: vibration changed nothing");
     }
 }
@@ -204,10 +210,10 @@ fn radius_tolerance_biases_the_disk_method_in_proportion() {
             .unwrap();
         (0..30)
             .map(|k| {
-                run_trial(&setup, "disk", 5, k)
+                run_trial(&setup, "disk".parse().unwrap(), 5, k)
                     .result
                     .unwrap()
-                    .error
+                    .error()
                     .translation_error_mm
             })
             .sum::<f64>()

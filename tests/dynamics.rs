@@ -68,10 +68,10 @@ fn settle_time_controls_the_transient_error() {
         )
         .unwrap();
         let setup = sf.scenario.build("d").unwrap();
-        run_trial(&setup, "disk", 1, 0)
+        run_trial(&setup, "disk".parse().unwrap(), 1, 0)
             .result
             .unwrap()
-            .error
+            .error()
             .translation_error_mm
     };
     let (no_wait, waited) = (err(0.0), err(20.0));

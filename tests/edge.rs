@@ -99,32 +99,33 @@ fn edge_raycast_recovers_truth_for_each_specimen() {
             );
         let sf = ScenarioFile::parse(&text, "edge-raycast.toml").unwrap();
         let setup = sf.scenario.build(&sf.file).unwrap();
-        let out = lasercal::trial::run_trial(&setup, "edge", 1, 0);
+        let out = lasercal::trial::run_trial(&setup, "edge".parse().unwrap(), 1, 0);
         let s = out.result.unwrap_or_else(|e| panic!("{kind}: {e}"));
         eprintln!(
             "ray-cast {kind}: {:?}, missed {}",
-            s.error, out.missed_profiles
+            s.error(),
+            out.missed_profiles
         );
         assert_eq!(out.missed_profiles, 0, "{kind}");
         match kind {
             "knife-blade" => {
                 assert!(
-                    s.error.rotation_error_deg > 10.0 * bar_err,
+                    s.error().rotation_error_deg > 10.0 * bar_err,
                     "the blade's hidden bevel should show"
                 );
                 assert!(
-                    s.error.rotation_error_deg < 5.0 && s.error.translation_error_mm < 2.0,
+                    s.error().rotation_error_deg < 5.0 && s.error().translation_error_mm < 2.0,
                     "{kind}: {:?}",
-                    s.error
+                    s.error()
                 );
             }
             _ => {
                 assert!(
-                    s.error.rotation_error_deg < 0.1 && s.error.translation_error_mm < 0.1,
+                    s.error().rotation_error_deg < 0.1 && s.error().translation_error_mm < 0.1,
                     "{kind}: {:?}",
-                    s.error
+                    s.error()
                 );
-                bar_err = f64::max(bar_err, s.error.rotation_error_deg);
+                bar_err = f64::max(bar_err, s.error().rotation_error_deg);
             }
         }
     }
@@ -136,10 +137,13 @@ fn xu2021_table3_ball_radius_close_to_20mm() {
     let sf = ScenarioFile::load(std::path::Path::new(path)).unwrap();
     let setup = sf.scenario.build(&sf.file).unwrap();
     for t in 0..5 {
-        let s = lasercal::trial::run_trial(&setup, "edge", sf.scenario.seed, t)
+        let s = lasercal::trial::run_trial(&setup, "edge".parse().unwrap(), sf.scenario.seed, t)
             .result
             .unwrap();
-        let r = s.sphere_radius_mm.unwrap();
+        let r = s
+            .metrics
+            .get(lasercal::metrics::Metric::SphereRadius)
+            .unwrap();
         // The paper's Table 3: 19.92 to 20.06 mm.
         assert!((r - 20.0).abs() < 0.08, "trial {t}: radius {r}");
     }

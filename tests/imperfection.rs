@@ -311,18 +311,22 @@ fn each_imperfection_moves_the_result_and_off_changes_nothing() {
         ));
         let on = build(&base.replacen(anchor, &format!("{anchor}\n{field}"), 1));
         let (a, b, c) = (
-            run_trial(&ideal, method, 4, 1),
-            run_trial(&zero, method, 4, 1),
-            run_trial(&on, method, 4, 1),
+            run_trial(&ideal, method.parse().unwrap(), 4, 1),
+            run_trial(&zero, method.parse().unwrap(), 4, 1),
+            run_trial(&on, method.parse().unwrap(), 4, 1),
         );
         assert_eq!(a, b, "{name}: a zero tolerance must change nothing");
-        let (ea, ec) = (a.result.unwrap().error, c.result.clone().unwrap().error);
+        let (ea, ec) = (a.result.unwrap().error(), c.result.clone().unwrap().error());
         assert!(ea.translation_error_mm < 1e-6, "{name}: {ea:?}");
         assert!(
             ec.translation_error_mm > 1e-4 && ec.translation_error_mm < 1.0,
             "{name}: a 0.05 mm form error gave {ec:?}"
         );
-        assert_eq!(c, run_trial(&on, method, 4, 1), "{name}: not deterministic");
+        assert_eq!(
+            c,
+            run_trial(&on, method.parse().unwrap(), 4, 1),
+            "{name}: not deterministic"
+        );
     }
 }
 
@@ -332,7 +336,7 @@ fn causes_keep_one_cause_and_scale_it() {
     let s = &sf.scenario;
     let with = |only: &str, scale: f64| {
         let mut t = s.clone();
-        t.causes.as_mut().unwrap().only = only.into();
+        t.causes.as_mut().unwrap().only = only.parse().unwrap();
         t.causes.as_mut().unwrap().scale = scale;
         t.resolved("x").unwrap()
     };
@@ -351,13 +355,16 @@ fn causes_keep_one_cause_and_scale_it() {
     // Every cause alone gives a non-zero error; none gives the exact answer.
     let setup = |o: &str| with(o, 1.0).build("x").unwrap();
     for c in CAUSES {
-        let e = run_trial(&setup(c), "disk", 1, 0).result.unwrap().error;
+        let e = run_trial(&setup(c), "disk".parse().unwrap(), 1, 0)
+            .result
+            .unwrap()
+            .error();
         assert!(e.translation_error_mm > 1e-4, "{c}: {e:?}");
     }
-    let e = run_trial(&setup("none"), "disk", 1, 0)
+    let e = run_trial(&setup("none"), "disk".parse().unwrap(), 1, 0)
         .result
         .unwrap()
-        .error;
+        .error();
     assert!(e.translation_error_mm < 1e-6, "{e:?}");
 }
 
@@ -368,7 +375,12 @@ fn cheap_vibration_matches_the_dynamic_arm_for_default_gains() {
     let sf = ScenarioFile::parse(&scenario("disk-causes"), "disk-causes.toml").unwrap();
     let setup = sf.scenario.build("disk-causes.toml").unwrap();
     let robot = &setup.rig.robot;
-    let d = setup.disk.as_ref().unwrap();
+    let d = setup
+        .plan(lasercal::method::Kind::Disk)
+        .unwrap()
+        .as_any()
+        .downcast_ref::<lasercal::method::disk::DiskPlan>()
+        .unwrap();
     let rms = |dist: &mut Disturbance| {
         let mut sum = Vector3::zeros();
         let mut n = 0.0;

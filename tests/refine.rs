@@ -1,10 +1,14 @@
-//! Issue 8: joint refinement, its uncertainty and observability.
+//! Issue 8: joint refinement, its uncertainty and observability (the suite every method runs is
+//! in tests/methods.rs).
 
-use lasercal::calib::refine::{self, Data, Loss, Options, SpecimenEstimate};
-use lasercal::captures::{Calibration, calibrate};
+use lasercal::calib::refine::edge::{EdgeLine, EdgeModel};
+use lasercal::calib::refine::{self, Options, Problem, Refinable};
+use lasercal::captures::ProfileData;
+use lasercal::method::edge::EdgePlan;
+use lasercal::method::{Kind, MethodId};
 use lasercal::scenario::{ScenarioFile, Setup};
 use lasercal::trial::{run_trial, trial_captures};
-use nalgebra::{DVector, Isometry3, Rotation3, UnitQuaternion, Vector3};
+use nalgebra::Isometry3;
 
 fn setup(name: &str, edit: &dyn Fn(String) -> String) -> Setup {
     let text = std::fs::read_to_string(format!(
@@ -32,101 +36,8 @@ const CASES: [(&str, &str); 3] = [
     ("xu2021-edge", "edge"),
 ];
 
-fn closed_form(setup: &Setup, method: &str, trial: u64) -> Calibration {
-    let (caps, _) = trial_captures(setup, method, 5, trial);
-    calibrate(&caps.unwrap(), &setup.rig.sensor).unwrap()
-}
-
-#[test]
-fn jacobians_match_finite_differences() {
-    for (name, method) in CASES {
-        let s = setup(name, &sigma(0.05));
-        let cal = closed_form(&s, method, 0);
-        let (data, spec) = cal.features.clone().unwrap();
-        // Away from the optimum, so every term of the Jacobian matters.
-        let x = cal.flange_to_sensor
-            * Isometry3::from_parts(
-                Vector3::new(1e-3, -2e-3, 1.5e-3).into(),
-                UnitQuaternion::from_scaled_axis(Vector3::new(0.01, -0.02, 0.015)),
-            );
-        let spec = match spec {
-            SpecimenEstimate::Disk { centre, normal } => SpecimenEstimate::Disk {
-                centre: centre + Vector3::new(1e-3, 2e-3, -1e-3),
-                normal: Rotation3::from_scaled_axis(Vector3::new(0.02, -0.01, 0.0)) * normal,
-            },
-            SpecimenEstimate::Ball { centre } => SpecimenEstimate::Ball {
-                centre: centre + Vector3::new(1e-3, 2e-3, -1e-3),
-            },
-            SpecimenEstimate::Edge { point, dir } => SpecimenEstimate::Edge {
-                point: point + Vector3::new(1e-3, 2e-3, -1e-3),
-                dir: Rotation3::from_scaled_axis(Vector3::new(0.0, 0.02, -0.01)) * dir,
-            },
-        };
-        let (r0, j) = refine::residuals_and_jacobian(&data, &x, &spec);
-        let h = 1e-6;
-        let mut worst: f64 = 0.0;
-        for c in 0..j.ncols() {
-            let mut dx = DVector::zeros(j.ncols());
-            dx[c] = h;
-            let rp = refine::residuals_after_step(&data, &x, &spec, &dx);
-            dx[c] = -h;
-            let rm = refine::residuals_after_step(&data, &x, &spec, &dx);
-            let fd = (rp - rm) / (2.0 * h);
-            let scale = j.column(c).amax().max(1e-3);
-            worst = worst.max((fd - j.column(c)).amax() / scale);
-        }
-        assert!(r0.amax() > 1e-5, "{name}: not away from the optimum");
-        assert!(
-            worst < 1e-6,
-            "{name}: Jacobian off by {worst:.2e} (relative)"
-        );
-    }
-}
-
-#[test]
-fn exact_data_gives_exact_results() {
-    for (name, method) in CASES {
-        let s = setup(name, &sigma(0.0));
-        let out = run_trial(&s, &format!("{method}-refined"), 1, 0);
-        let sc = out.result.unwrap();
-        let e = sc.error;
-        assert!(
-            e.frobenius_rotation < 1e-9 && e.translation_error_mm < 1e-6,
-            "{name}: {e:?}"
-        );
-        let r = sc.refined.unwrap();
-        assert!(r.residual_rms < 1e-9, "{name}: residual {}", r.residual_rms);
-        assert!(matches!(
-            r.status,
-            lasercal::calib::Status::Converged { .. }
-        ));
-    }
-}
-
-#[test]
-fn refinement_never_worsens_the_closed_form_cost() {
-    for (name, method) in CASES {
-        let s = setup(name, &sigma(0.1));
-        for trial in 0..10 {
-            let cal = closed_form(&s, method, trial);
-            for loss in [Loss::Squared, Loss::Huber { k: 1.5 }] {
-                let r = lasercal::captures::refine(
-                    &cal,
-                    &Options {
-                        loss,
-                        ..Default::default()
-                    },
-                )
-                .unwrap();
-                assert!(
-                    r.cost <= r.initial_cost,
-                    "{name} trial {trial}: {} -> {}",
-                    r.initial_cost,
-                    r.cost
-                );
-            }
-        }
-    }
+fn id(method: &str) -> MethodId {
+    method.parse().unwrap()
 }
 
 /// Observed spread of the refined estimates against the predicted standard deviations, per
@@ -136,7 +47,7 @@ pub fn calibration_ratios(s: &Setup, method: &str, trials: u64) -> [f64; 6] {
     let mut err = Vec::new();
     let mut pred = [0.0; 6];
     for t in 0..trials {
-        let sc = run_trial(s, &format!("{method}-refined"), 11, t)
+        let sc = run_trial(s, id(&format!("{method}-refined")), 11, t)
             .result
             .unwrap();
         let r = sc.refined.unwrap();
@@ -178,32 +89,42 @@ fn a_pose_set_that_cannot_fix_the_transform_is_refused() {
     // The edge method with every group at the same flange rotation: nothing fixes the rotation
     // about the edge's own direction.
     let s = setup("xu2021-edge", &sigma(0.0));
-    let cal = closed_form(&s, "edge", 0);
-    let (Data::Edge { points }, spec) = cal.features.clone().unwrap() else {
-        panic!()
-    };
+    let (caps, _) = trial_captures(&s, Kind::Edge, 5, 0);
+    let points: Vec<_> = caps
+        .unwrap()
+        .profiles
+        .iter()
+        .map(|p| match p.data {
+            ProfileData::EdgePoint(q) => (p.base_to_flange, q),
+            _ => panic!("the analytic edge source gives edge points"),
+        })
+        .collect();
+    let target = s
+        .plan(Kind::Edge)
+        .unwrap()
+        .as_any()
+        .downcast_ref::<EdgePlan>()
+        .unwrap()
+        .target;
+    let line = EdgeLine::new(target.point, &target.dir);
     let r0 = points[0].0.rotation;
     let same: Vec<_> = points
         .iter()
         .map(|(f, p)| (Isometry3::from_parts(f.translation, r0), *p))
         .collect();
-    let e = refine::refine(
-        &Data::Edge { points: same },
-        &cal.flange_to_sensor,
-        &spec,
-        &Options::default(),
-    )
-    .unwrap_err()
-    .to_string();
+    let x = s.rig.flange_to_sensor;
+    let e = refine::refine(&EdgeModel { points: same }, &x, &line, &Options::default())
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("cannot determine") && e.contains("weakest"),
         "{e}"
     );
-    let obs = refine::observability(
-        &cal.features.as_ref().unwrap().0,
-        &cal.flange_to_sensor,
-        &spec,
-    );
+    let obs = Problem {
+        model: EdgeModel { points },
+        specimen: line,
+    }
+    .observability(&x);
     eprintln!("edge observability: {obs:?}");
     assert!(obs.condition.is_finite() && obs.condition > 1.0);
 }
@@ -215,7 +136,7 @@ fn the_shootout_refinement_beats_the_closed_form() {
     let s = setup("shootout", &|t| t);
     let median = |method: &str, f: &dyn Fn(&lasercal::calib::PoseError) -> f64| {
         let mut v: Vec<f64> = (0..40)
-            .map(|t| f(&run_trial(&s, method, 8, t).result.unwrap().error))
+            .map(|t| f(&run_trial(&s, id(method), 8, t).result.unwrap().error()))
             .collect();
         v.sort_by(f64::total_cmp);
         v[20]

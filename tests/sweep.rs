@@ -17,7 +17,7 @@ fn base() -> String {
 
 fn run_sweep(text: &str, trials: usize) -> (Vec<TrialRow>, Vec<sweep::SummaryRow>) {
     let sf = ScenarioFile::parse(text, "reduced.toml").unwrap();
-    let plan = SweepPlan::new(&sf, Some(trials), None).unwrap();
+    let plan = SweepPlan::new(&sf, Some(trials), None);
     let mut rows = Vec::new();
     let summary = sweep::run(
         &plan,
@@ -106,15 +106,19 @@ fn results_do_not_depend_on_thread_count() {
     // floats).
     let bytes = |r: &(Vec<TrialRow>, Vec<sweep::SummaryRow>)| {
         let keys = vec!["disk.sigma_mm".to_string()];
-        let t: String = r.0.iter().map(lasercal::io::csv::trial_line).collect();
-        (t, lasercal::io::csv::summary(&keys, &r.1))
+        let mut w = lasercal::io::csv::TrialsWriter::new(Vec::new(), &keys, "trials.csv").unwrap();
+        r.0.iter().for_each(|row| w.write(row).unwrap());
+        (
+            w.finish().unwrap(),
+            lasercal::io::csv::summary(&keys, &r.1).unwrap(),
+        )
     };
     assert_eq!(bytes(&one), bytes(&four));
     // And a trial is the same whether run alone or in a sweep.
     let sf = ScenarioFile::parse(&text, "t.toml").unwrap();
-    let p = &sf.grid().unwrap()[1];
+    let p = &sf.grid()[1];
     let setup = p.scenario.build(&sf.file).unwrap();
-    let alone = run_trial(&setup, "disk", sf.scenario.seed, 17);
+    let alone = run_trial(&setup, "disk".parse().unwrap(), sf.scenario.seed, 17);
     assert_eq!(
         alone,
         one.0
@@ -142,17 +146,19 @@ fn disk_raycast_recovers_truth() {
         .replace("preset = \"gocator-2340\"", "preset = \"gocator-2340\"\nquantise = false");
     let sf = ScenarioFile::parse(&text, "raycast.toml").unwrap();
     let setup = sf.scenario.build(&sf.file).unwrap();
-    let out = run_trial(&setup, "disk", 1, 0);
+    let out = run_trial(&setup, "disk".parse().unwrap(), 1, 0);
     let s = out.result.unwrap();
     eprintln!(
         "ray-cast: {:?}, centre {:?} mm, missed {}",
-        s.error, s.centre_error_mm, out.missed_profiles
+        s.error(),
+        s.metrics.get(lasercal::metrics::Metric::CentreError),
+        out.missed_profiles
     );
     assert_eq!(out.missed_profiles, 0);
     assert!(
-        s.error.translation_error_mm < 0.1 && s.error.rotation_error_deg < 0.05,
+        s.error().translation_error_mm < 0.1 && s.error().rotation_error_deg < 0.05,
         "{:?}",
-        s.error
+        s.error()
     );
 }
 

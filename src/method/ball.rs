@@ -214,6 +214,10 @@ pub struct BallPlanned {
 }
 
 impl Plan for BallPlanned {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn scene(&self) -> &Scene {
         &self.scene
     }

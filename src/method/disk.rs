@@ -236,6 +236,10 @@ pub struct DiskPlan {
 }
 
 impl Plan for DiskPlan {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn scene(&self) -> &Scene {
         &self.scene
     }

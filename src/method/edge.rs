@@ -244,6 +244,10 @@ pub struct EdgePlan {
 }
 
 impl Plan for EdgePlan {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
     fn scene(&self) -> &Scene {
         &self.scene
     }

@@ -200,6 +200,9 @@ pub trait Method: Sync {
 
 /// A specimen method's plan on one rig: shared by every trial of a grid point.
 pub trait Plan: Send + Sync + fmt::Debug {
+    /// The concrete plan (for tools and tests that need the method's own data).
+    fn as_any(&self) -> &dyn std::any::Any;
+
     /// The scene the method's captures see (its own specimen, the table).
     fn scene(&self) -> &Scene;
 

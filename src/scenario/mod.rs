@@ -127,7 +127,13 @@ impl ScenarioFile {
             message: e.to_string().trim().to_string(),
         };
         let mut raw: toml::Table = text.parse().map_err(syntax)?;
-        let mut scenario: Scenario = toml::from_str(text).map_err(syntax)?;
+        // The key path (`causes.only`) in front of the parser's line, column and expectation.
+        let de = toml::de::Deserializer::parse(text).map_err(syntax)?;
+        let mut scenario: Scenario =
+            serde_path_to_error::deserialize(de).map_err(|e| ScenarioError::Syntax {
+                file: file.to_string(),
+                message: format!("{}: {}", e.path(), e.inner().to_string().trim()),
+            })?;
         let r = &scenario.robot.name;
         if r.ends_with(".urdf")
             && !std::path::Path::new(r).is_absolute()

@@ -316,6 +316,14 @@ pub enum Cause {
     Specimen,
 }
 
+impl std::str::FromStr for Cause {
+    type Err = toml::de::Error;
+    /// A cause by its scenario name (`"vibration"`).
+    fn from_str(s: &str) -> Result<Cause, toml::de::Error> {
+        toml::Value::String(s.to_string()).try_into()
+    }
+}
+
 /// The causes that can be kept alone, by name.
 pub const CAUSES: &[&str] = &[
     "sensor",

@@ -421,10 +421,9 @@ pub fn refine<M: Model>(
             need: (p + 1).div_ceil(model.residuals_per_feature()),
         });
     }
-    let mut x = Transform::from_isometry(flange_to_sensor);
-    let mut s = *specimen;
-    let labels = model.labels(&x, &s);
-    let (r0, j0) = eval(model, &x, &s, &labels, true);
+    let x0 = Transform::from_isometry(flange_to_sensor);
+    let labels = model.labels(&x0, specimen);
+    let (r0, j0) = eval(model, &x0, specimen, &labels, true);
     let obs = observability_of(&j0);
     if !(obs.singular_values[5] > MIN_SINGULAR_RATIO * obs.singular_values[0]) {
         return Err(CalibError::Unobservable {
@@ -434,27 +433,108 @@ pub fn refine<M: Model>(
             fix: motion_missing(&obs.weakest),
         });
     }
-    // Robust scale from the starting residuals (MAD).
-    let scale = {
-        let mut a: Vec<f64> = r0.iter().map(|v| v.abs()).collect();
-        a.sort_by(f64::total_cmp);
-        (1.4826 * a[a.len() / 2]).max(1e-12)
+    let (scale, fit) = match opts.loss {
+        // The squared loss has no scale.
+        Loss::Squared => (
+            1.0,
+            minimise(model, x0, *specimen, &labels, opts, 1.0, (r0.clone(), j0)),
+        ),
+        Loss::Huber { .. } => {
+            // The robust scale is the noise's, not the start's: 1.4826 MAD of the residuals at the
+            // least-squares optimum, so every start that reaches it gives one objective.
+            let squared = Options {
+                loss: Loss::Squared,
+                ..*opts
+            };
+            let ls = minimise(
+                model,
+                x0,
+                *specimen,
+                &labels,
+                &squared,
+                1.0,
+                (r0.clone(), j0),
+            );
+            let r = eval(model, &ls.x, &ls.s, &labels, true);
+            let scale = mad(&r.0);
+            (scale, minimise(model, ls.x, ls.s, &labels, opts, scale, r))
+        }
     };
-    let initial_cost = cost_of(&r0, opts.loss, scale);
-    let mut cost = initial_cost;
+    let Fit {
+        x,
+        s,
+        status,
+        cost,
+        last_j,
+    } = fit;
+    // The covariance at the optimum: fresh residuals; the last Jacobian, computed at most one
+    // (converged, hence negligible) step away.
+    let (r, _) = eval(model, &x, &s, &labels, false);
+    let j = match last_j {
+        Some(j) => j,
+        None => eval(model, &x, &s, &labels, true).1,
+    };
+    let cov = covariance(&r, &j);
+    let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
+    Ok((
+        Refined {
+            flange_to_sensor: x.to_isometry(),
+            centre: model.centre(&s),
+            status,
+            initial_cost: cost_of(&r0, opts.loss, scale),
+            cost,
+            residual_rms: (r.norm_squared() / n as f64).sqrt(),
+            covariance: cov,
+            sd_rotation_deg: Vector3::new(sd(0), sd(1), sd(2)).map(f64::to_degrees),
+            sd_translation_mm: Vector3::new(sd(3), sd(4), sd(5)) * 1e3,
+            observability: obs,
+        },
+        s,
+    ))
+}
+
+/// 1.4826 times the median absolute residual: a robust standard deviation.
+fn mad(r: &DVector<f64>) -> f64 {
+    let mut a: Vec<f64> = r.iter().map(|v| v.abs()).collect();
+    a.sort_by(f64::total_cmp);
+    (1.4826 * a[a.len() / 2]).max(1e-12)
+}
+
+/// Where Levenberg-Marquardt ended.
+struct Fit<S> {
+    x: Transform,
+    s: S,
+    status: Status,
+    cost: f64,
+    /// The Jacobian of the last iteration.
+    last_j: Option<DMatrix<f64>>,
+}
+
+/// Levenberg-Marquardt with Marquardt's diagonal scaling from (x, s), whose residuals and
+/// Jacobian are `at`, on the loss with robust scale `scale`.
+fn minimise<M: Model>(
+    model: &M,
+    mut x: Transform,
+    mut s: M::Specimen,
+    labels: &[f64],
+    opts: &Options,
+    scale: f64,
+    at: (DVector<f64>, DMatrix<f64>),
+) -> Fit<M::Specimen> {
+    let p = 6 + model.n_specimen_params();
+    let mut cost = cost_of(&at.0, opts.loss, scale);
     let mut lambda = 1e-4;
     let mut status = Status::NotConverged {
         iterations: opts.max_iterations,
     };
     let mut it = 0;
-    // The residuals and Jacobian at the current state (the first ones computed above).
-    let mut at = Some((r0, j0));
+    let mut at = Some(at);
     let mut last_j = None;
     while it < opts.max_iterations {
         it += 1;
         let (r, j) = at
             .take()
-            .unwrap_or_else(|| eval(model, &x, &s, &labels, true));
+            .unwrap_or_else(|| eval(model, &x, &s, labels, true));
         // Weighted normal equations J^T W J, J^T W r (column dot products: tr_mul).
         let (a, g) = if opts.loss == Loss::Squared {
             (ata(&j, &j), atb(&j, &r))
@@ -482,7 +562,7 @@ pub fn refine<M: Model>(
             };
             let dx = -ch.solve(&g);
             let (tx, ts) = apply(model, &x, &s, &dx);
-            let c = cost_of(&eval(model, &tx, &ts, &labels, false).0, opts.loss, scale);
+            let c = cost_of(&eval(model, &tx, &ts, labels, false).0, opts.loss, scale);
             if c < cost {
                 let gain = cost - c;
                 (x, s) = (tx, ts);
@@ -505,30 +585,13 @@ pub fn refine<M: Model>(
             break;
         }
     }
-    // The covariance at the optimum: fresh residuals; the last Jacobian, computed at most one
-    // (converged, hence negligible) step away.
-    let (r, _) = eval(model, &x, &s, &labels, false);
-    let j = match last_j {
-        Some(j) => j,
-        None => eval(model, &x, &s, &labels, true).1,
-    };
-    let cov = covariance(&r, &j);
-    let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
-    Ok((
-        Refined {
-            flange_to_sensor: x.to_isometry(),
-            centre: model.centre(&s),
-            status,
-            initial_cost,
-            cost,
-            residual_rms: (r.norm_squared() / n as f64).sqrt(),
-            covariance: cov,
-            sd_rotation_deg: Vector3::new(sd(0), sd(1), sd(2)).map(f64::to_degrees),
-            sd_translation_mm: Vector3::new(sd(3), sd(4), sd(5)) * 1e3,
-            observability: obs,
-        },
+    Fit {
+        x,
         s,
-    ))
+        status,
+        cost,
+        last_j,
+    }
 }
 
 /// The transform block of the sandwich covariance A^-1 (sum J_i^T r_i^2 J_i) A^-1 (A = J^T J),

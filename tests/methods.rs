@@ -1,0 +1,265 @@
+//! One suite run over every method (specimen method x estimator): exact data gives the truth,
+//! the refinement returns to the truth from a perturbed start and reaches the same minimum from
+//! the closed form as from the truth, analytic Jacobians match finite differences, capture files
+//! round-trip, trials are deterministic, bad captures give typed errors. A new specimen method
+//! gets every test by adding its line to `CASES`.
+
+use lasercal::calib::CalibError;
+use lasercal::calib::refine::{Loss, Options};
+use lasercal::captures::{CaptureError, Captures, ProfileData, calibrate};
+use lasercal::error::Error;
+use lasercal::method::{Estimator, Kind, MethodId, estimate};
+use lasercal::scenario::{ScenarioFile, Setup};
+use lasercal::trial::{run_trial, trial_captures};
+use nalgebra::{DVector, Isometry3, UnitQuaternion, Vector2, Vector3};
+
+/// One line per specimen method: a scenario that runs it (its noise set by `noisy`).
+const CASES: &[(Kind, &str)] = &[
+    (Kind::Disk, "chen2018-disk"),
+    (Kind::Ball, "chen2018-ball"),
+    (Kind::Edge, "xu2021-edge"),
+];
+
+/// The case's scenario with its method's feature noise set to `sigma_mm` and every method of the
+/// specimen run.
+fn setup(kind: Kind, name: &str, sigma_mm: f64) -> Setup {
+    let text = std::fs::read_to_string(format!(
+        "{}/scenarios/{name}.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap();
+    let mut out = String::new();
+    let mut section = String::new();
+    for line in text.lines() {
+        if line.starts_with('[') {
+            section = line.trim_matches(|c| c == '[' || c == ']').to_string();
+        }
+        if section == kind.name() && line.starts_with("sigma_mm") {
+            out += &format!("sigma_mm = {sigma_mm}\n");
+        } else {
+            out += line;
+            out += "\n";
+        }
+    }
+    let sf = ScenarioFile::parse(&out, &format!("{name}.toml")).unwrap();
+    assert!(sf.scenario.methods.iter().any(|m| m.kind == kind));
+    sf.scenario.build(&sf.file).unwrap()
+}
+
+fn captures(s: &Setup, kind: Kind, trial: u64) -> Captures {
+    trial_captures(s, kind, 3, trial).0.unwrap()
+}
+
+fn error_of(x: &Isometry3<f64>, s: &Setup) -> (f64, f64) {
+    let e = lasercal::calib::PoseError::between(x, &s.rig.flange_to_sensor);
+    (e.rotation_error_deg, e.translation_error_mm)
+}
+
+#[test]
+fn every_estimator_recovers_the_truth_from_exact_data() {
+    for &(kind, name) in CASES {
+        let s = setup(kind, name, 0.0);
+        for estimator in Estimator::ALL {
+            let id = MethodId::new(kind, estimator);
+            let out = run_trial(&s, id, 1, 0);
+            let e = out.result.as_ref().unwrap().error();
+            eprintln!("{id}: {e:?}");
+            // 1e-9 in the rotation matrix (radians) and in the translation (metres).
+            assert!(
+                e.frobenius_rotation < 1e-9 && e.translation_error_mm < 1e-6,
+                "{id}: {e:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn refinement_returns_to_the_truth_from_a_perturbed_start() {
+    for &(kind, name) in CASES {
+        let s = setup(kind, name, 0.0);
+        let cal = calibrate(&captures(&s, kind, 0), &s.rig.sensor).unwrap();
+        let problem = cal.refinable.clone().unwrap();
+        // Start 0.5 deg and 1.2 mm away (several times a closed form's error at sigma 0.1 mm),
+        // with the specimen estimate moved too.
+        let start = s.rig.flange_to_sensor
+            * Isometry3::from_parts(
+                Vector3::new(0.8e-3, -0.6e-3, 0.6e-3).into(),
+                UnitQuaternion::from_scaled_axis(Vector3::new(0.005, -0.005, 0.004)),
+            );
+        let shift: Vec<f64> = (0..problem.n_params() - 6)
+            .map(|k| if k % 2 == 0 { 1e-3 } else { -1e-3 })
+            .collect();
+        let r = problem
+            .with_specimen_step(&shift)
+            .refine(&start, &Options::default())
+            .unwrap();
+        let (rot, tr) = error_of(&r.flange_to_sensor, &s);
+        eprintln!(
+            "{kind}: from a perturbed start: {rot:.2e} deg, {tr:.2e} mm, {:?}",
+            r.status
+        );
+        assert!(
+            matches!(r.status, lasercal::calib::Status::Converged { .. }),
+            "{kind}: {:?}",
+            r.status
+        );
+        assert!(rot < 1e-7 && tr < 1e-6, "{kind}: {rot} deg, {tr} mm");
+    }
+}
+
+#[test]
+fn refinement_reaches_the_same_minimum_from_the_closed_form_as_from_the_truth() {
+    // With noise the optimum is not the truth; started at the closed form and at the truth, the
+    // refinement must end at one minimum (same cost, same transform): a stalled or diverging
+    // refinement fails here.
+    for &(kind, name) in CASES {
+        let s = setup(kind, name, 0.1);
+        for trial in 0..5 {
+            let cal = calibrate(&captures(&s, kind, trial), &s.rig.sensor).unwrap();
+            let problem = cal.refinable.clone().unwrap();
+            for loss in [Loss::Squared, Loss::Huber { k: 1.5 }] {
+                let opts = Options {
+                    loss,
+                    ..Default::default()
+                };
+                let from_cf = problem.refine(&cal.flange_to_sensor, &opts).unwrap();
+                let from_truth = problem.refine(&s.rig.flange_to_sensor, &opts).unwrap();
+                assert!(
+                    from_cf.cost < from_cf.initial_cost,
+                    "{kind} {trial}: the refinement did not lower the cost"
+                );
+                let e = lasercal::calib::PoseError::between(
+                    &from_cf.flange_to_sensor,
+                    &from_truth.flange_to_sensor,
+                );
+                let (r_sd, t_sd) = (
+                    from_cf.sd_rotation_deg.max(),
+                    from_cf.sd_translation_mm.max(),
+                );
+                assert!(
+                    e.rotation_error_deg < 1e-3 * r_sd && e.translation_error_mm < 1e-3 * t_sd,
+                    "{kind} trial {trial} {loss:?}: the two starts end {e:?} apart (sd {r_sd} deg, {t_sd} mm)"
+                );
+                if loss == Loss::Squared {
+                    // The Huber scale comes from each start's residuals, so only the squared
+                    // costs are comparable.
+                    let rel = (from_cf.cost - from_truth.cost).abs() / from_truth.cost;
+                    assert!(rel < 1e-6, "{kind} trial {trial}: costs differ by {rel:e}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn jacobians_match_finite_differences() {
+    for &(kind, name) in CASES {
+        let s = setup(kind, name, 0.05);
+        let cal = calibrate(&captures(&s, kind, 0), &s.rig.sensor).unwrap();
+        // Away from the optimum, so every term of the Jacobian matters.
+        let p = cal.refinable.clone().unwrap();
+        let shift: Vec<f64> = (0..p.n_params() - 6)
+            .map(|k| [1e-3, 2e-3, -1e-3, 0.02, -0.01][k % 5])
+            .collect();
+        let p = p.with_specimen_step(&shift);
+        let x = cal.flange_to_sensor
+            * Isometry3::from_parts(
+                Vector3::new(1e-3, -2e-3, 1.5e-3).into(),
+                UnitQuaternion::from_scaled_axis(Vector3::new(0.01, -0.02, 0.015)),
+            );
+        let (r0, j) = p.residuals_and_jacobian(&x);
+        let h = 1e-6;
+        let mut worst: f64 = 0.0;
+        for c in 0..j.ncols() {
+            let mut dx = DVector::zeros(j.ncols());
+            dx[c] = h;
+            let rp = p.residuals_after_step(&x, &dx);
+            dx[c] = -h;
+            let rm = p.residuals_after_step(&x, &dx);
+            let fd = (rp - rm) / (2.0 * h);
+            let scale = j.column(c).amax().max(1e-3);
+            worst = worst.max((fd - j.column(c)).amax() / scale);
+        }
+        assert!(r0.amax() > 1e-5, "{kind}: not away from the optimum");
+        assert!(
+            worst < 1e-6,
+            "{kind}: Jacobian off by {worst:.2e} (relative)"
+        );
+    }
+}
+
+#[test]
+fn capture_files_round_trip() {
+    for &(kind, name) in CASES {
+        let s = setup(kind, name, 0.1);
+        let caps = captures(&s, kind, 2);
+        let json = lasercal::io::captures::to_json(&caps, &s.rig.sensor);
+        let (back, sensor) = lasercal::io::captures::from_json(&json, "c.json").unwrap();
+        assert_eq!(back.method, kind);
+        assert_eq!(back.profiles.len(), caps.profiles.len());
+        for estimator in Estimator::ALL {
+            let id = MethodId::new(kind, estimator);
+            let (a, _) = estimate(id, &caps, &s.rig.sensor).unwrap();
+            let (b, _) = estimate(id, &back, &sensor).unwrap();
+            let e = lasercal::calib::PoseError::between(&a.flange_to_sensor, &b.flange_to_sensor);
+            // The file holds mm in shortest round-trip decimal: equal to rounding.
+            assert!(
+                e.rotation_error_deg < 1e-9 && e.translation_error_mm < 1e-9,
+                "{id}: {e:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn trials_are_deterministic() {
+    for &(kind, name) in CASES {
+        let s = setup(kind, name, 0.1);
+        for estimator in Estimator::ALL {
+            let id = MethodId::new(kind, estimator);
+            let (a, b) = (run_trial(&s, id, 9, 4), run_trial(&s, id, 9, 4));
+            assert_eq!(a, b, "{id}");
+            assert_ne!(
+                a.result.as_ref().unwrap().estimate,
+                run_trial(&s, id, 9, 5).result.unwrap().estimate,
+                "{id}: another trial must draw other noise"
+            );
+        }
+    }
+}
+
+#[test]
+fn bad_captures_give_typed_errors() {
+    for &(kind, name) in CASES {
+        let s = setup(kind, name, 0.0);
+        let caps = captures(&s, kind, 0);
+        // A feature of the wrong kind in every profile.
+        let mut wrong = caps.clone();
+        for p in &mut wrong.profiles {
+            p.data = match p.data {
+                ProfileData::EdgePoint(_) => ProfileData::Chord {
+                    a: Vector2::zeros(),
+                    b: Vector2::x(),
+                },
+                _ => ProfileData::EdgePoint(Vector2::zeros()),
+            };
+        }
+        let e = calibrate(&wrong, &s.rig.sensor).unwrap_err();
+        assert!(
+            matches!(e, Error::Captures(CaptureError::WrongData { method, .. }) if method == kind),
+            "{kind}: {e:?}"
+        );
+        // Too few captures: one group (or one profile per group) is not enough.
+        let mut few = caps.clone();
+        let first = few.groups[0].id;
+        few.profiles.retain(|p| p.group == first);
+        let e = calibrate(&few, &s.rig.sensor).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                Error::Calib(CalibError::TooFewData { .. } | CalibError::Degenerate { .. })
+            ),
+            "{kind}: {e:?}"
+        );
+    }
+}
