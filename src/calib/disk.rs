@@ -84,6 +84,64 @@ fn rot_y(phi: f64) -> Rotation3<f64> {
     Rotation3::from_axis_angle(&Vector3::y_axis(), phi)
 }
 
+/// A point (x, z) of the laser plane in the frame R_theta.
+fn in_frame(r_theta: &Rotation3<f64>, p: &Vector2<f64>) -> Vector2<f64> {
+    let v = r_theta * Vector3::new(p.x, 0.0, p.y);
+    Vector2::new(v.x, v.z)
+}
+
+/// R_theta (a rotation about y making x-bar parallel to the mean chord direction c_i), the chord
+/// ends in that frame, and the ellipse through them.
+fn chord_frame_ellipse(
+    scan_index: usize,
+    scan: &DiskScan,
+) -> Result<(Rotation3<f64>, Vec<Vector2<f64>>, Ellipse), CalibError> {
+    let m = scan.chords.len();
+    let c = scan
+        .chords
+        .iter()
+        .map(|ch| ch.b - ch.a)
+        .sum::<Vector2<f64>>()
+        / m as f64;
+    let r_theta = rot_y(c.y.atan2(c.x));
+    let pts: Vec<Vector2<f64>> = scan
+        .chords
+        .iter()
+        .flat_map(|ch| [in_frame(&r_theta, &ch.a), in_frame(&r_theta, &ch.b)])
+        .collect();
+    let ell = Ellipse::fit(&pts).map_err(|e| CalibError::NotAnEllipse {
+        scan: scan_index,
+        reason: match e {
+            EllipseFitError::TooFewPoints(n) => format!("{n} points"),
+            EllipseFitError::NotAnEllipse(s) => s,
+        },
+    })?;
+    Ok((r_theta, pts, ell))
+}
+
+/// Eq. 2: the move `d` must be neither parallel nor perpendicular to the disk (normal `n`).
+fn check_move_angle(
+    scan_index: usize,
+    d: &Vector3<f64>,
+    n: &Vector3<f64>,
+    min_angle: f64,
+) -> Result<(), CalibError> {
+    let to_plane = (d.dot(n).abs() / d.norm()).clamp(0.0, 1.0).asin();
+    if to_plane < min_angle {
+        return Err(CalibError::ScanParallelToDisk {
+            scan: scan_index,
+            angle_deg: to_plane.to_degrees(),
+        });
+    }
+    if std::f64::consts::FRAC_PI_2 - to_plane < min_angle {
+        return Err(CalibError::ScanPerpendicularToDisk {
+            scan: scan_index,
+            angle_deg: (std::f64::consts::FRAC_PI_2 - to_plane).to_degrees(),
+        });
+    }
+    Ok(())
+}
+
 /// Sensing data calculation for one scan (Sec. III-B).
 pub fn sensing_datum(
     scan_index: usize,
@@ -100,30 +158,8 @@ pub fn sensing_datum(
             need: 3,
         });
     }
-    // Chord direction c_i and R_theta: rotate about y so that x-bar is parallel to c_i.
-    let c = scan
-        .chords
-        .iter()
-        .map(|ch| ch.b - ch.a)
-        .sum::<Vector2<f64>>()
-        / m as f64;
-    let r_theta = rot_y(c.y.atan2(c.x));
-    let to_r = |p: &Vector2<f64>| {
-        let v = r_theta * Vector3::new(p.x, 0.0, p.y);
-        Vector2::new(v.x, v.z)
-    };
-    let pts: Vec<Vector2<f64>> = scan
-        .chords
-        .iter()
-        .flat_map(|ch| [to_r(&ch.a), to_r(&ch.b)])
-        .collect();
-    let ell = Ellipse::fit(&pts).map_err(|e| CalibError::NotAnEllipse {
-        scan: scan_index,
-        reason: match e {
-            EllipseFitError::TooFewPoints(n) => format!("{n} points"),
-            EllipseFitError::NotAnEllipse(s) => s,
-        },
-    })?;
+    let (r_theta, pts, ell) = chord_frame_ellipse(scan_index, scan)?;
+    let to_r = |p: &Vector2<f64>| in_frame(&r_theta, p);
     let not_ellipse = |what: &str| CalibError::NotAnEllipse {
         scan: scan_index,
         reason: what.to_string(),
@@ -186,22 +222,10 @@ pub fn sensing_datum(
         2.0 * r * s * alpha.sin(),
         e1.y - e2.y + 2.0 * r * alpha.cos(),
     );
-    // Eq. 2: the move must be neither parallel nor perpendicular to the disk. The disk normal in this
-    // frame is perpendicular to x-bar and to q_2 - q_1 = 2 r (0, s sin a, cos a).
+    // The disk normal in this frame is perpendicular to x-bar and to q_2 - q_1 = 2 r (0, s sin a,
+    // cos a).
     let n_r = Vector3::new(0.0, -alpha.cos(), s * alpha.sin());
-    let to_plane = (d_r.dot(&n_r).abs() / d_r.norm()).clamp(0.0, 1.0).asin();
-    if to_plane < min_angle {
-        return Err(CalibError::ScanParallelToDisk {
-            scan: scan_index,
-            angle_deg: to_plane.to_degrees(),
-        });
-    }
-    if std::f64::consts::FRAC_PI_2 - to_plane < min_angle {
-        return Err(CalibError::ScanPerpendicularToDisk {
-            scan: scan_index,
-            angle_deg: (std::f64::consts::FRAC_PI_2 - to_plane).to_degrees(),
-        });
-    }
+    check_move_angle(scan_index, &d_r, &n_r, min_angle)?;
     let inv = r_theta.inverse();
     let rms = (pts.iter().map(|p| ell.residual(p).powi(2)).sum::<f64>() / pts.len() as f64).sqrt();
     Ok(SensingDatum {

@@ -204,7 +204,51 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
         .method
         .parse()
         .map_err(|e: crate::method::UnknownMethod| err(file, "method", e))?;
-    let m = method(kind);
+    let sensor = sensor_of(&f, file)?;
+    let radius = radius_of(&f, kind, file)?;
+    let edge_sense = match f.edge_sense.as_deref() {
+        None => None,
+        Some("falling") => Some(EdgeSense::Falling),
+        Some("rising") => Some(EdgeSense::Rising),
+        Some(s) => {
+            return Err(err(
+                file,
+                "edge_sense",
+                format!("'{s}': use falling or rising"),
+            ));
+        }
+    };
+    let truth = f.truth_flange_to_sensor_mm.map(|m| {
+        let r = Matrix3::from_fn(|i, j| m[i][j]);
+        Isometry3::from_parts(
+            Translation3::new(m[0][3] * 1e-3, m[1][3] * 1e-3, m[2][3] * 1e-3),
+            UnitQuaternion::from_rotation_matrix(&crate::math::nearest_rotation(&r)),
+        )
+    });
+    let groups = groups_of(&f, kind, file)?;
+    let profiles = f
+        .profiles
+        .iter()
+        .enumerate()
+        .map(|(i, p)| profile_of(p, i, &groups, &sensor, file))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok((
+        Captures {
+            method: kind,
+            sensor: f.sensor,
+            specimen_kind: f.specimen.kind,
+            specimen_radius: radius,
+            edge_sense,
+            truth,
+            groups,
+            profiles,
+        },
+        sensor,
+    ))
+}
+
+/// The preset with the file's noise figures.
+fn sensor_of(f: &FileV1, file: &str) -> Result<SensorModel, FormatError> {
     let mut sensor = SensorModel::preset(&f.sensor).map_err(|e| err(file, "sensor", e))?;
     if let Some(n) = &f.sensor_noise {
         for (k, v) in [
@@ -227,44 +271,29 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
         sensor.noise.dark_noise_factor = n.dark_noise_factor;
         sensor.z_quantum = (n.z_quantum_mm > 0.0).then_some(n.z_quantum_mm * 1e-3);
     }
-    let radius = match f.specimen.radius_mm {
-        Some(r) if r > 0.0 && r.is_finite() => Some(r * 1e-3),
-        Some(r) => {
-            return Err(err(
-                file,
-                "specimen.radius_mm",
-                format!("{r} must be a positive length"),
-            ));
-        }
-        None if m.needs_radius() => {
-            return Err(err(
-                file,
-                "specimen.radius_mm",
-                format!("missing: the {} method needs it", f.method),
-            ));
-        }
-        None => None,
-    };
-    let edge_sense = match f.edge_sense.as_deref() {
-        None => None,
-        Some("falling") => Some(EdgeSense::Falling),
-        Some("rising") => Some(EdgeSense::Rising),
-        Some(s) => {
-            return Err(err(
-                file,
-                "edge_sense",
-                format!("'{s}': use falling or rising"),
-            ));
-        }
-    };
-    let truth = f.truth_flange_to_sensor_mm.map(|m| {
-        let r = Matrix3::from_fn(|i, j| m[i][j]);
-        Isometry3::from_parts(
-            Translation3::new(m[0][3] * 1e-3, m[1][3] * 1e-3, m[2][3] * 1e-3),
-            UnitQuaternion::from_rotation_matrix(&crate::math::nearest_rotation(&r)),
-        )
-    });
-    let mut groups = Vec::new();
+    Ok(sensor)
+}
+
+/// The specimen's radius (metres), required by the methods that need it.
+fn radius_of(f: &FileV1, kind: Kind, file: &str) -> Result<Option<f64>, FormatError> {
+    match f.specimen.radius_mm {
+        Some(r) if r > 0.0 && r.is_finite() => Ok(Some(r * 1e-3)),
+        Some(r) => Err(err(
+            file,
+            "specimen.radius_mm",
+            format!("{r} must be a positive length"),
+        )),
+        None if method(kind).needs_radius() => Err(err(
+            file,
+            "specimen.radius_mm",
+            format!("missing: the {kind} method needs it"),
+        )),
+        None => Ok(None),
+    }
+}
+
+fn groups_of(f: &FileV1, kind: Kind, file: &str) -> Result<Vec<Group>, FormatError> {
+    let mut groups: Vec<Group> = Vec::new();
     for (i, g) in f.groups.iter().enumerate() {
         let Some(role) = Role::ALL.into_iter().find(|r| r.name() == g.role) else {
             return Err(err(
@@ -276,14 +305,14 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
                 ),
             ));
         };
-        if m.uses_group_signs() && g.sign != 1.0 && g.sign != -1.0 {
+        if method(kind).uses_group_signs() && g.sign != 1.0 && g.sign != -1.0 {
             return Err(err(
                 file,
                 &format!("groups[{i}].sign"),
-                format!("{}: the {} method needs s_i = 1 or -1", g.sign, f.method),
+                format!("{}: the {kind} method needs s_i = 1 or -1", g.sign),
             ));
         }
-        if groups.iter().any(|x: &Group| x.id == g.id) {
+        if groups.iter().any(|x| x.id == g.id) {
             return Err(err(
                 file,
                 &format!("groups[{i}].id"),
@@ -296,125 +325,121 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
             sign: g.sign,
         });
     }
-    let mut profiles = Vec::with_capacity(f.profiles.len());
-    for (i, p) in f.profiles.iter().enumerate() {
-        let at = |k: &str| format!("profiles[{i}].{k}");
-        if !groups.iter().any(|g| g.id == p.group) {
-            return Err(err(
-                file,
-                &at("group"),
-                format!("{} is not among the groups", p.group),
-            ));
-        }
-        let q = p.tcp_quaternion_wxyz;
-        let quat = Quaternion::new(q[0], q[1], q[2], q[3]);
-        if !((quat.norm() - 1.0).abs() <= 1e-3) {
-            return Err(err(
-                file,
-                &at("tcp_quaternion_wxyz"),
-                format!("{q:?} is not a unit quaternion (norm {:.6})", quat.norm()),
-            ));
-        }
-        let t = p.tcp_position_mm;
-        if t.iter().any(|x| !x.is_finite()) {
-            return Err(err(
-                file,
-                &at("tcp_position_mm"),
-                format!("{t:?} is not finite"),
-            ));
-        }
-        let base_to_flange = Isometry3::from_parts(
-            Translation3::from(Vector3::from(t) * 1e-3),
-            UnitQuaternion::from_quaternion(quat),
-        );
-        let given = [
-            p.points_mm.is_some(),
-            p.chord_mm.is_some(),
-            p.circle_mm.is_some(),
-            p.arc_mm.is_some(),
-            p.edge_point_mm.is_some(),
-        ]
-        .iter()
-        .filter(|x| **x)
-        .count();
-        if given != 1 {
+    Ok(groups)
+}
+
+/// Profile record `i`: its flange pose and its one data field.
+fn profile_of(
+    p: &ProfileV1,
+    i: usize,
+    groups: &[Group],
+    sensor: &SensorModel,
+    file: &str,
+) -> Result<CaptureProfile, FormatError> {
+    let at = |k: &str| format!("profiles[{i}].{k}");
+    if !groups.iter().any(|g| g.id == p.group) {
+        return Err(err(
+            file,
+            &at("group"),
+            format!("{} is not among the groups", p.group),
+        ));
+    }
+    let q = p.tcp_quaternion_wxyz;
+    let quat = Quaternion::new(q[0], q[1], q[2], q[3]);
+    if !((quat.norm() - 1.0).abs() <= 1e-3) {
+        return Err(err(
+            file,
+            &at("tcp_quaternion_wxyz"),
+            format!("{q:?} is not a unit quaternion (norm {:.6})", quat.norm()),
+        ));
+    }
+    let t = p.tcp_position_mm;
+    if t.iter().any(|x| !x.is_finite()) {
+        return Err(err(
+            file,
+            &at("tcp_position_mm"),
+            format!("{t:?} is not finite"),
+        ));
+    }
+    let base_to_flange = Isometry3::from_parts(
+        Translation3::from(Vector3::from(t) * 1e-3),
+        UnitQuaternion::from_quaternion(quat),
+    );
+    let v = |a: [f64; 2]| Vector2::new(a[0] * 1e-3, a[1] * 1e-3);
+    let data = match (
+        &p.points_mm,
+        p.chord_mm,
+        &p.circle_mm,
+        &p.arc_mm,
+        p.edge_point_mm,
+    ) {
+        (Some(pts), None, None, None, None) => raw_profile(pts, p, sensor, &at, file)?,
+        (None, Some(c), None, None, None) => ProfileData::Chord {
+            a: v(c[0]),
+            b: v(c[1]),
+        },
+        (None, None, Some(c), None, None) => ProfileData::Circle(Circle {
+            centre: v(c.centre),
+            radius: c.radius * 1e-3,
+            rms: 0.0,
+        }),
+        (None, None, None, Some(a), None) => ProfileData::Arc(a.iter().map(|q| v(*q)).collect()),
+        (None, None, None, None, Some(e)) => ProfileData::EdgePoint(v(e)),
+        _ => {
             return Err(err(
                 file,
                 &format!("profiles[{i}]"),
                 "give exactly one of points_mm, chord_mm, circle_mm, arc_mm, edge_point_mm",
             ));
         }
-        let v = |a: [f64; 2]| Vector2::new(a[0] * 1e-3, a[1] * 1e-3);
-        let data = if let Some(pts) = &p.points_mm {
-            if pts.len() != sensor.columns {
-                return Err(err(
-                    file,
-                    &at("points_mm"),
-                    format!(
-                        "{} entries; the {} has {} columns (give one per column, null where missing)",
-                        pts.len(),
-                        sensor.name,
-                        sensor.columns
-                    ),
-                ));
-            }
-            let inten = p.intensity.as_ref();
-            if let Some(iv) = inten
-                && iv.len() != pts.len()
-            {
-                return Err(err(
-                    file,
-                    &at("intensity"),
-                    format!("{} entries, points_mm has {}", iv.len(), pts.len()),
-                ));
-            }
-            let points = pts
-                .iter()
-                .enumerate()
-                .map(|(k, q)| {
-                    q.map(|q| ProfilePoint {
-                        x: q[0] * 1e-3,
-                        z: q[1] * 1e-3,
-                        intensity: inten.and_then(|iv| iv[k]).unwrap_or(1.0),
-                    })
-                })
-                .collect();
-            ProfileData::Raw(Profile { points })
-        } else if let Some(c) = p.chord_mm {
-            ProfileData::Chord {
-                a: v(c[0]),
-                b: v(c[1]),
-            }
-        } else if let Some(c) = &p.circle_mm {
-            ProfileData::Circle(Circle {
-                centre: v(c.centre),
-                radius: c.radius * 1e-3,
-                rms: 0.0,
-            })
-        } else if let Some(a) = &p.arc_mm {
-            ProfileData::Arc(a.iter().map(|q| v(*q)).collect())
-        } else if let Some(e) = p.edge_point_mm {
-            ProfileData::EdgePoint(v(e))
-        } else {
-            return Err(err(file, &format!("profiles[{i}]"), "no data field"));
-        };
-        profiles.push(CaptureProfile {
-            group: p.group,
-            base_to_flange,
-            data,
-        });
+    };
+    Ok(CaptureProfile {
+        group: p.group,
+        base_to_flange,
+        data,
+    })
+}
+
+/// A raw profile: one entry per sensor column, null where the sensor saw nothing.
+fn raw_profile(
+    pts: &[Option<[f64; 2]>],
+    p: &ProfileV1,
+    sensor: &SensorModel,
+    at: &dyn Fn(&str) -> String,
+    file: &str,
+) -> Result<ProfileData, FormatError> {
+    if pts.len() != sensor.columns {
+        return Err(err(
+            file,
+            &at("points_mm"),
+            format!(
+                "{} entries; the {} has {} columns (give one per column, null where missing)",
+                pts.len(),
+                sensor.name,
+                sensor.columns
+            ),
+        ));
     }
-    Ok((
-        Captures {
-            method: kind,
-            sensor: f.sensor,
-            specimen_kind: f.specimen.kind,
-            specimen_radius: radius,
-            edge_sense,
-            truth,
-            groups,
-            profiles,
-        },
-        sensor,
-    ))
+    let inten = p.intensity.as_ref();
+    if let Some(iv) = inten
+        && iv.len() != pts.len()
+    {
+        return Err(err(
+            file,
+            &at("intensity"),
+            format!("{} entries, points_mm has {}", iv.len(), pts.len()),
+        ));
+    }
+    let points = pts
+        .iter()
+        .enumerate()
+        .map(|(k, q)| {
+            q.map(|q| ProfilePoint {
+                x: q[0] * 1e-3,
+                z: q[1] * 1e-3,
+                intensity: inten.and_then(|iv| iv[k]).unwrap_or(1.0),
+            })
+        })
+        .collect();
+    Ok(ProfileData::Raw(Profile { points }))
 }
