@@ -48,9 +48,9 @@ fn bench(c: &mut Criterion) {
             .0
             .unwrap();
         let sensor = &setup.rig.sensor;
-        let cal = lasercal::captures::calibrate(&caps, sensor).unwrap();
+        let cal = lasercal::method::calibrate(&caps, sensor).unwrap();
         c.bench_function(&format!("refine/{method}_closed_form"), |b| {
-            b.iter(|| black_box(lasercal::captures::calibrate(black_box(&caps), sensor)))
+            b.iter(|| black_box(lasercal::method::calibrate(black_box(&caps), sensor)))
         });
         let opts = lasercal::calib::refine::Options::default();
         c.bench_function(&format!("refine/{method}_refinement"), |b| {

@@ -1,16 +1,11 @@
 //! Captures: what a real robot and sensor give (flange poses, profiles or the features extracted
-//! from them, grouped by orientation or scan), and the one path from captures to a calibration.
-//! Simulated trials and capture files from real rigs both go through `calibrate`.
+//! from them, grouped by orientation or scan). Simulated trials and capture files from real rigs
+//! both become `Captures`; `method::calibrate` turns them into a calibration.
 
-use crate::calib::Status;
-use crate::calib::refine::{Options, Refinable, Refined};
-use crate::error::Error;
 use crate::features::{Circle, EdgeSense, FeatureError};
-use crate::method::Kind;
-use crate::metrics::Metrics;
-use crate::sensor::{Profile, SensorModel};
-use nalgebra::{Isometry3, Vector2, Vector3};
-use std::sync::Arc;
+use crate::id::Kind;
+use crate::sensor::Profile;
+use nalgebra::{Isometry3, Vector2};
 use thiserror::Error;
 
 /// What one profile record holds: the raw profile, or a feature already extracted from it.
@@ -107,8 +102,6 @@ pub enum CaptureError {
     WrongRole { group: usize },
     #[error("an arc of {points} points has no circle")]
     NoCircle { points: usize },
-    #[error("group {group}: the laser plane is parallel to the edge")]
-    ParallelToEdge { group: usize },
     #[error(
         "the joint refinement needs the raw features (chord ends, arc points or edge points); \
          these captures hold reduced ones (ball circles): record arc_mm or points_mm"
@@ -122,33 +115,4 @@ pub enum CaptureError {
         #[source]
         source: Box<CaptureError>,
     },
-}
-
-/// A calibration from captures, with the method's own (truth-free) figures.
-#[derive(Debug, Clone)]
-pub struct Calibration {
-    pub flange_to_sensor: Isometry3<f64>,
-    pub centre_in_base: Option<Vector3<f64>>,
-    /// The method's own figures: the centre spread, the edge figures (Metric::Accuracy, ...).
-    pub figures: Metrics,
-    pub status: Status,
-    /// Profiles in which the feature was not found.
-    pub missed: usize,
-    /// The raw features with their flange poses and the closed-form specimen pose: what the joint
-    /// refinement starts from (None when the captures hold only reduced features, e.g. circles).
-    pub refinable: Option<Arc<dyn Refinable>>,
-}
-
-impl Calibration {
-    /// Refine jointly over the raw features (see `calib::refine`).
-    pub fn refine(&self, opts: &Options) -> Result<Refined, Error> {
-        let r = self.refinable.as_ref().ok_or(CaptureError::NoRawFeatures)?;
-        Ok(r.refine(&self.flange_to_sensor, opts)?)
-    }
-}
-
-/// Calibrate with the captures' method (its closed form), extracting features from raw profiles
-/// with `sensor`.
-pub fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<Calibration, Error> {
-    crate::method::method(c.method).calibrate(c, sensor)
 }

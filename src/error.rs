@@ -6,9 +6,8 @@
 use crate::calib::CalibError;
 use crate::captures::CaptureError;
 use crate::features::FeatureError;
-use crate::io::FormatError;
 use crate::robot::RobotError;
-use crate::scenario::ScenarioError;
+use crate::schema::ScenarioError;
 use crate::sensor::SensorError;
 use crate::sim::PlanError;
 use crate::sim::dynamics::DynamicsError;
@@ -39,7 +38,7 @@ pub enum Error {
     Format(#[from] FormatError),
     /// A trial asked for a method the scenario does not plan.
     #[error("the scenario has no {method} plan")]
-    NoPlan { method: crate::method::Kind },
+    NoPlan { method: crate::id::Kind },
     /// A file could not be read or written.
     #[error("{}: cannot {action}: {source}", path.display())]
     Io {
@@ -91,6 +90,30 @@ impl Error {
             source: Arc::new(source),
         }
     }
+}
+
+/// A file in one of lasercal's formats (capture file, trials.csv, sweep record) that does not say
+/// what it must, or an output that cannot be rendered.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum FormatError {
+    /// A record or field that is wrong: `at` names it (`profiles[3].tcp_position_mm`, `line 7`).
+    #[error("{file}: {at}: {message}")]
+    Field {
+        file: String,
+        at: String,
+        message: String,
+    },
+    /// The file does not parse at all.
+    #[error("{file}: not a valid {what}: {message}")]
+    Invalid {
+        file: String,
+        what: &'static str,
+        message: String,
+    },
+    /// A plot or recording that could not be made.
+    #[error("{what}: {message}")]
+    Render { what: String, message: String },
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;

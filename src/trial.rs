@@ -3,8 +3,9 @@
 
 use crate::calib::refine::Refined;
 use crate::calib::{PoseError, Status};
-use crate::captures::{Calibration, Captures};
+use crate::captures::Captures;
 use crate::error::Error;
+use crate::method::Calibration;
 use crate::method::{Kind, MethodId, Sim};
 use crate::metrics::{Metric, Metrics};
 use crate::rng::{self, tag};

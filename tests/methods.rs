@@ -6,8 +6,9 @@
 
 use lasercal::calib::CalibError;
 use lasercal::calib::refine::{Loss, Options};
-use lasercal::captures::{CaptureError, Captures, ProfileData, calibrate};
+use lasercal::captures::{CaptureError, Captures, ProfileData};
 use lasercal::error::Error;
+use lasercal::method::calibrate;
 use lasercal::method::{Estimator, Kind, MethodId, estimate};
 use lasercal::scenario::{ScenarioFile, Setup};
 use lasercal::trial::{run_trial, trial_captures};

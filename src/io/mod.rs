@@ -8,34 +8,11 @@ pub mod report;
 #[cfg(feature = "rerun")]
 pub mod rerun;
 
+pub use crate::error::FormatError;
+
 use crate::error::Error;
 use std::io::Write;
 use std::path::Path;
-use thiserror::Error;
-
-/// A file in one of lasercal's formats (capture file, trials.csv, sweep record) that does not say
-/// what it must, or an output that cannot be rendered.
-#[derive(Debug, Error, Clone, PartialEq)]
-#[non_exhaustive]
-pub enum FormatError {
-    /// A record or field that is wrong: `at` names it (`profiles[3].tcp_position_mm`, `line 7`).
-    #[error("{file}: {at}: {message}")]
-    Field {
-        file: String,
-        at: String,
-        message: String,
-    },
-    /// The file does not parse at all.
-    #[error("{file}: not a valid {what}: {message}")]
-    Invalid {
-        file: String,
-        what: &'static str,
-        message: String,
-    },
-    /// A plot or recording that could not be made.
-    #[error("{what}: {message}")]
-    Render { what: String, message: String },
-}
 
 /// Create (truncate) a file for writing, creating its folder; the error names the path.
 pub fn create(path: &Path) -> Result<std::io::BufWriter<std::fs::File>, Error> {

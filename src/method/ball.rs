@@ -11,47 +11,13 @@ use crate::error::Error;
 use crate::features::{self, SplitMerge};
 use crate::math::rot_zyx;
 use crate::metrics::{Metric, Metrics};
-use crate::scenario::{Common, Scenario, ScenarioError, Source, SpecimenSection, Validator};
 use crate::scene::{FormError, FormTolerance, Scene, SpecimenKind};
+use crate::schema::ball::Section;
+use crate::schema::{Common, Scenario, ScenarioError, Source, Validator};
 use crate::sensor::SensorModel;
 use crate::sim::ball::{BallPlan, BallTarget, Pose};
 use crate::sim::{Rig, flange_pose};
 use nalgebra::{Isometry3, Point3, Vector3};
-use serde::Deserialize;
-
-/// `[ball]`: the ball two-step method's data collection.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Section {
-    /// Exact arcs sampled every x_step_mm with Gaussian z noise, or ray-cast profiles.
-    #[serde(default)]
-    pub source: Source,
-    /// Gaussian noise on each arc point's z, mm (analytic).
-    #[serde(default)]
-    pub sigma_mm: f64,
-    #[serde(default = "d_step")]
-    pub x_step_mm: f64,
-    /// m: arcs per translation-set capture (averaged).
-    #[serde(default = "d_one")]
-    pub arcs: usize,
-    /// Flange positions of the rotation set (one shared orientation, at least 4).
-    pub rotation_tcp_mm: Vec<[f64; 3]>,
-    /// That orientation, (rx, ry, rz) radians, R = Rz Ry Rx.
-    pub rotation_rpy_rad: [f64; 3],
-    /// Flange positions and orientations of the translation set (at least 3).
-    pub translation_tcp_mm: Vec<[f64; 3]>,
-    pub translation_rpy_rad: Vec<[f64; 3]>,
-    /// The ball, when the scenario's [specimen] is another specimen.
-    #[serde(default)]
-    pub specimen: Option<SpecimenSection>,
-}
-
-fn d_step() -> f64 {
-    0.1
-}
-fn d_one() -> usize {
-    1
-}
 
 /// The ball two-step method.
 pub struct Ball;
@@ -172,21 +138,8 @@ impl Method for Ball {
         }))
     }
 
-    fn calibrate(
-        &self,
-        c: &Captures,
-        sensor: &SensorModel,
-    ) -> Result<crate::captures::Calibration, Error> {
+    fn calibrate(&self, c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
         calibrate(c, sensor)
-    }
-
-    fn scale_causes(&self, sc: &mut Scenario, sensor: f64, specimen: f64) {
-        if let Some(b) = &mut sc.ball {
-            b.sigma_mm *= sensor;
-            if let Some(sp) = &mut b.specimen {
-                sp.scale_imperfection(specimen);
-            }
-        }
     }
 
     fn needs_radius(&self) -> bool {
@@ -357,7 +310,7 @@ fn circle_of(
 
 /// Arc circles and their centres per group, the two-step solve, and the refinement problem (when
 /// every capture kept its arc points).
-fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<crate::captures::Calibration, Error> {
+fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
     let cfg = SplitMerge::for_sensor(sensor);
     let radius = c
         .specimen_radius
@@ -406,7 +359,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<crate::captures::Cali
         rotation_set,
         translation_set,
     })?;
-    Ok(crate::captures::Calibration {
+    Ok(super::Calibration {
         refinable: arc_points.map(|points| {
             std::sync::Arc::new(Problem {
                 model: BallModel { radius, points },

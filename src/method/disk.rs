@@ -11,62 +11,13 @@ use crate::error::Error;
 use crate::features::{self, SplitMerge};
 use crate::math::rot_zyx;
 use crate::metrics::{Metric, Metrics};
-use crate::scenario::{Common, Scenario, ScenarioError, Source, Validator};
 use crate::scene::{FormError, FormTolerance, Scene, Specimen, SpecimenKind};
+use crate::schema::disk::{CoverageKey, Section};
+use crate::schema::{Common, Scenario, ScenarioError, Source, Validator};
 use crate::sensor::SensorModel;
 use crate::sim::disk::{Coverage, Direction, DiskPlanSpec, DiskScanPlan, DiskTarget, ScanRequest};
 use crate::sim::{Rig, flange_pose};
 use nalgebra::{Isometry3, Point3, Vector2, Vector3};
-use serde::Deserialize;
-
-/// `[disk]`: the disk method's data collection.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Section {
-    /// m: profiles (chords) per scan.
-    pub chords: usize,
-    /// How much of the disk a scan sweeps (Fig. 4).
-    #[serde(default)]
-    pub coverage: CoverageKey,
-    #[serde(default = "d_span")]
-    pub span_fraction: f64,
-    /// Analytic chords + Eq. 52 noise, or the sensor model + feature extraction.
-    #[serde(default)]
-    pub source: Source,
-    /// Eq. 52: Gaussian noise along each chord, mm (analytic source).
-    #[serde(default)]
-    pub sigma_mm: f64,
-    /// Eq. 2: least angle between the move and the disk plane or normal.
-    #[serde(default = "d_min_angle")]
-    pub min_angle_deg: f64,
-    /// R_tcp,i as (rx, ry, rz) radians, R = Rz Ry Rx (the disk paper's tables).
-    pub orientations_rpy_rad: Vec<[f64; 3]>,
-    /// Optional TCP positions where the laser plane crosses the disk centre (mm).
-    #[serde(default)]
-    pub centre_tcp_mm: Option<Vec<[f64; 3]>>,
-    /// Move directions in the base frame (the disk paper's D_i^b)...
-    #[serde(default)]
-    pub directions_in_base: Option<Vec<[f64; 3]>>,
-    /// ...or in the sensor frame (D_i^i); one list or the other, one entry per orientation.
-    #[serde(default)]
-    pub directions_in_sensor: Option<Vec<[f64; 3]>>,
-}
-
-fn d_span() -> f64 {
-    0.9
-}
-fn d_min_angle() -> f64 {
-    5.0
-}
-
-/// `coverage` in a scenario.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Default)]
-#[serde(rename_all = "lowercase")]
-pub enum CoverageKey {
-    #[default]
-    Whole,
-    Half,
-}
 
 /// The disk method.
 pub struct Disk;
@@ -196,18 +147,8 @@ impl Method for Disk {
         }))
     }
 
-    fn calibrate(
-        &self,
-        c: &Captures,
-        sensor: &SensorModel,
-    ) -> Result<crate::captures::Calibration, Error> {
+    fn calibrate(&self, c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
         calibrate(c, sensor)
-    }
-
-    fn scale_causes(&self, sc: &mut Scenario, sensor: f64, _specimen: f64) {
-        if let Some(d) = &mut sc.disk {
-            d.sigma_mm *= sensor;
-        }
     }
 
     fn needs_radius(&self) -> bool {
@@ -381,7 +322,7 @@ fn chord_of(
 }
 
 /// Chords from every scan, the disk paper's transformation solution, and the refinement problem.
-fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<crate::captures::Calibration, Error> {
+fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
     let cfg = SplitMerge::for_sensor(sensor);
     let mut missed = 0;
     let radius = c
@@ -432,7 +373,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<crate::captures::Cali
     problem.min_scan_angle = 0.5f64.to_radians();
     let sol = crate::calib::disk::solve(&problem)?;
     let normal = plane_normal(&ends, &sol.flange_to_sensor);
-    Ok(crate::captures::Calibration {
+    Ok(super::Calibration {
         refinable: Some(std::sync::Arc::new(Problem {
             model: DiskModel { radius, ends },
             specimen: DiskPose::new(sol.centre_in_base.into(), &normal),

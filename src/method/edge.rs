@@ -11,68 +11,14 @@ use crate::error::Error;
 use crate::features::{self, EdgeSense, SplitMerge};
 use crate::metrics::{Metric, Metrics};
 use crate::rng::{self, tag};
-use crate::scenario::{Common, Scenario, ScenarioError, Source, SpecimenSection, Validator};
 use crate::scene::{FormError, FormTolerance, Scene};
+use crate::schema::edge::Section;
+use crate::schema::{Common, Scenario, ScenarioError, Source, Validator};
 use crate::sensor::SensorModel;
 use crate::sim::ball::BallTarget;
 use crate::sim::edge::{EdgeGroupPlan, EdgePlanSpec, EdgeTarget};
 use crate::sim::{Rig, flange_pose};
 use nalgebra::{Isometry3, Point3, Vector2, Vector3};
-use serde::Deserialize;
-
-/// `[edge]`: the straight-edge method's data collection.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Section {
-    /// Exact edge points plus Gaussian noise, or ray-cast profiles.
-    #[serde(default)]
-    pub source: Source,
-    /// Gaussian noise on the edge point's x and z, mm (analytic).
-    #[serde(default)]
-    pub sigma_mm: f64,
-    pub rotations: usize,
-    pub translations: usize,
-    pub tilt_deg: f64,
-    pub arc_radius_mm: f64,
-    pub arc_span_deg: f64,
-    /// Angle of the arc's chord from the edge toward the open side: 0 moves along the edge (the
-    /// profile never changes), 90 straight across it (the points do not spread along the edge).
-    #[serde(default = "d_heading")]
-    pub arc_heading_deg: f64,
-    /// Sensor z at which the laser line crosses the edge (default: the range centre).
-    #[serde(default)]
-    pub edge_z_mm: Option<f64>,
-    /// The edge specimen, when the scenario's [specimen] is another specimen.
-    #[serde(default)]
-    pub specimen: Option<SpecimenSection>,
-    /// The edge paper's Table 3 check with a precision ball.
-    #[serde(default)]
-    pub validation: Option<Validation>,
-}
-
-/// `[edge.validation]`: the edge paper's Table 3 check.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Validation {
-    pub ball_radius_mm: f64,
-    pub position_mm: [f64; 3],
-    #[serde(default = "d_ten")]
-    pub groups: usize,
-    #[serde(default = "d_six")]
-    pub translations: usize,
-    #[serde(default)]
-    pub sigma_mm: f64,
-}
-
-fn d_heading() -> f64 {
-    45.0
-}
-fn d_ten() -> usize {
-    10
-}
-fn d_six() -> usize {
-    6
-}
 
 /// The straight-edge method.
 pub struct Edge;
@@ -192,21 +138,8 @@ impl Method for Edge {
         }))
     }
 
-    fn calibrate(
-        &self,
-        c: &Captures,
-        sensor: &SensorModel,
-    ) -> Result<crate::captures::Calibration, Error> {
+    fn calibrate(&self, c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
         calibrate(c, sensor)
-    }
-
-    fn scale_causes(&self, sc: &mut Scenario, sensor: f64, specimen: f64) {
-        if let Some(e) = &mut sc.edge {
-            e.sigma_mm *= sensor;
-            if let Some(sp) = &mut e.specimen {
-                sp.scale_imperfection(specimen);
-            }
-        }
     }
 
     fn needs_radius(&self) -> bool {
@@ -309,7 +242,7 @@ impl Plan for EdgePlan {
                         crate::rng::gauss(rng) * self.sigma,
                     );
                     let q = crate::sim::edge::exact_point_formed(&pose, &self.target, frame, &form)
-                        .ok_or(CaptureError::ParallelToEdge { group: g })?;
+                        .ok_or(crate::sim::PlanError::ParallelToEdge { group: g })?;
                     ProfileData::EdgePoint(q + Vector2::new(nx, nz))
                 };
                 profiles.push(crate::captures::CaptureProfile {
@@ -353,7 +286,7 @@ fn point_of(
 
 /// Edge points per rotation group, the Kronecker solve, the paper's Tables 1-2 figures, and the
 /// refinement problem.
-fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<crate::captures::Calibration, Error> {
+fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
     let sense = c.edge_sense.unwrap_or(EdgeSense::Falling);
     let tuned = SplitMerge::for_sensor(sensor);
     let exact = sensor.noise.is_off() && sensor.z_quantum.is_none();
@@ -385,7 +318,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<crate::captures::Cali
     }
     let sol = crate::calib::edge::solve(&EdgeProblem { groups })?;
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
-    Ok(crate::captures::Calibration {
+    Ok(super::Calibration {
         refinable: Some(std::sync::Arc::new(Problem {
             model: EdgeModel { points },
             specimen: EdgeLine::new(sol.edge_point.into(), &sol.edge_direction),

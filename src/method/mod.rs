@@ -9,153 +9,21 @@ pub mod ball;
 pub mod disk;
 pub mod edge;
 
-use crate::calib::refine::Refined;
-use crate::captures::{Calibration, Captures};
+use crate::calib::Status;
+use crate::calib::refine::{Options, Refinable, Refined};
+use crate::captures::{CaptureError, Captures};
 use crate::error::Error;
-use crate::scenario::{Scenario, ScenarioError, Validator};
+use crate::metrics::Metrics;
 use crate::scene::Scene;
+use crate::schema::{Scenario, ScenarioError, Validator};
 use crate::sensor::SensorModel;
 use crate::sim::Rig;
+use nalgebra::Vector3;
 use nalgebra::{Isometry3, Point3};
 use std::fmt;
-use std::str::FromStr;
+use std::sync::Arc;
 
-/// A specimen method: what is calibrated against.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Kind {
-    /// Planar disk of arbitrary orientation (Chen et al. 2018).
-    Disk,
-    /// Ball two-step method (Chen et al. 2018, Sec. IV-A).
-    Ball,
-    /// Straight edge (Xu et al.).
-    Edge,
-}
-
-impl Kind {
-    pub const ALL: [Kind; 3] = [Kind::Disk, Kind::Ball, Kind::Edge];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Kind::Disk => "disk",
-            Kind::Ball => "ball",
-            Kind::Edge => "edge",
-        }
-    }
-}
-
-impl fmt::Display for Kind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl FromStr for Kind {
-    type Err = UnknownMethod;
-    fn from_str(s: &str) -> Result<Kind, UnknownMethod> {
-        Kind::ALL
-            .into_iter()
-            .find(|k| k.name() == s)
-            .ok_or_else(|| UnknownMethod {
-                name: s.to_string(),
-                known: Kind::ALL.map(Kind::name).join(", "),
-            })
-    }
-}
-
-/// How the transform is estimated from a specimen method's captures.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Estimator {
-    /// The paper's closed form, as published.
-    ClosedForm,
-    /// Joint Levenberg-Marquardt refinement of the closed form over every raw feature.
-    Refined,
-}
-
-impl Estimator {
-    pub const ALL: [Estimator; 2] = [Estimator::ClosedForm, Estimator::Refined];
-
-    fn suffix(self) -> &'static str {
-        match self {
-            Estimator::ClosedForm => "",
-            Estimator::Refined => "-refined",
-        }
-    }
-}
-
-/// A method as named in scenarios, CSV files and on the command line: `disk`, `disk-refined`, ...
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct MethodId {
-    pub kind: Kind,
-    pub estimator: Estimator,
-}
-
-impl MethodId {
-    pub const fn new(kind: Kind, estimator: Estimator) -> MethodId {
-        MethodId { kind, estimator }
-    }
-
-    /// Every method, specimen by specimen.
-    pub fn all() -> impl Iterator<Item = MethodId> {
-        Kind::ALL
-            .into_iter()
-            .flat_map(|k| Estimator::ALL.map(move |e| MethodId::new(k, e)))
-    }
-}
-
-impl fmt::Display for MethodId {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}{}", self.kind.name(), self.estimator.suffix())
-    }
-}
-
-/// A method name that names no method.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("unknown method \"{name}\"; known: {known}")]
-pub struct UnknownMethod {
-    pub name: String,
-    pub known: String,
-}
-
-impl FromStr for MethodId {
-    type Err = UnknownMethod;
-    fn from_str(s: &str) -> Result<MethodId, UnknownMethod> {
-        MethodId::all()
-            .find(|m| m.to_string() == s)
-            .ok_or_else(|| UnknownMethod {
-                name: s.to_string(),
-                known: MethodId::all()
-                    .map(|m| m.to_string())
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            })
-    }
-}
-
-impl serde::Serialize for MethodId {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.collect_str(self)
-    }
-}
-
-impl<'de> serde::Deserialize<'de> for MethodId {
-    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<MethodId, D::Error> {
-        let s = String::deserialize(d)?;
-        s.parse().map_err(serde::de::Error::custom)
-    }
-}
-
-impl serde::Serialize for Kind {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(self.name())
-    }
-}
-
-impl<'de> serde::Deserialize<'de> for Kind {
-    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Kind, D::Error> {
-        let s = String::deserialize(d)?;
-        s.parse().map_err(serde::de::Error::custom)
-    }
-}
+pub use crate::id::{Estimator, Kind, MethodId, UnknownMethod};
 
 /// What a specimen method's simulation draws from: the trial's streams and the disturbed robot.
 pub struct Sim<'a> {
@@ -181,15 +49,12 @@ pub trait Method: Sync {
     fn plan(
         &self,
         sc: &Scenario,
-        common: &crate::scenario::Common,
+        common: &crate::schema::Common,
         v: &Validator,
     ) -> Result<Box<dyn Plan>, ScenarioError>;
 
     /// Extract the features from the captures and solve in closed form (the paper's method).
     fn calibrate(&self, caps: &Captures, sensor: &SensorModel) -> Result<Calibration, Error>;
-
-    /// Scale the method's own sensor noise and specimen imperfection (cause studies).
-    fn scale_causes(&self, sc: &mut Scenario, sensor: f64, specimen: f64);
 
     /// Whether a capture file must give the specimen's radius.
     fn needs_radius(&self) -> bool;
@@ -234,6 +99,35 @@ pub fn method(kind: Kind) -> &'static dyn Method {
     }
 }
 
+/// A calibration from captures, with the method's own (truth-free) figures.
+#[derive(Debug, Clone)]
+pub struct Calibration {
+    pub flange_to_sensor: Isometry3<f64>,
+    pub centre_in_base: Option<Vector3<f64>>,
+    /// The method's own figures: the centre spread, the edge figures (Metric::Accuracy, ...).
+    pub figures: Metrics,
+    pub status: Status,
+    /// Profiles in which the feature was not found.
+    pub missed: usize,
+    /// The raw features with their flange poses and the closed-form specimen pose: what the joint
+    /// refinement starts from (None when the captures hold only reduced features, e.g. circles).
+    pub refinable: Option<Arc<dyn Refinable>>,
+}
+
+impl Calibration {
+    /// Refine jointly over the raw features (see `calib::refine`).
+    pub fn refine(&self, opts: &Options) -> Result<Refined, Error> {
+        let r = self.refinable.as_ref().ok_or(CaptureError::NoRawFeatures)?;
+        Ok(r.refine(&self.flange_to_sensor, opts)?)
+    }
+}
+
+/// Calibrate with the captures' method (its closed form), extracting features from raw profiles
+/// with `sensor`: the one path simulated trials and capture files from real rigs take.
+pub fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<Calibration, Error> {
+    method(c.method).calibrate(c, sensor)
+}
+
 /// Run an estimator on captures: the closed form, then (for `Refined`) the joint refinement from
 /// it, whose estimate and specimen centre replace the closed form's.
 pub fn estimate(
@@ -241,7 +135,7 @@ pub fn estimate(
     caps: &Captures,
     sensor: &SensorModel,
 ) -> Result<(Calibration, Option<Refined>), Error> {
-    let mut cal = method(id.kind).calibrate(caps, sensor)?;
+    let mut cal = calibrate(caps, sensor)?;
     match id.estimator {
         Estimator::ClosedForm => Ok((cal, None)),
         Estimator::Refined => {

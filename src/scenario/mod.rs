@@ -1,94 +1,15 @@
-//! Scenario files (TOML): robot, sensor and true mounting, specimen and its pose, data-collection
-//! plans, noise, methods, sweep grid, trials and seed. Unknown keys and bad values are errors that
-//! name the file, the key and the value.
-//!
-//! `schema` holds the shared sections (each method's own section lives in its `method` module),
-//! `grid` the sweep's points, `validate` the checks, `causes` the cause studies, `build` the rig,
-//! scene and plans.
+//! Scenario files: reading them (the schema is `crate::schema`, re-exported here), their sweep
+//! grid (`grid`), validating every point once with each method's own checks (`validate`), and
+//! building the experiment with every method's plan (`build`). Unknown keys and bad values are
+//! errors that name the file, the key and the value.
 
 mod build;
-mod causes;
 mod grid;
-mod schema;
 mod validate;
 
-pub use build::{Common, Setup, place_specimen};
+pub use crate::schema::*;
+pub use build::Setup;
 pub use grid::GridPoint;
-pub use schema::*;
-pub use validate::Validator;
-
-use crate::method::{Kind, MethodId};
-use serde::Deserialize;
-use thiserror::Error;
-
-#[derive(Debug, Error, Clone, PartialEq)]
-#[non_exhaustive]
-pub enum ScenarioError {
-    #[error("{file}: cannot read: {message}")]
-    Io { file: String, message: String },
-    #[error("{file}: {message}")]
-    Syntax { file: String, message: String },
-    #[error("{file}: {key} = {value}: {reason}")]
-    BadValue {
-        file: String,
-        key: String,
-        value: String,
-        reason: String,
-    },
-}
-
-fn d_seed() -> u64 {
-    1
-}
-fn d_methods() -> Vec<MethodId> {
-    vec![MethodId::new(
-        Kind::Disk,
-        crate::method::Estimator::ClosedForm,
-    )]
-}
-
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Scenario {
-    pub name: String,
-    #[serde(default)]
-    pub description: String,
-    #[serde(default = "d_seed")]
-    pub seed: u64,
-    #[serde(default = "d_methods")]
-    pub methods: Vec<MethodId>,
-    pub robot: RobotSection,
-    pub sensor: SensorSection,
-    pub specimen: SpecimenSection,
-    #[serde(default)]
-    pub table: Option<TableSection>,
-    // The methods' own sections (one line per specimen method).
-    #[serde(default)]
-    pub disk: Option<crate::method::disk::Section>,
-    #[serde(default)]
-    pub ball: Option<crate::method::ball::Section>,
-    #[serde(default)]
-    pub edge: Option<crate::method::edge::Section>,
-    #[serde(default)]
-    pub robot_error: Option<RobotErrorSection>,
-    #[serde(default)]
-    pub vibration: Option<VibrationSection>,
-    #[serde(default)]
-    pub dynamics: Option<DynamicsSection>,
-    #[serde(default)]
-    pub causes: Option<CausesSection>,
-    #[serde(default)]
-    pub sweep: Option<SweepSection>,
-}
-
-impl Scenario {
-    /// The specimen methods the scenario's methods use, each once, in `Kind::ALL` order.
-    pub fn kinds(&self) -> impl Iterator<Item = Kind> + '_ {
-        Kind::ALL
-            .into_iter()
-            .filter(|k| self.methods.iter().any(|m| m.kind == *k))
-    }
-}
 
 /// A scenario file: the parsed scenario, its raw table (for grid overrides) and its grid points,
 /// each deserialised and validated once.

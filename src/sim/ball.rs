@@ -3,7 +3,6 @@
 
 use super::{PlanError, Rig, check_reachable, flange_pose};
 use crate::calib::ball::{BallCapture, BallProblem, centre_from_arc};
-use crate::captures::CaptureError;
 use crate::features::fit_circle;
 use crate::rng::gauss;
 use nalgebra::{Isometry3, Point3, Rotation3, Vector2, Vector3};
@@ -138,10 +137,10 @@ fn capture_from_arcs(
     p: &Pose,
     s: f64,
     arcs: &[Vec<Vector2<f64>>],
-) -> Result<BallCapture, CaptureError> {
+) -> Result<BallCapture, PlanError> {
     let mut q = Vector3::zeros();
     for a in arcs {
-        let c = fit_circle(a).ok_or(CaptureError::NoCircle { points: a.len() })?;
+        let c = fit_circle(a).ok_or(PlanError::NoCircle { points: a.len() })?;
         q += centre_from_arc(&c, ball.radius, s);
     }
     Ok(BallCapture {
@@ -160,7 +159,7 @@ pub fn analytic_problem(
     x_step: f64,
     sigma: f64,
     rng: &mut crate::rng::Rng,
-) -> Result<BallProblem, CaptureError> {
+) -> Result<BallProblem, PlanError> {
     let mut one = |p: &Pose, m: usize| {
         let pose = rig.base_to_sensor(&flange_pose(&p.r_tcp, &p.t_tcp));
         let arcs: Vec<Vec<Vector2<f64>>> = (0..m)

@@ -5,7 +5,6 @@
 use super::ball::{BallTarget, analytic_arc};
 use super::{PlanError, Rig, check_reachable};
 use crate::calib::edge::{EdgeCapture, EdgeProblem};
-use crate::captures::CaptureError;
 use crate::features::{self, EdgeSense};
 use crate::rng::gauss;
 use nalgebra::{
@@ -239,14 +238,14 @@ pub fn analytic_problem(
     plans: &[EdgeGroupPlan],
     sigma: f64,
     rng: &mut crate::rng::Rng,
-) -> Result<EdgeProblem, CaptureError> {
+) -> Result<EdgeProblem, PlanError> {
     let mut groups = Vec::with_capacity(plans.len());
     for (g, p) in plans.iter().enumerate() {
         let mut caps = Vec::with_capacity(p.tcps.len());
         for t in &p.tcps {
             let pose = rig.base_to_sensor(&super::flange_pose(&p.r_tcp, t));
             let (nx, nz) = (gauss(rng) * sigma, gauss(rng) * sigma);
-            let q = exact_point(&pose, e).ok_or(CaptureError::ParallelToEdge { group: g })?;
+            let q = exact_point(&pose, e).ok_or(PlanError::ParallelToEdge { group: g })?;
             caps.push(EdgeCapture {
                 r_tcp: p.r_tcp,
                 t_tcp: *t,

@@ -42,6 +42,10 @@ pub enum PlanError {
     },
     #[error("scan {scan}: {reason}")]
     BadScan { scan: usize, reason: String },
+    #[error("group {group}: the laser plane is parallel to the edge")]
+    ParallelToEdge { group: usize },
+    #[error("an arc of {points} points has no circle")]
+    NoCircle { points: usize },
 }
 
 /// base_to_flange from a rotation and a position.

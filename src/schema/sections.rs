@@ -1,5 +1,5 @@
-//! The scenario file's sections that every method shares (the methods' own sections live in
-//! `method::<kind>`). Lengths in mm and angles in the unit their name says, as the user writes
+//! The scenario file's sections that every method shares (the methods' own sections are
+//! `schema::<kind>`). Lengths in mm and angles in the unit their name says, as the user writes
 //! them; `build` converts to SI once.
 
 use super::{ScenarioError, Validator};

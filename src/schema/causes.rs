@@ -2,7 +2,6 @@
 //! none) and scaled.
 
 use super::{Cause, Scenario, ScenarioError, Validator};
-use crate::method::{Kind, method};
 
 impl Scenario {
     /// The scenario with its `[causes]` applied: the causes not kept switched off, the kept ones
@@ -31,9 +30,15 @@ impl Scenario {
         ] {
             *v *= ks;
         }
-        // Each method's own noise and specimen.
-        for kind in Kind::ALL {
-            method(kind).scale_causes(&mut s, ks, kspec);
+        // Each method section's own noise and specimen.
+        if let Some(d) = &mut s.disk {
+            d.scale_causes(ks, kspec);
+        }
+        if let Some(b) = &mut s.ball {
+            b.scale_causes(ks, kspec);
+        }
+        if let Some(e) = &mut s.edge {
+            e.scale_causes(ks, kspec);
         }
         s.specimen.scale_imperfection(kspec);
         if let Some(r) = &mut s.robot_error {

@@ -1,0 +1,61 @@
+//! `[disk]`: the disk method's data collection (Chen et al. 2018, Sec. III-A), as written in a
+//! scenario (mm, degrees, radians as named). The method (`method::disk`) validates and plans it.
+
+use super::Source;
+use serde::Deserialize;
+
+/// `[disk]`: the disk method's data collection.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Section {
+    /// m: profiles (chords) per scan.
+    pub chords: usize,
+    /// How much of the disk a scan sweeps (Fig. 4).
+    #[serde(default)]
+    pub coverage: CoverageKey,
+    #[serde(default = "d_span")]
+    pub span_fraction: f64,
+    /// Analytic chords + Eq. 52 noise, or the sensor model + feature extraction.
+    #[serde(default)]
+    pub source: Source,
+    /// Eq. 52: Gaussian noise along each chord, mm (analytic source).
+    #[serde(default)]
+    pub sigma_mm: f64,
+    /// Eq. 2: least angle between the move and the disk plane or normal.
+    #[serde(default = "d_min_angle")]
+    pub min_angle_deg: f64,
+    /// R_tcp,i as (rx, ry, rz) radians, R = Rz Ry Rx (the disk paper's tables).
+    pub orientations_rpy_rad: Vec<[f64; 3]>,
+    /// Optional TCP positions where the laser plane crosses the disk centre (mm).
+    #[serde(default)]
+    pub centre_tcp_mm: Option<Vec<[f64; 3]>>,
+    /// Move directions in the base frame (the disk paper's D_i^b)...
+    #[serde(default)]
+    pub directions_in_base: Option<Vec<[f64; 3]>>,
+    /// ...or in the sensor frame (D_i^i); one list or the other, one entry per orientation.
+    #[serde(default)]
+    pub directions_in_sensor: Option<Vec<[f64; 3]>>,
+}
+
+fn d_span() -> f64 {
+    0.9
+}
+fn d_min_angle() -> f64 {
+    5.0
+}
+
+/// `coverage` in a scenario.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum CoverageKey {
+    #[default]
+    Whole,
+    Half,
+}
+
+impl Section {
+    /// Cause studies: scale the section's own sensor noise.
+    pub fn scale_causes(&mut self, sensor: f64, _specimen: f64) {
+        self.sigma_mm *= sensor;
+    }
+}
