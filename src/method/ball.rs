@@ -12,7 +12,6 @@ use crate::features::{self, SplitMerge};
 use crate::math::rot_zyx;
 use crate::metrics::{Metric, Metrics};
 use crate::scene::{FormError, FormTolerance, Scene, SpecimenKind};
-use crate::schema::ball::Section;
 use crate::schema::{Common, Scenario, ScenarioError, Source, Validator};
 use crate::sensor::SensorModel;
 use crate::sim::ball::{BallPlan, BallTarget, Pose};
@@ -22,25 +21,13 @@ use nalgebra::{Isometry3, Point3, Vector3};
 /// The ball two-step method.
 pub struct Ball;
 
-impl Ball {
-    fn section<'a>(sc: &'a Scenario, v: &Validator) -> Result<&'a Section, ScenarioError> {
-        sc.ball.as_ref().ok_or_else(|| {
-            v.bad(
-                "ball",
-                "(missing)",
-                "the ball method needs a [ball] section",
-            )
-        })
-    }
-}
-
 impl Method for Ball {
     fn kind(&self) -> Kind {
         Kind::Ball
     }
 
     fn validate(&self, sc: &Scenario, v: &Validator) -> Result<(), ScenarioError> {
-        let b = Self::section(sc, v)?;
+        let b = v.section(sc.ball.as_ref(), Kind::Ball)?;
         let kind = match &b.specimen {
             Some(sp) => sp.kind_checked("ball.specimen", v)?,
             None => sc.specimen_kind(v)?,
@@ -89,7 +76,7 @@ impl Method for Ball {
         common: &Common,
         v: &Validator,
     ) -> Result<Box<dyn Plan>, ScenarioError> {
-        let b = Self::section(sc, v)?;
+        let b = v.section(sc.ball.as_ref(), Kind::Ball)?;
         let (spec, pose, scene) = common.own(b.specimen.as_ref(), "ball.specimen", v)?;
         let radius = spec.ball_radius().ok_or_else(|| {
             v.bad(

@@ -12,7 +12,7 @@ use crate::features::{self, SplitMerge};
 use crate::math::rot_zyx;
 use crate::metrics::{Metric, Metrics};
 use crate::scene::{FormError, FormTolerance, Scene, Specimen, SpecimenKind};
-use crate::schema::disk::{CoverageKey, Section};
+use crate::schema::disk::CoverageKey;
 use crate::schema::{Common, Scenario, ScenarioError, Source, Validator};
 use crate::sensor::SensorModel;
 use crate::sim::disk::{Coverage, Direction, DiskPlanSpec, DiskScanPlan, DiskTarget, ScanRequest};
@@ -22,25 +22,13 @@ use nalgebra::{Isometry3, Point3, Vector2, Vector3};
 /// The disk method.
 pub struct Disk;
 
-impl Disk {
-    fn section<'a>(sc: &'a Scenario, v: &Validator) -> Result<&'a Section, ScenarioError> {
-        sc.disk.as_ref().ok_or_else(|| {
-            v.bad(
-                "disk",
-                "(missing)",
-                "the disk method needs a [disk] section",
-            )
-        })
-    }
-}
-
 impl Method for Disk {
     fn kind(&self) -> Kind {
         Kind::Disk
     }
 
     fn validate(&self, sc: &Scenario, v: &Validator) -> Result<(), ScenarioError> {
-        let d = Self::section(sc, v)?;
+        let d = v.section(sc.disk.as_ref(), Kind::Disk)?;
         if !sc.specimen_kind(v)?.is_disk() {
             return Err(v.bad(
                 "specimen.kind",
@@ -99,7 +87,7 @@ impl Method for Disk {
         common: &Common,
         v: &Validator,
     ) -> Result<Box<dyn Plan>, ScenarioError> {
-        let d = Self::section(sc, v)?;
+        let d = v.section(sc.disk.as_ref(), Kind::Disk)?;
         let radius = common.specimen.disk_radius().ok_or_else(|| {
             v.bad(
                 "specimen.kind",

@@ -12,7 +12,6 @@ use crate::features::{self, EdgeSense, SplitMerge};
 use crate::metrics::{Metric, Metrics};
 use crate::rng::{self, tag};
 use crate::scene::{FormError, FormTolerance, Scene};
-use crate::schema::edge::Section;
 use crate::schema::{Common, Scenario, ScenarioError, Source, Validator};
 use crate::sensor::SensorModel;
 use crate::sim::ball::BallTarget;
@@ -23,25 +22,13 @@ use nalgebra::{Isometry3, Point3, Vector2, Vector3};
 /// The straight-edge method.
 pub struct Edge;
 
-impl Edge {
-    fn section<'a>(sc: &'a Scenario, v: &Validator) -> Result<&'a Section, ScenarioError> {
-        sc.edge.as_ref().ok_or_else(|| {
-            v.bad(
-                "edge",
-                "(missing)",
-                "the edge method needs an [edge] section",
-            )
-        })
-    }
-}
-
 impl Method for Edge {
     fn kind(&self) -> Kind {
         Kind::Edge
     }
 
     fn validate(&self, sc: &Scenario, v: &Validator) -> Result<(), ScenarioError> {
-        let e = Self::section(sc, v)?;
+        let e = v.section(sc.edge.as_ref(), Kind::Edge)?;
         if let Some(sp) = &e.specimen {
             sp.kind_checked("edge.specimen", v)?;
         }
@@ -83,7 +70,7 @@ impl Method for Edge {
         common: &Common,
         v: &Validator,
     ) -> Result<Box<dyn Plan>, ScenarioError> {
-        let e = Self::section(sc, v)?;
+        let e = v.section(sc.edge.as_ref(), Kind::Edge)?;
         let rig = &common.rig;
         let (spec, pose, scene) = common.own(e.specimen.as_ref(), "edge.specimen", v)?;
         if !spec.is_edge() {

@@ -20,6 +20,26 @@ impl Validator<'_> {
         }
     }
 
+    /// A method's own section, which the method needs.
+    pub fn section<'a, T>(
+        &self,
+        section: Option<&'a T>,
+        kind: crate::id::Kind,
+    ) -> Result<&'a T, ScenarioError> {
+        let article = if kind.name().starts_with(['a', 'e', 'i', 'o', 'u']) {
+            "an"
+        } else {
+            "a"
+        };
+        section.ok_or_else(|| {
+            self.bad(
+                kind.name(),
+                "(missing)",
+                format!("the {kind} method needs {article} [{kind}] section"),
+            )
+        })
+    }
+
     /// A finite number >= 0.
     pub fn non_negative(&self, key: &str, v: f64) -> Result<(), ScenarioError> {
         if v >= 0.0 && v.is_finite() {

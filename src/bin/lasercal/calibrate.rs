@@ -1,4 +1,4 @@
-use super::common::matrix_text;
+use super::common::{matrix_text, refinement};
 use anyhow::{Context, Result, bail};
 use lasercal::calib::PoseError;
 use lasercal::math::pose_to_rows_mm;
@@ -59,24 +59,7 @@ pub fn run(a: Args) -> Result<()> {
         doc[m.name()] = serde_json::json!(cal.figures.get(m));
     }
     if let Some(r) = &refined {
-        println!(
-            "{method}: predicted sd: rotation about sensor x/y/z {:.4} / {:.4} / {:.4} deg, \
-             translation along flange x/y/z {:.4} / {:.4} / {:.4} mm; residual RMS {:.4} mm",
-            r.sd_rotation_deg.x,
-            r.sd_rotation_deg.y,
-            r.sd_rotation_deg.z,
-            r.sd_translation_mm.x,
-            r.sd_translation_mm.y,
-            r.sd_translation_mm.z,
-            r.residual_rms * 1e3
-        );
-        doc["refinement"] = serde_json::json!({
-            "sd_rotation_deg": [r.sd_rotation_deg.x, r.sd_rotation_deg.y, r.sd_rotation_deg.z],
-            "sd_translation_mm": [r.sd_translation_mm.x, r.sd_translation_mm.y, r.sd_translation_mm.z],
-            "residual_rms_mm": r.residual_rms * 1e3,
-            "condition": r.observability.condition,
-            "weakest": r.observability.weakest,
-        });
+        doc["refinement"] = refinement(method, r);
     }
     if let Some(t) = &caps.truth {
         let e = PoseError::between(&cal.flange_to_sensor, t);

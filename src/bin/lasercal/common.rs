@@ -40,3 +40,40 @@ pub fn matrix_text(rows: &[[f64; 4]; 4]) -> String {
         .collect::<Vec<_>>()
         .join("\n")
 }
+
+/// Print a refinement's predicted uncertainty and observability; the same as JSON.
+pub fn refinement(
+    method: lasercal::method::MethodId,
+    r: &lasercal::calib::refine::Refined,
+) -> serde_json::Value {
+    let o = &r.observability;
+    let (sr, st) = (r.sd_rotation_deg, r.sd_translation_mm);
+    println!(
+        "{method}: predicted sd: rotation about sensor x/y/z {:.4} / {:.4} / {:.4} deg, \
+         translation along flange x/y/z {:.4} / {:.4} / {:.4} mm; cost {:.3e} -> {:.3e}, \
+         residual RMS {:.4} mm",
+        sr.x,
+        sr.y,
+        sr.z,
+        st.x,
+        st.y,
+        st.z,
+        r.initial_cost,
+        r.cost,
+        r.residual_rms * 1e3
+    );
+    println!(
+        "{method}: observability: singular values {:.3?} (condition {:.1}); weakest: {}",
+        o.singular_values, o.condition, o.weakest
+    );
+    serde_json::json!({
+        "sd_rotation_deg": [sr.x, sr.y, sr.z],
+        "sd_translation_mm": [st.x, st.y, st.z],
+        "initial_cost": r.initial_cost,
+        "cost": r.cost,
+        "residual_rms_mm": r.residual_rms * 1e3,
+        "singular_values": o.singular_values,
+        "condition": o.condition,
+        "weakest": o.weakest,
+    })
+}

@@ -1,4 +1,4 @@
-use super::common::{load_scenario, matrix_text};
+use super::common::{load_scenario, matrix_text, refinement};
 use anyhow::{Result, bail};
 use lasercal::math::pose_to_rows_mm;
 use lasercal::method::MethodId;
@@ -105,37 +105,7 @@ pub fn run(a: Args) -> Result<()> {
                     line += &format!(", {} profiles without the feature", out.missed_profiles);
                 }
                 println!("{line}");
-                let refined = s.refined.as_ref().map(|r| {
-                    let o = &r.observability;
-                    println!(
-                        "{method}: predicted sd: rotation about sensor x/y/z {:.4} / {:.4} / {:.4} deg, \
-                         translation along flange x/y/z {:.4} / {:.4} / {:.4} mm; cost {:.3e} -> {:.3e}, \
-                         residual RMS {:.4} mm",
-                        r.sd_rotation_deg.x,
-                        r.sd_rotation_deg.y,
-                        r.sd_rotation_deg.z,
-                        r.sd_translation_mm.x,
-                        r.sd_translation_mm.y,
-                        r.sd_translation_mm.z,
-                        r.initial_cost,
-                        r.cost,
-                        r.residual_rms * 1e3
-                    );
-                    println!(
-                        "{method}: observability: singular values {:.3?} (condition {:.1}); weakest: {}",
-                        o.singular_values, o.condition, o.weakest
-                    );
-                    serde_json::json!({
-                        "sd_rotation_deg": [r.sd_rotation_deg.x, r.sd_rotation_deg.y, r.sd_rotation_deg.z],
-                        "sd_translation_mm": [r.sd_translation_mm.x, r.sd_translation_mm.y, r.sd_translation_mm.z],
-                        "initial_cost": r.initial_cost,
-                        "cost": r.cost,
-                        "residual_rms_mm": r.residual_rms * 1e3,
-                        "singular_values": o.singular_values,
-                        "condition": o.condition,
-                        "weakest": o.weakest,
-                    })
-                });
+                let refined = s.refined.as_ref().map(|r| refinement(method, r));
                 let mut doc = serde_json::json!({
                     "refinement": refined,
                     "method": method,
