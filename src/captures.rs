@@ -4,6 +4,7 @@
 
 use crate::features::{Circle, EdgeSense, FeatureError};
 use crate::id::Kind;
+use crate::scene::SpecimenType;
 use crate::sensor::Profile;
 use nalgebra::{Isometry3, Vector2};
 use thiserror::Error;
@@ -31,7 +32,8 @@ pub struct CaptureProfile {
 
 /// The role of a group: a disk scan, the ball's rotation set or one of its translation-set poses,
 /// or an edge rotation group.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Role {
     Scan,
     Rotation,
@@ -71,7 +73,7 @@ pub struct Captures {
     /// Sensor preset: its column geometry places feature ends between columns.
     pub sensor: String,
     /// Specimen kind and its known size (metres): the disk or ball radius.
-    pub specimen_kind: String,
+    pub specimen_kind: SpecimenType,
     pub specimen_radius: Option<f64>,
     pub edge_sense: Option<EdgeSense>,
     pub truth: Option<Isometry3<f64>>,

@@ -155,9 +155,14 @@ pub fn parse_column(column: &str) -> Option<(Metric, Stat)> {
     })
 }
 
+/// A summary column's name, `<metric>_<stat>`.
+pub fn column(m: Metric, s: Stat) -> String {
+    format!("{}_{}", m.name(), s.name())
+}
+
 /// Every summary column name, in summary.csv's order.
 pub fn summary_columns() -> impl Iterator<Item = String> {
     Metric::SUMMARISED
         .into_iter()
-        .flat_map(|m| Stat::ALL.map(move |s| format!("{}_{}", m.name(), s.name())))
+        .flat_map(|m| Stat::ALL.map(move |s| column(m, s)))
 }

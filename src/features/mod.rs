@@ -329,7 +329,8 @@ fn trim_and_refit(v: &[Vector2<f64>], mut c: Circle) -> Circle {
 
 /// Which way the profile crosses the edge: `Rising` when the specimen lies at higher x than the
 /// edge, `Falling` when the profile runs over the specimen and drops off toward higher x.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum EdgeSense {
     Falling,
     Rising,

@@ -5,6 +5,7 @@ use super::FormatError;
 use crate::captures::{CaptureProfile, Captures, Group, ProfileData, Role};
 use crate::features::{Circle, EdgeSense};
 use crate::method::{Kind, method};
+use crate::scene::SpecimenType;
 use crate::sensor::{Profile, ProfilePoint, SensorModel};
 use nalgebra::{Isometry3, Matrix3, Quaternion, Translation3, UnitQuaternion, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
@@ -23,7 +24,7 @@ struct FileV1 {
     sensor_noise: Option<NoiseV1>,
     specimen: SpecimenV1,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    edge_sense: Option<String>,
+    edge_sense: Option<EdgeSense>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     truth_flange_to_sensor_mm: Option<[[f64; 4]; 4]>,
     groups: Vec<GroupV1>,
@@ -45,7 +46,7 @@ struct NoiseV1 {
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SpecimenV1 {
-    kind: String,
+    kind: SpecimenType,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     radius_mm: Option<f64>,
 }
@@ -54,7 +55,7 @@ struct SpecimenV1 {
 #[serde(deny_unknown_fields)]
 struct GroupV1 {
     id: usize,
-    role: String,
+    role: Role,
     #[serde(default)]
     sign: f64,
 }
@@ -103,23 +104,17 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
             z_quantum_mm: sensor.z_quantum.unwrap_or(0.0) * 1e3,
         }),
         specimen: SpecimenV1 {
-            kind: c.specimen_kind.clone(),
+            kind: c.specimen_kind,
             radius_mm: c.specimen_radius.map(|r| r * 1e3),
         },
-        edge_sense: c.edge_sense.map(|s| {
-            if s == EdgeSense::Falling {
-                "falling".into()
-            } else {
-                "rising".into()
-            }
-        }),
+        edge_sense: c.edge_sense,
         truth_flange_to_sensor_mm: c.truth.as_ref().map(crate::math::pose_to_rows_mm),
         groups: c
             .groups
             .iter()
             .map(|g| GroupV1 {
                 id: g.id,
-                role: g.role.name().into(),
+                role: g.role,
                 sign: g.sign,
             })
             .collect(),
@@ -206,18 +201,6 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
         .map_err(|e: crate::method::UnknownMethod| err(file, "method", e))?;
     let sensor = sensor_of(&f, file)?;
     let radius = radius_of(&f, kind, file)?;
-    let edge_sense = match f.edge_sense.as_deref() {
-        None => None,
-        Some("falling") => Some(EdgeSense::Falling),
-        Some("rising") => Some(EdgeSense::Rising),
-        Some(s) => {
-            return Err(err(
-                file,
-                "edge_sense",
-                format!("'{s}': use falling or rising"),
-            ));
-        }
-    };
     let truth = f.truth_flange_to_sensor_mm.map(|m| {
         let r = Matrix3::from_fn(|i, j| m[i][j]);
         Isometry3::from_parts(
@@ -238,7 +221,7 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
             sensor: f.sensor,
             specimen_kind: f.specimen.kind,
             specimen_radius: radius,
-            edge_sense,
+            edge_sense: f.edge_sense,
             truth,
             groups,
             profiles,
@@ -295,16 +278,6 @@ fn radius_of(f: &FileV1, kind: Kind, file: &str) -> Result<Option<f64>, FormatEr
 fn groups_of(f: &FileV1, kind: Kind, file: &str) -> Result<Vec<Group>, FormatError> {
     let mut groups: Vec<Group> = Vec::new();
     for (i, g) in f.groups.iter().enumerate() {
-        let Some(role) = Role::ALL.into_iter().find(|r| r.name() == g.role) else {
-            return Err(err(
-                file,
-                &format!("groups[{i}].role"),
-                format!(
-                    "'{}': use scan, rotation, translation or rotation-group",
-                    g.role
-                ),
-            ));
-        };
         if method(kind).uses_group_signs() && g.sign != 1.0 && g.sign != -1.0 {
             return Err(err(
                 file,
@@ -321,7 +294,7 @@ fn groups_of(f: &FileV1, kind: Kind, file: &str) -> Result<Vec<Group>, FormatErr
         }
         groups.push(Group {
             id: g.id,
-            role,
+            role: g.role,
             sign: g.sign,
         });
     }

@@ -2,6 +2,7 @@
 //! Deterministic (no dates), so a merged sharded run writes the same bytes.
 
 use crate::io::csv::summary_value;
+use crate::metrics::{Metric, Stat, column};
 use crate::scenario::Scenario;
 use crate::sweep::SummaryRow;
 
@@ -36,13 +37,16 @@ pub fn report(
         s += ".\n";
     }
     s += "\n## Summary\n\n| ";
-    let cols = [
-        "centre_error_mm_std",
-        "rotation_error_deg_median",
-        "rotation_error_deg_p95",
-        "translation_error_mm_median",
-        "translation_error_mm_p95",
-    ];
+    let cols: Vec<String> = [
+        (Metric::CentreError, Stat::Std),
+        (Metric::RotationError, Stat::Median),
+        (Metric::RotationError, Stat::P95),
+        (Metric::TranslationError, Stat::Median),
+        (Metric::TranslationError, Stat::P95),
+    ]
+    .iter()
+    .map(|&(m, s)| column(m, s))
+    .collect();
     let mut head: Vec<String> = grid_keys.to_vec();
     head.extend(["method", "trials", "failures"].map(String::from));
     head.extend(cols.iter().map(|c| c.to_string()));
@@ -55,7 +59,7 @@ pub fn report(
         c.push(r.method.to_string());
         c.push(r.trials.to_string());
         c.push(r.failures.to_string());
-        for k in cols {
+        for k in &cols {
             c.push(
                 summary_value(r, k)
                     .filter(|x| x.is_finite())

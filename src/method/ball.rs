@@ -11,7 +11,7 @@ use crate::error::Error;
 use crate::features::{self, SplitMerge};
 use crate::math::rot_zyx;
 use crate::metrics::{Metric, Metrics};
-use crate::scene::{FormError, FormTolerance, Scene, SpecimenKind};
+use crate::scene::{FormError, FormTolerance, Scene, SpecimenKind, SpecimenType};
 use crate::schema::{Common, Scenario, ScenarioError, Source, Validator};
 use crate::sensor::SensorModel;
 use crate::sim::ball::{BallPlan, BallTarget, Pose};
@@ -258,7 +258,7 @@ impl Plan for BallPlanned {
         Ok(Captures {
             method: Kind::Ball,
             sensor: rig.sensor.name.clone(),
-            specimen_kind: SpecimenKind::BALL.to_string(),
+            specimen_kind: SpecimenType::Ball,
             specimen_radius: Some(self.target.radius),
             edge_sense: None,
             truth: Some(rig.flange_to_sensor),

@@ -11,7 +11,7 @@ use crate::error::Error;
 use crate::features::{self, SplitMerge};
 use crate::math::rot_zyx;
 use crate::metrics::{Metric, Metrics};
-use crate::scene::{FormError, FormTolerance, Scene, Specimen, SpecimenKind};
+use crate::scene::{FormError, FormTolerance, Scene, Specimen, SpecimenType};
 use crate::schema::disk::CoverageKey;
 use crate::schema::{Common, Scenario, ScenarioError, Source, Validator};
 use crate::sensor::SensorModel;
@@ -251,7 +251,7 @@ impl Plan for DiskPlan {
         Ok(Captures {
             method: Kind::Disk,
             sensor: rig.sensor.name.clone(),
-            specimen_kind: self.specimen.name().to_string(),
+            specimen_kind: self.specimen.kind.specimen_type(),
             specimen_radius: Some(self.target.radius),
             edge_sense: None,
             truth: Some(rig.flange_to_sensor),
@@ -293,7 +293,7 @@ fn chord_of(
     Ok(match &p.data {
         ProfileData::Chord { a, b } => Ok(features::Chord { a: *a, b: *b }),
         ProfileData::Raw(prof) => {
-            if c.specimen_kind == SpecimenKind::DISK_PAPER {
+            if c.specimen_kind == SpecimenType::DiskPaper {
                 features::disk_chord_intensity(prof, sensor, cfg.min_points)
             } else {
                 features::disk_chord_step(prof, sensor, radius, cfg)

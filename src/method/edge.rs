@@ -242,7 +242,7 @@ impl Plan for EdgePlan {
         Ok(Captures {
             method: Kind::Edge,
             sensor: rig.sensor.name.clone(),
-            specimen_kind: spec.name().to_string(),
+            specimen_kind: spec.kind.specimen_type(),
             specimen_radius: None,
             edge_sense: Some(self.sense),
             truth: Some(rig.flange_to_sensor),

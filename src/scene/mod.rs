@@ -6,7 +6,7 @@ mod specimen;
 
 pub use form::{FormError, FormTolerance};
 pub use shapes::{ConvexPlanes, CylinderZ, Sheet};
-pub use specimen::{Specimen, SpecimenKind};
+pub use specimen::{Specimen, SpecimenKind, SpecimenType, UnknownSpecimen};
 
 use nalgebra::{Isometry3, Point3, Vector3};
 use parry3d_f64::query::{Ray, RayCast, RayIntersection};

@@ -42,33 +42,89 @@ pub enum SpecimenKind {
     },
 }
 
-impl SpecimenKind {
-    pub const DISK_CYLINDER: &str = "disk-cylinder";
-    pub const DISK_PAPER: &str = "disk-paper";
-    pub const BALL: &str = "ball";
-    pub const PARALLEL_BAR: &str = "parallel-bar";
-    pub const SCALE: &str = "scale";
-    pub const KNIFE_BLADE: &str = "knife-blade";
-    /// Every kind's name, as scenario files write it.
-    pub const NAMES: [&str; 6] = [
-        Self::DISK_CYLINDER,
-        Self::DISK_PAPER,
-        Self::BALL,
-        Self::PARALLEL_BAR,
-        Self::SCALE,
-        Self::KNIFE_BLADE,
+/// Which specimen, without its sizes: the name scenario and capture files use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SpecimenType {
+    DiskCylinder,
+    DiskPaper,
+    Ball,
+    ParallelBar,
+    Scale,
+    KnifeBlade,
+}
+
+impl SpecimenType {
+    pub const ALL: [SpecimenType; 6] = [
+        SpecimenType::DiskCylinder,
+        SpecimenType::DiskPaper,
+        SpecimenType::Ball,
+        SpecimenType::ParallelBar,
+        SpecimenType::Scale,
+        SpecimenType::KnifeBlade,
     ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SpecimenType::DiskCylinder => "disk-cylinder",
+            SpecimenType::DiskPaper => "disk-paper",
+            SpecimenType::Ball => "ball",
+            SpecimenType::ParallelBar => "parallel-bar",
+            SpecimenType::Scale => "scale",
+            SpecimenType::KnifeBlade => "knife-blade",
+        }
+    }
+
+    /// The disk and ball specimens (those with a radius).
+    pub fn has_radius(self) -> bool {
+        matches!(
+            self,
+            SpecimenType::DiskCylinder | SpecimenType::DiskPaper | SpecimenType::Ball
+        )
+    }
+}
+
+impl std::fmt::Display for SpecimenType {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A name that names no specimen.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "unknown specimen \"{name}\"; known: disk-cylinder, disk-paper, ball, parallel-bar, scale, knife-blade"
+)]
+pub struct UnknownSpecimen {
+    pub name: String,
+}
+
+impl std::str::FromStr for SpecimenType {
+    type Err = UnknownSpecimen;
+    fn from_str(s: &str) -> Result<SpecimenType, UnknownSpecimen> {
+        SpecimenType::ALL
+            .into_iter()
+            .find(|t| t.name() == s)
+            .ok_or_else(|| UnknownSpecimen { name: s.into() })
+    }
+}
+
+impl SpecimenKind {
+    /// Which specimen this is.
+    pub fn specimen_type(&self) -> SpecimenType {
+        match self {
+            SpecimenKind::DiskOnCylinder { .. } => SpecimenType::DiskCylinder,
+            SpecimenKind::DiskOnPaper { .. } => SpecimenType::DiskPaper,
+            SpecimenKind::BallOnPost { .. } => SpecimenType::Ball,
+            SpecimenKind::ParallelBar { .. } => SpecimenType::ParallelBar,
+            SpecimenKind::Scale { .. } => SpecimenType::Scale,
+            SpecimenKind::KnifeBlade { .. } => SpecimenType::KnifeBlade,
+        }
+    }
 
     /// The name scenario files and capture files use.
     pub fn name(&self) -> &'static str {
-        match self {
-            SpecimenKind::DiskOnCylinder { .. } => Self::DISK_CYLINDER,
-            SpecimenKind::DiskOnPaper { .. } => Self::DISK_PAPER,
-            SpecimenKind::BallOnPost { .. } => Self::BALL,
-            SpecimenKind::ParallelBar { .. } => Self::PARALLEL_BAR,
-            SpecimenKind::Scale { .. } => Self::SCALE,
-            SpecimenKind::KnifeBlade { .. } => Self::KNIFE_BLADE,
-        }
+        self.specimen_type().name()
     }
 
     /// A disk on a cylinder or on paper.

@@ -2,7 +2,7 @@ use super::common::load_scenario;
 use anyhow::{Context, Result, bail};
 use lasercal::method::Kind;
 use lasercal::robot::Robot;
-use lasercal::scene::SpecimenKind;
+use lasercal::scene::SpecimenType;
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use std::io::Write;
 use std::path::PathBuf;
@@ -26,7 +26,7 @@ pub struct Args {
     /// Scan another specimen kind at the scenario's specimen position (its default size):
     /// disk-cylinder, disk-paper, ball, parallel-bar, scale, knife-blade
     #[arg(long)]
-    specimen: Option<String>,
+    specimen: Option<SpecimenType>,
     /// Apply the scenario's sensor noise with this seed
     #[arg(long)]
     noise_seed: Option<u64>,
@@ -91,7 +91,7 @@ pub fn run(a: Args) -> Result<()> {
         (Some(kind), _) => {
             let mut sc = sf.scenario.clone();
             let s = &mut sc.specimen;
-            s.kind = kind.clone();
+            s.kind = *kind;
             // The new kind's default size, with the disk/ball radius kept where it applies.
             (
                 s.height_mm,
@@ -100,12 +100,7 @@ pub fn run(a: Args) -> Result<()> {
                 s.post_height_mm,
             ) = (None, None, None, None);
             (s.length_mm, s.width_mm, s.thickness_mm, s.bevel_mm) = (None, None, None, None);
-            if s.radius_mm.is_none()
-                && matches!(
-                    kind.as_str(),
-                    SpecimenKind::DISK_CYLINDER | SpecimenKind::DISK_PAPER | SpecimenKind::BALL
-                )
-            {
+            if s.radius_mm.is_none() && kind.has_radius() {
                 s.radius_mm = Some(50.0);
             }
             own_scene = sc.common(&sf.file)?.scene;
