@@ -6,6 +6,7 @@ use crate::captures::{CaptureProfile, Captures, Group, ProfileData, Role};
 use crate::features::{Circle, EdgeSense};
 use crate::method::{Kind, method};
 use crate::scene::SpecimenType;
+use crate::schema::sensor::GeometrySection;
 use crate::sensor::{Profile, ProfilePoint, SensorModel};
 use nalgebra::{Isometry3, Matrix3, Quaternion, Translation3, UnitQuaternion, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
@@ -19,7 +20,7 @@ struct FileV1 {
     format: String,
     version: u32,
     method: String,
-    sensor: String,
+    sensor: SensorV1,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     sensor_noise: Option<NoiseV1>,
     specimen: SpecimenV1,
@@ -29,6 +30,14 @@ struct FileV1 {
     truth_flange_to_sensor_mm: Option<[[f64; 4]; 4]>,
     groups: Vec<GroupV1>,
     profiles: Vec<ProfileV1>,
+}
+
+/// The sensor: a preset's name, or its geometry (docs/sensors.md).
+#[derive(Serialize, Deserialize)]
+#[serde(untagged)]
+enum SensorV1 {
+    Preset(String),
+    Geometry(GeometrySection),
 }
 
 #[derive(Serialize, Deserialize)]
@@ -95,7 +104,11 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
         format: FORMAT.into(),
         version: VERSION,
         method: c.method.to_string(),
-        sensor: c.sensor.clone(),
+        sensor: if sensor.is_preset() {
+            SensorV1::Preset(sensor.name.clone())
+        } else {
+            SensorV1::Geometry(GeometrySection::from_geometry(&sensor.geometry()))
+        },
         sensor_noise: Some(NoiseV1 {
             z_sigma_near_mm: n.z_sigma_near * 1e3,
             z_sigma_far_mm: n.z_sigma_far * 1e3,
@@ -218,7 +231,7 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
     Ok((
         Captures {
             method: kind,
-            sensor: f.sensor,
+            sensor: sensor.name.clone(),
             specimen_kind: f.specimen.kind,
             specimen_radius: radius,
             edge_sense: f.edge_sense,
@@ -232,7 +245,19 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
 
 /// The preset with the file's noise figures.
 fn sensor_of(f: &FileV1, file: &str) -> Result<SensorModel, FormatError> {
-    let mut sensor = SensorModel::preset(&f.sensor).map_err(|e| err(file, "sensor", e))?;
+    let mut sensor = match &f.sensor {
+        SensorV1::Preset(name) => SensorModel::preset(name).map_err(|e| err(file, "sensor", e))?,
+        SensorV1::Geometry(g) => {
+            let g = g.to_geometry().map_err(|(field, value, reason)| {
+                err(
+                    file,
+                    &format!("sensor.{field}"),
+                    format!("{value}: {reason}"),
+                )
+            })?;
+            SensorModel::from_geometry(g).map_err(|e| err(file, "sensor", e))?
+        }
+    };
     if let Some(n) = &f.sensor_noise {
         for (k, v) in [
             ("z_sigma_near_mm", n.z_sigma_near_mm),

@@ -1,7 +1,6 @@
 //! The shared sections' checks.
 
 use super::{Scenario, ScenarioError, Validator};
-use crate::sensor::SensorModel;
 use nalgebra::Matrix3;
 
 impl Scenario {
@@ -21,13 +20,7 @@ impl Scenario {
     }
 
     fn validate_sensor(&self, v: &Validator) -> Result<(), ScenarioError> {
-        SensorModel::preset(&self.sensor.preset).map_err(|e| {
-            v.bad(
-                "sensor.preset",
-                format!("\"{}\"", self.sensor.preset),
-                e.to_string(),
-            )
-        })?;
+        self.sensor_geometry(v)?;
         v.one_of(
             (
                 "sensor.mount_rotation",

@@ -5,7 +5,7 @@ use super::{Scenario, ScenarioError, SpecimenSection, Validator};
 use crate::math::pose_from_xyz_rpy;
 use crate::robot::Robot;
 use crate::scene::{Scene, Specimen, SpecimenKind, Table};
-use crate::sensor::{NoiseModel, SensorModel};
+use crate::sensor::{NoiseModel, SensorGeometry, SensorModel};
 use crate::sim::Rig;
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 
@@ -82,14 +82,36 @@ impl Scenario {
         Isometry3::from_parts(Translation3::from(t), rot)
     }
 
+    /// The sensor's record: the preset's, or the declared geometry, checked.
+    pub fn sensor_geometry(&self, v: &Validator) -> Result<SensorGeometry, ScenarioError> {
+        let s = &self.sensor;
+        v.one_of(
+            ("sensor.preset", s.preset.is_some()),
+            ("sensor.geometry", s.geometry.is_some()),
+            "the sensor",
+        )?;
+        let g = match (&s.preset, &s.geometry) {
+            (Some(p), _) => SensorModel::preset_geometry(p)
+                .map_err(|e| v.bad("sensor.preset", format!("\"{p}\""), e.to_string()))?,
+            (None, Some(g)) => g.to_geometry().map_err(|(field, value, reason)| {
+                v.bad(&format!("sensor.geometry.{field}"), value, reason)
+            })?,
+            (None, None) => return Err(v.bad("sensor.preset", "(missing)", "give a sensor")),
+        };
+        // The model's own checks (columns, fan angle, range) name the record's field.
+        SensorModel::from_geometry(g.clone())
+            .map_err(|e| v.bad("sensor.geometry", "..", e.to_string()))?;
+        Ok(g)
+    }
+
     /// The specimen this scenario describes.
     pub fn specimen_kind(&self, v: &Validator) -> Result<SpecimenKind, ScenarioError> {
         self.specimen.kind_checked("specimen", v)
     }
 
     fn sensor_model(&self, v: &Validator) -> Result<SensorModel, ScenarioError> {
-        let mut sensor = SensorModel::preset(&self.sensor.preset)
-            .map_err(|e| v.bad("sensor.preset", &self.sensor.preset, e.to_string()))?;
+        let mut sensor = SensorModel::from_geometry(self.sensor_geometry(v)?)
+            .map_err(|e| v.bad("sensor.geometry", "..", e.to_string()))?;
         if !self.sensor.quantise {
             sensor.z_quantum = None;
         }

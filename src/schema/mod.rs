@@ -12,6 +12,7 @@ mod common;
 pub mod disk;
 pub mod edge;
 mod sections;
+pub mod sensor;
 mod validator;
 
 pub use common::{Common, place_specimen};

@@ -34,7 +34,12 @@ pub struct RobotSection {
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct SensorSection {
-    pub preset: String,
+    /// A preset by name (`gocator-2340`, `vlm350`, ...)...
+    #[serde(default)]
+    pub preset: Option<String>,
+    /// ...or the sensor's geometry (docs/sensors.md).
+    #[serde(default)]
+    pub geometry: Option<super::sensor::GeometrySection>,
     /// The true flange_to_sensor translation (mm).
     pub mount_position_mm: [f64; 3],
     /// The true flange_to_sensor rotation as a row-major matrix (made orthonormal)...

@@ -9,9 +9,78 @@ use nalgebra::{Isometry3, Point3, Vector3};
 use thiserror::Error;
 
 #[derive(Debug, Error, Clone, PartialEq)]
+#[non_exhaustive]
 pub enum SensorError {
-    #[error("unknown sensor preset '{name}': use gocator-2340 or vlm350")]
+    #[error(
+        "unknown sensor preset '{name}': use gocator-2340, gocator-2320, gocator-2330, \
+         gocator-2350, gocator-2370, gocator-2380 or vlm350, or describe the sensor by its geometry"
+    )]
     UnknownPreset { name: String },
+    #[error("sensor '{name}': {field} = {value}: {reason}")]
+    BadGeometry {
+        name: String,
+        field: &'static str,
+        value: f64,
+        reason: &'static str,
+    },
+}
+
+/// LMI Gocator 23x0 from the maker's clearance, range and field of view near and far. Frame: origin
+/// at the centre of the measurement range and of the field of view, z toward the sensor, x along
+/// the laser line (the maker's unaligned sensor frame). The fan's virtual apex is where the field of
+/// view's trapezoid sides meet. Unconfirmed: 1280 points per profile; z quantum 0.013 mm (the 2340's
+/// finest z resolution). Assumed (not published): the camera sits 120 mm from the laser along +y,
+/// level with the apex.
+fn gocator_geometry(
+    model: &str,
+    clearance: f64,
+    range: f64,
+    near_w: f64,
+    far_w: f64,
+) -> SensorGeometry {
+    let slope = (far_w - near_w) / range; // width growth per metre of depth
+    let apex_to_near = near_w / slope;
+    let apex_z = range / 2.0 + apex_to_near;
+    let _ = clearance; // the emitter window sits `clearance` above the near end; the apex is virtual
+    SensorGeometry {
+        name: format!("gocator-{model}"),
+        frame: "origin at the centre of the measurement range, z toward the sensor".into(),
+        apex_z,
+        dir_z: -1.0,
+        depth_near: apex_to_near,
+        depth_far: apex_to_near + range,
+        tan_half_fov: far_w / 2.0 / (apex_to_near + range),
+        columns: 1280,
+        spacing: RaySpacing::EqualTan,
+        x_reversed: false,
+        z_quantum: Some(0.013e-3),
+        camera: Point3::new(0.0, 0.120, apex_z),
+    }
+}
+
+/// Pepperl+Fuchs VLM350-F280-R4-1101. Frame: origin at the sensor, z the depth away from it, x along
+/// the laser line (the edge paper's p_s = [x_s, 0, z_s]). From the edge paper: X range 40-160 mm,
+/// Z range 60-350 mm, at most 980 points, quantised to 0.1 mm. Assumed (not published): camera 60 mm
+/// from the laser along +y at the apex depth.
+fn vlm350_geometry() -> SensorGeometry {
+    let (near_w, far_w, z_near, z_far) = (0.040, 0.160, 0.060, 0.350);
+    let slope = (far_w - near_w) / (z_far - z_near);
+    let apex_to_near = near_w / slope;
+    let apex_z = z_near - apex_to_near;
+    SensorGeometry {
+        name: "vlm350".into(),
+        frame: "origin at the sensor, z the depth away from it".into(),
+        apex_z,
+        dir_z: 1.0,
+        depth_near: apex_to_near,
+        depth_far: apex_to_near + (z_far - z_near),
+        tan_half_fov: far_w / 2.0 / (apex_to_near + z_far - z_near),
+        columns: 980,
+        spacing: RaySpacing::EqualTan,
+        x_reversed: false,
+        z_quantum: Some(0.1e-3),
+        camera: Point3::new(0.0, 0.060, apex_z),
+    }
 }
 
 /// One measured point of a profile, in the sensor frame (metres; y = 0 by construction).
@@ -36,90 +105,217 @@ impl Profile {
     }
 }
 
+/// How a profiler's columns (rays) are spaced across its fan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RaySpacing {
+    /// Evenly in x / depth (the camera's pixel columns see the laser plane this way; equally, evenly
+    /// in x at any one reference depth).
+    EqualTan,
+    /// Evenly in angle about the apex.
+    EqualAngle,
+}
+
+/// A profiler's geometry, in SI units, from which its model is built: the record a scenario or a
+/// capture file can give instead of a preset (docs/sensors.md).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SensorGeometry {
+    pub name: String,
+    /// Where the frame's origin is and which way z points, in words.
+    pub frame: String,
+    /// The fan's (virtual) apex on the z axis, and the direction the laser travels along z (+1 or
+    /// -1).
+    pub apex_z: f64,
+    pub dir_z: f64,
+    /// Measurement range as depths from the apex along the fan axis.
+    pub depth_near: f64,
+    pub depth_far: f64,
+    /// Half the fan's extent as a slope x / depth (the tangent of its half angle).
+    pub tan_half_fov: f64,
+    pub columns: usize,
+    pub spacing: RaySpacing,
+    /// Column 0 at +x instead of -x.
+    pub x_reversed: bool,
+    pub z_quantum: Option<f64>,
+    /// Camera centre in the sensor frame (points it cannot see are dropped).
+    pub camera: Point3<f64>,
+}
+
+/// Sizes a sensor record may have (columns) before it is refused: larger would be a typo, and the
+/// profile buffers are allocated from it.
+pub const MAX_COLUMNS: usize = 65_536;
+
 /// A line-laser profiler. The laser fan lies in the sensor x-z plane and leaves a (virtual) apex on
 /// the z axis at `apex_z`, travelling toward `dir_z` (+1 or -1). Column k's ray has slope
-/// `x / depth = tan_k`, tan_k evenly spaced over the field of view, which is where a camera column
-/// sees the laser plane; depth is measured from the apex along the fan axis.
+/// `x / depth = column_tan(k)` (the spacing law of its geometry); depth is measured from the apex
+/// along the fan axis.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SensorModel {
     pub name: String,
     /// What the frame is, in words (origin and z direction).
-    pub frame: &'static str,
+    pub frame: String,
     pub apex_z: f64,
     pub dir_z: f64,
     pub depth_near: f64,
     pub depth_far: f64,
     pub tan_half_fov: f64,
     pub columns: usize,
+    pub spacing: RaySpacing,
+    pub x_reversed: bool,
     /// z quantisation step of the reported points (None: continuous).
     pub z_quantum: Option<f64>,
     /// Camera centre in the sensor frame (points it cannot see are dropped).
     pub camera: Point3<f64>,
     pub noise: NoiseModel,
+    /// Slope x/depth of each column's ray.
+    tans: Vec<f64>,
 }
 
 impl SensorModel {
-    /// A preset by name: `gocator-2340` or `vlm350`.
+    /// A preset by name: `gocator-2340`, `vlm350`, or another Gocator 2300-series head
+    /// (`gocator-2320`, `-2330`, `-2350`, `-2370`, `-2380`).
     pub fn preset(name: &str) -> Result<SensorModel, SensorError> {
+        Self::preset_geometry(name).and_then(SensorModel::from_geometry)
+    }
+
+    /// The record of a preset.
+    pub fn preset_geometry(name: &str) -> Result<SensorGeometry, SensorError> {
+        let gocator = |model: &str, clearance: f64, range: f64, near_w: f64, far_w: f64| {
+            gocator_geometry(
+                model,
+                clearance * 1e-3,
+                range * 1e-3,
+                near_w * 1e-3,
+                far_w * 1e-3,
+            )
+        };
         match name {
-            "gocator-2340" | "gocator2340" => Ok(Self::gocator_2340()),
-            "vlm350" => Ok(Self::vlm350()),
+            "gocator-2340" | "gocator2340" => Ok(gocator("2340", 190.0, 210.0, 96.0, 194.0)),
+            // The other 2300-series heads (clearance / range / FOV near-far from the maker's
+            // overview, docs/sensors.md); the same assumed 1280 columns and camera baseline.
+            "gocator-2320" => Ok(gocator("2320", 40.0, 25.0, 18.0, 26.0)),
+            "gocator-2330" => Ok(gocator("2330", 90.0, 80.0, 47.0, 85.0)),
+            "gocator-2350" => Ok(gocator("2350", 300.0, 400.0, 158.0, 365.0)),
+            "gocator-2370" => Ok(gocator("2370", 400.0, 500.0, 308.0, 687.0)),
+            "gocator-2380" => Ok(gocator("2380", 350.0, 800.0, 390.0, 1260.0)),
+            "vlm350" => Ok(vlm350_geometry()),
             _ => Err(SensorError::UnknownPreset {
                 name: name.to_string(),
             }),
         }
     }
 
-    /// LMI Gocator 2340. Frame: origin at the centre of the measurement range and of the field of
-    /// view, z toward the sensor, x along the laser line (the maker's unaligned sensor frame).
-    /// Confirmed (maker's datasheet): clearance 190 mm, range 210 mm, FOV 96 mm near / 194 mm far.
-    /// Unconfirmed: 1280 points per profile; z resolution 0.013-0.037 mm (quantum 0.013 mm used).
-    /// Assumed (not published): the camera sits 120 mm from the laser along +y, level with the
-    /// laser's virtual apex.
-    pub fn gocator_2340() -> SensorModel {
-        let (near_w, far_w, range, clearance) = (0.096, 0.194, 0.210, 0.190);
-        // The fan's virtual apex: where the trapezoid's sides meet.
-        let slope = (far_w - near_w) / range; // width growth per metre of depth
-        let apex_to_near = near_w / slope;
-        let apex_z = range / 2.0 + apex_to_near;
-        let _ = clearance; // the emitter window sits 190 mm above the near end; the apex is virtual
+    /// The model of a sensor record, its values checked.
+    pub fn from_geometry(g: SensorGeometry) -> Result<SensorModel, SensorError> {
+        let bad =
+            |field: &'static str, value: f64, reason: &'static str| SensorError::BadGeometry {
+                name: g.name.clone(),
+                field,
+                value,
+                reason,
+            };
+        if !(g.columns >= 2 && g.columns <= MAX_COLUMNS) {
+            return Err(bad("columns", g.columns as f64, "give 2 to 65536 columns"));
+        }
+        if !(g.tan_half_fov > 0.0 && g.tan_half_fov < 80f64.to_radians().tan()) {
+            return Err(bad(
+                "half_angle",
+                g.tan_half_fov.atan().to_degrees(),
+                "the fan's half angle must be in (0, 80) deg",
+            ));
+        }
+        if !(g.depth_near > 0.0 && g.depth_far > g.depth_near && g.depth_far.is_finite()) {
+            return Err(bad(
+                "depth_far",
+                g.depth_far,
+                "the measurement range must lie in front of the apex: 0 < near < far",
+            ));
+        }
+        if !(g.dir_z == 1.0 || g.dir_z == -1.0) || !g.apex_z.is_finite() {
+            return Err(bad(
+                "dir_z",
+                g.dir_z,
+                "z must point away (+1) or toward (-1)",
+            ));
+        }
+        if let Some(q) = g.z_quantum
+            && !(q > 0.0 && q.is_finite())
+        {
+            return Err(bad("z_quantum", q, "a z quantum must be > 0"));
+        }
+        Ok(Self::build(g))
+    }
+
+    /// The model of a record known to be valid (the presets').
+    fn build(g: SensorGeometry) -> SensorModel {
+        let t = g.tan_half_fov;
+        let half_angle = t.atan();
+        let n = (g.columns - 1).max(1) as f64;
+        let tans = (0..g.columns)
+            .map(|k| {
+                let kk = if g.x_reversed { g.columns - 1 - k } else { k };
+                match g.spacing {
+                    RaySpacing::EqualTan => -t + 2.0 * t * kk as f64 / n,
+                    RaySpacing::EqualAngle => {
+                        (-half_angle + 2.0 * half_angle * kk as f64 / n).tan()
+                    }
+                }
+            })
+            .collect();
         SensorModel {
-            name: "gocator-2340".into(),
-            frame: "origin at the centre of the measurement range, z toward the sensor",
-            apex_z,
-            dir_z: -1.0,
-            depth_near: apex_to_near,
-            depth_far: apex_to_near + range,
-            tan_half_fov: far_w / 2.0 / (apex_to_near + range),
-            columns: 1280,
-            z_quantum: Some(0.013e-3),
-            camera: Point3::new(0.0, 0.120, apex_z),
+            name: g.name,
+            frame: g.frame,
+            apex_z: g.apex_z,
+            dir_z: g.dir_z,
+            depth_near: g.depth_near,
+            depth_far: g.depth_far,
+            tan_half_fov: t,
+            columns: g.columns,
+            spacing: g.spacing,
+            x_reversed: g.x_reversed,
+            z_quantum: g.z_quantum,
+            camera: g.camera,
             noise: NoiseModel::default(),
+            tans,
         }
     }
 
-    /// Pepperl+Fuchs VLM350-F280-R4-1101. Frame: origin at the sensor, z the depth away from it,
-    /// x along the laser line (the edge paper's p_s = [x_s, 0, z_s]).
-    /// From the edge paper: X range 40-160 mm, Z range 60-350 mm, at most 980 points, quantised to
-    /// 0.1 mm. Assumed (not published): camera 60 mm from the laser along +y at the apex depth.
-    pub fn vlm350() -> SensorModel {
-        let (near_w, far_w, z_near, z_far) = (0.040, 0.160, 0.060, 0.350);
-        let slope = (far_w - near_w) / (z_far - z_near);
-        let apex_to_near = near_w / slope;
-        let apex_z = z_near - apex_to_near;
-        SensorModel {
-            name: "vlm350".into(),
-            frame: "origin at the sensor, z the depth away from it",
-            apex_z,
-            dir_z: 1.0,
-            depth_near: apex_to_near,
-            depth_far: apex_to_near + (z_far - z_near),
-            tan_half_fov: far_w / 2.0 / (apex_to_near + z_far - z_near),
-            columns: 980,
-            z_quantum: Some(0.1e-3),
-            camera: Point3::new(0.0, 0.060, apex_z),
-            noise: NoiseModel::default(),
+    /// The record this model was built from.
+    pub fn geometry(&self) -> SensorGeometry {
+        SensorGeometry {
+            name: self.name.clone(),
+            frame: self.frame.clone(),
+            apex_z: self.apex_z,
+            dir_z: self.dir_z,
+            depth_near: self.depth_near,
+            depth_far: self.depth_far,
+            tan_half_fov: self.tan_half_fov,
+            columns: self.columns,
+            spacing: self.spacing,
+            x_reversed: self.x_reversed,
+            z_quantum: self.z_quantum,
+            camera: self.camera,
         }
+    }
+
+    /// Whether this is the named preset's geometry (noise aside).
+    pub fn is_preset(&self) -> bool {
+        SensorModel::preset(&self.name).is_ok_and(|p| {
+            SensorModel {
+                noise: self.noise,
+                ..p
+            } == *self
+        })
+    }
+
+    /// LMI Gocator 2340 (see `gocator_geometry`).
+    pub fn gocator_2340() -> SensorModel {
+        Self::build(gocator_geometry("2340", 0.190, 0.210, 0.096, 0.194))
+    }
+
+    /// Pepperl+Fuchs VLM350 (see `vlm350_geometry`).
+    pub fn vlm350() -> SensorModel {
+        Self::build(vlm350_geometry())
     }
 
     /// The same sensor with no quantisation and no noise: exact geometry.
@@ -136,8 +332,7 @@ impl SensorModel {
 
     /// Slope x/depth of column k.
     pub fn column_tan(&self, k: usize) -> f64 {
-        let n = (self.columns - 1).max(1) as f64;
-        -self.tan_half_fov + 2.0 * self.tan_half_fov * k as f64 / n
+        self.tans[k]
     }
 
     /// Unit direction of column k's ray in the sensor frame.
