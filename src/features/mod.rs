@@ -394,7 +394,9 @@ pub fn edge_point(
         .ok_or_else(|| FeatureError::NoEdge {
             reason: format!("no face of {} points", cfg.min_points),
         })?;
-    let forward = sense == EdgeSense::Falling;
+    // The sense is a direction in x; the walk goes by column, which runs the other way on a
+    // sensor whose column 0 is at +x.
+    let forward = (sense == EdgeSense::Falling) != sensor.x_reversed;
     loop {
         let (first, last, line) = tighten(&pts, &segs[i], cfg.split_tol);
         let idx = if forward { last } else { first };

@@ -1,6 +1,8 @@
 //! One seeded kit shared by every test and benchmark: reference robots, pose generators and
 //! perturbations. Deterministic for a given seed.
 
+pub mod fan;
+
 use crate::rng::{self, Rng};
 use crate::robot::{Joints, Robot};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};

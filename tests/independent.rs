@@ -1,0 +1,273 @@
+//! Issue 13: the feature extraction and the methods on profiles lasercal's own ray caster did not
+//! make (`testkit::fan`, an independent generator), for sensors declared by their geometry. The
+//! poses and groups are lasercal's plans; every profile is replaced by the generator's.
+//!
+//! What holds today is asserted; the issue's targets (noise-free features within 0.01 mm and the
+//! calibration within 0.02 deg / 0.02 mm; at sigma 0.1 mm raw-profile errors within 1.5x those from
+//! exact features) are printed beside them (`cargo test --test independent -- --nocapture`).
+
+mod common;
+
+use lasercal::captures::{Captures, ProfileData};
+use lasercal::method::Kind;
+use lasercal::scenario::{ScenarioFile, Setup};
+use lasercal::sensor::{Profile, ProfilePoint, RaySpacing, SensorGeometry, SensorModel};
+use lasercal::testkit::fan::{Fan, Noise, Solid, profile};
+use lasercal::trial::trial_captures;
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion};
+
+/// The sensor lasercal is told: the generator's fan as a geometry record.
+fn declared(fan: &Fan, name: &str) -> SensorModel {
+    let depth = |z: f64| fan.dir_z * (z - fan.apex_z);
+    let (a, b) = (depth(fan.z_range.0), depth(fan.z_range.1));
+    SensorModel::from_geometry(SensorGeometry {
+        name: name.into(),
+        frame: "independent fan".into(),
+        apex_z: fan.apex_z,
+        dir_z: fan.dir_z,
+        depth_near: a.min(b),
+        depth_far: a.max(b),
+        tan_half_fov: fan.half_angle.tan(),
+        columns: fan.columns,
+        spacing: if fan.equal_angle {
+            RaySpacing::EqualAngle
+        } else {
+            RaySpacing::EqualTan
+        },
+        x_reversed: fan.reversed,
+        z_quantum: None,
+        camera: fan.camera,
+    })
+    .unwrap()
+}
+
+/// Replace every profile of `caps` by the generator's, seen from the true mounting.
+fn regenerate(caps: &Captures, s: &Setup, fan: &Fan, solids: &[Solid], noise: Noise, seed: u64) -> Captures {
+    let mut rng = lasercal::testkit::rng(seed);
+    let mut out = caps.clone();
+    for p in &mut out.profiles {
+        let base_to_sensor = p.base_to_flange * s.rig.flange_to_sensor;
+        let pts = profile(fan, solids, &base_to_sensor, noise, &mut rng);
+        p.data = ProfileData::Raw(Profile {
+            points: pts
+                .into_iter()
+                .map(|q| {
+                    q.map(|(x, z)| ProfilePoint {
+                        x,
+                        z,
+                        intensity: 1.0,
+                    })
+                })
+                .collect(),
+        });
+    }
+    out
+}
+
+fn scenario(name: &str, edit: &dyn Fn(String) -> String) -> Setup {
+    let text = edit(std::fs::read_to_string(common::scen(name)).unwrap());
+    let sf = ScenarioFile::parse(&text, name).unwrap();
+    sf.scenario.build(&sf.file).unwrap()
+}
+
+/// The disk paper's disk on its cylinder, scanned along the sensor's y (as the ray-cast tests).
+fn disk_case() -> (Setup, Fan, Vec<Solid>) {
+    let fan = Fan {
+        apex_z: 0.295,
+        dir_z: -1.0,
+        half_angle: 14f64.to_radians(),
+        columns: 1280,
+        equal_angle: true,
+        reversed: false,
+        z_range: (-0.105, 0.105),
+        camera: Point3::new(0.0, 0.120, 0.295),
+    };
+    let s = scenario("chen2018-disk.toml", &|t| {
+        t.replace("source = \"analytic\"", "source = \"raycast\"")
+            .replace("directions_in_base", "directions_in_sensor")
+            .replace("span_fraction = 0.9", "span_fraction = 0.8")
+            .replace(
+                "[[0.181, -0.246, -0.952], [0.287, -0.294, -0.912], [0.391, -0.593, -0.704], [0.164, -0.631, -0.758]]",
+                "[[0.1, 1.0, -0.5], [-0.2, 1.0, -0.4], [0.2, 1.0, -0.6], [-0.1, 1.0, -0.45]]",
+            )
+            .replace("preset = \"gocator-2340\"", "preset = \"gocator-2340\"\nquantise = false")
+    });
+    let solids = vec![
+        Solid::DiskOnCylinder {
+            frame: s.base_to_specimen,
+            radius: 0.050,
+            height: 0.020,
+        },
+        Solid::Table { height: -0.00852 },
+    ];
+    (s, fan, solids)
+}
+
+/// The edge paper's parallel bar seen by a fan unlike the VLM350's: equal-angle rays, column 0 at
+/// +x, z away from the sensor.
+fn edge_case() -> (Setup, Fan, Vec<Solid>) {
+    let fan = Fan {
+        apex_z: -0.030,
+        dir_z: 1.0,
+        half_angle: 12f64.to_radians(),
+        columns: 1000,
+        equal_angle: true,
+        reversed: true,
+        z_range: (0.060, 0.350),
+        camera: Point3::new(0.0, 0.060, -0.030),
+    };
+    let s = scenario("xu2021-edge.toml", &|t| {
+        t.replace("source = \"analytic\"", "source = \"raycast\"")
+    });
+    let (bar, pose) = (&s.scene.specimens[0].0, s.scene.specimens[0].1);
+    let lasercal::scene::SpecimenKind::ParallelBar {
+        length,
+        width,
+        height,
+    } = bar.kind
+    else {
+        panic!("xu2021-edge uses the parallel bar");
+    };
+    let solids = vec![
+        Solid::Bar {
+            frame: pose,
+            lx: length,
+            ly: width,
+            lz: height,
+        },
+        Solid::Table {
+            height: s.scene.table.map(|t| t.height_m).unwrap_or(-10.0),
+        },
+    ];
+    (s, fan, solids)
+}
+
+fn errors(caps: &Captures, s: &Setup, sensor: &SensorModel) -> Result<(f64, f64, usize), String> {
+    let cal = lasercal::method::calibrate(caps, sensor).map_err(|e| e.to_string())?;
+    let e = lasercal::calib::PoseError::between(&cal.flange_to_sensor, &s.rig.flange_to_sensor);
+    Ok((e.rotation_error_deg, e.translation_error_mm, cal.missed))
+}
+
+#[test]
+fn the_generator_agrees_with_the_fan_it_declares() {
+    // The generator's rays are the declared sensor's rays (column by column).
+    let (_, fan, _) = disk_case();
+    let m = declared(&fan, "fan");
+    for k in [0, 1, 639, 640, 1279] {
+        let d = fan.ray(k);
+        assert!(
+            (d.x / (d.z * fan.dir_z) - m.column_tan(k)).abs() < 1e-12,
+            "column {k}"
+        );
+    }
+    // A flat table straight below: every column sees it, at the table's height.
+    let table = [Solid::Table { height: 0.0 }];
+    let pose = Isometry3::from_parts(
+        Translation3::new(0.0, 0.0, 0.100),
+        UnitQuaternion::identity(),
+    );
+    let p = profile(&fan, &table, &pose, Noise::default(), &mut lasercal::testkit::rng(1));
+    assert!(p.iter().all(|q| q.is_some_and(|(_, z)| (z + 0.100).abs() < 1e-12)));
+}
+
+#[test]
+fn disk_on_independent_profiles() {
+    let (s, fan, solids) = disk_case();
+    let sensor = declared(&fan, "fan-295");
+    let caps = trial_captures(&s, Kind::Disk, 1, 0).0.unwrap();
+    // Noise-free: every chord end against the exact chord.
+    let exact_caps = regenerate(&caps, &s, &fan, &solids, Noise::default(), 1);
+    let target = lasercal::sim::disk::DiskTarget::from_pose(&s.base_to_specimen, 0.050);
+    let cfg = lasercal::features::SplitMerge::for_sensor(&sensor);
+    let (mut worst, mut n, mut missed) = (0.0f64, 0, 0);
+    for p in &exact_caps.profiles {
+        let ProfileData::Raw(prof) = &p.data else {
+            unreachable!()
+        };
+        let pose = p.base_to_flange * s.rig.flange_to_sensor;
+        let Some((a, b)) = lasercal::sim::disk::exact_chord(&pose, &target) else {
+            continue;
+        };
+        match lasercal::features::disk_chord_step(prof, &sensor, 0.050, &cfg) {
+            Ok(ch) => {
+                worst = worst.max((ch.a - a).norm()).max((ch.b - b).norm());
+                n += 1;
+            }
+            Err(_) => missed += 1,
+        }
+    }
+    let (rot, tr, _) = errors(&exact_caps, &s, &sensor).unwrap();
+    eprintln!(
+        "disk, noise-free: worst chord end {:.4} mm over {n} chords ({missed} missed); \
+         calibration {rot:.4} deg / {tr:.4} mm (targets: 0.01 mm, 0.02 deg / 0.02 mm)",
+        worst * 1e3
+    );
+    // Today: ends placed halfway between columns (at most half an x sample, 0.1 mm here), every
+    // chord found, and the bound of lasercal's own ray-cast test.
+    assert_eq!(missed, 0);
+    assert!(worst < 0.11e-3, "worst chord end {} mm", worst * 1e3);
+    assert!(rot < 0.05 && tr < 0.1, "{rot} deg, {tr} mm");
+    for sigma_mm in [0.05, 0.1, 0.2] {
+        let noisy = regenerate(
+            &caps,
+            &s,
+            &fan,
+            &solids,
+            Noise {
+                sigma_z: sigma_mm * 1e-3,
+                dropout: 0.0,
+            },
+            2,
+        );
+        let mut sensor = sensor.clone();
+        sensor.noise.z_sigma_near = sigma_mm * 1e-3;
+        sensor.noise.z_sigma_far = sigma_mm * 1e-3;
+        eprintln!("disk, sigma {sigma_mm} mm: {:?}", errors(&noisy, &s, &sensor));
+    }
+}
+
+#[test]
+fn edge_on_independent_profiles() {
+    let (s, fan, solids) = edge_case();
+    let sensor = declared(&fan, "fan-edge");
+    let caps = trial_captures(&s, Kind::Edge, 1, 0).0.unwrap();
+    let exact_caps = regenerate(&caps, &s, &fan, &solids, Noise::default(), 1);
+    let plan = s.plan(Kind::Edge).unwrap();
+    let target = plan
+        .as_any()
+        .downcast_ref::<lasercal::method::edge::EdgePlan>()
+        .unwrap();
+    let cfg = lasercal::features::SplitMerge {
+        split_tol: 0.1e-3,
+        jump: 0.5e-3,
+        min_points: 4,
+    };
+    let (mut worst, mut n, mut missed) = (0.0f64, 0, 0);
+    for p in &exact_caps.profiles {
+        let ProfileData::Raw(prof) = &p.data else {
+            unreachable!()
+        };
+        let pose = p.base_to_flange * s.rig.flange_to_sensor;
+        let Some(q) = lasercal::sim::edge::exact_point(&pose, &target.target) else {
+            continue;
+        };
+        match lasercal::features::edge_point(prof, &sensor, target.sense, &cfg) {
+            Ok(e) => {
+                worst = worst.max((e - q).norm());
+                n += 1;
+            }
+            Err(_) => missed += 1,
+        }
+    }
+    let cal = errors(&exact_caps, &s, &sensor);
+    eprintln!(
+        "edge, noise-free: worst edge point {:.4} mm over {n} profiles ({missed} missed); \
+         calibration {cal:?} (targets: 0.01 mm, 0.02 deg / 0.02 mm)",
+        worst * 1e3
+    );
+    // Today: the edge point at the corner of two fitted faces, every profile found.
+    assert_eq!(missed, 0);
+    assert!(worst < 0.05e-3, "worst edge point {} mm", worst * 1e3);
+    let (rot, tr, _) = cal.unwrap();
+    assert!(rot < 0.05 && tr < 0.05, "{rot} deg, {tr} mm");
+}
