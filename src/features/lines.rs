@@ -183,6 +183,25 @@ fn max_dev(pts: &[(usize, Vector2<f64>)], a: usize, b: usize) -> (usize, f64) {
     best
 }
 
+/// Residual sum of squares of the least-squares line through `pts[a..=b]`.
+fn rss(pts: &[(usize, Vector2<f64>)], a: usize, b: usize) -> f64 {
+    let v: Vec<Vector2<f64>> = pts[a..=b].iter().map(|p| p.1).collect();
+    match Line2::fit(&v) {
+        Some(line) => v.iter().map(|p| line.distance(p).powi(2)).sum(),
+        None => 0.0,
+    }
+}
+
+/// Whether `pts[a..=b]` bends at `i` by more than noise can explain: two lines (split at `i`) fit
+/// better than one by more than 16 noise variances (`tol` is four noise standard deviations).
+/// Without a bend the gain is about two variances (chi-square, two degrees of freedom), so a long
+/// noisy face stays whole; the line through the stretch's two end points, which split-and-merge
+/// uses to find where to split, carries the end points' own noise and alone would split it.
+fn bends(pts: &[(usize, Vector2<f64>)], a: usize, i: usize, b: usize, tol: f64) -> bool {
+    let var = (tol / 4.0).powi(2);
+    rss(pts, a, b) - rss(pts, a, i) - rss(pts, i, b) > 16.0 * var
+}
+
 fn split(
     pts: &[(usize, Vector2<f64>)],
     a: usize,
@@ -195,7 +214,7 @@ fn split(
         return;
     }
     let (i, d) = max_dev(pts, a, b);
-    if d > tol && i > a && i < b {
+    if d > tol && i > a && i < b && bends(pts, a, i, b, tol) {
         split(pts, a, i, tol, out);
         split(pts, i, b, tol, out);
         // The split point belongs to both halves; give it to the first only.

@@ -62,7 +62,9 @@ pub enum Solid {
         lz: f64,
     },
     /// The plane z = height (base frame), seen from above.
-    Table { height: f64 },
+    Table {
+        height: f64,
+    },
 }
 
 /// The nearest hit of a ray (origin o, unit direction d, both in the base frame) beyond `t_min`:
@@ -95,7 +97,10 @@ fn hit(s: &Solid, o: &Point3<f64>, d: &Vector3<f64>, t_min: f64) -> Option<(f64,
             radius,
             height,
         } => {
-            let (lo, ld) = (frame.inverse_transform_point(o), frame.inverse_transform_vector(d));
+            let (lo, ld) = (
+                frame.inverse_transform_point(o),
+                frame.inverse_transform_vector(d),
+            );
             let r2 = radius * radius;
             for (zf, n) in [(0.0, 1.0), (-height, -1.0)] {
                 if ld.z.abs() > 1e-15 {
@@ -122,7 +127,10 @@ fn hit(s: &Solid, o: &Point3<f64>, d: &Vector3<f64>, t_min: f64) -> Option<(f64,
             }
         }
         Solid::Bar { frame, lx, ly, lz } => {
-            let (lo, ld) = (frame.inverse_transform_point(o), frame.inverse_transform_vector(d));
+            let (lo, ld) = (
+                frame.inverse_transform_point(o),
+                frame.inverse_transform_vector(d),
+            );
             let lims = [(-lx / 2.0, lx / 2.0), (-ly, 0.0), (-lz, 0.0)];
             for axis in 0..3 {
                 if ld[axis].abs() < 1e-15 {
