@@ -296,3 +296,56 @@ fn edge_on_independent_profiles() {
     let (rot, tr, _) = cal.unwrap();
     assert!(rot < 0.05 && tr < 0.05, "{rot} deg, {tr} mm");
 }
+
+#[test]
+fn disk_with_dropout() {
+    // Dropout used to break the disk's face into pieces (28 mm short chords, 2.7 deg at 0.2).
+    let (s, fan, solids) = disk_case();
+    let sensor = declared(&fan, "fan-295");
+    let caps = trial_captures(&s, Kind::Disk, 1, 0).0.unwrap();
+    let target = lasercal::sim::disk::DiskTarget::from_pose(&s.base_to_specimen, 0.050);
+    let cfg = lasercal::features::SplitMerge::for_sensor(&sensor);
+    for (dropout, bound_deg, bound_mm) in
+        [(0.05, 0.1, 0.1), (0.2, 0.5, 0.5), (0.5, f64::NAN, f64::NAN)]
+    {
+        let noisy = regenerate(
+            &caps,
+            &s,
+            &fan,
+            &solids,
+            Noise {
+                sigma_z: 0.0,
+                dropout,
+            },
+            3,
+        );
+        let mut ends = Vec::new();
+        for p in &noisy.profiles {
+            let ProfileData::Raw(prof) = &p.data else {
+                unreachable!()
+            };
+            let pose = p.base_to_flange * s.rig.flange_to_sensor;
+            let Some((a, b)) = lasercal::sim::disk::exact_chord(&pose, &target) else {
+                continue;
+            };
+            if let Ok(ch) = lasercal::features::disk_chord_step(prof, &sensor, 0.050, &cfg) {
+                ends.push((ch.a - a).norm().max((ch.b - b).norm()));
+            }
+        }
+        ends.sort_by(f64::total_cmp);
+        let cal = errors(&noisy, &s, &sensor);
+        eprintln!(
+            "disk, dropout {dropout}: chord ends median {:.3} mm, worst {:.3} mm over {} chords; calibration {cal:?}",
+            ends[ends.len() / 2] * 1e3,
+            ends[ends.len() - 1] * 1e3,
+            ends.len()
+        );
+        if bound_deg.is_finite() {
+            let (rot, tr, _) = cal.unwrap();
+            assert!(
+                rot < bound_deg && tr < bound_mm,
+                "dropout {dropout}: {rot} deg, {tr} mm"
+            );
+        }
+    }
+}

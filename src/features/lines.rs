@@ -134,7 +134,11 @@ pub fn runs(pts: &[(usize, Vector2<f64>)], jump: f64, max_gap: usize) -> Vec<(us
 /// at the farthest point from the chord, then merge neighbours that one line fits.
 pub fn split_and_merge(pts: &[(usize, Vector2<f64>)], cfg: &SplitMerge) -> Vec<Segment> {
     let mut pieces: Vec<(usize, usize)> = Vec::new();
-    for (a, b) in runs(pts, cfg.jump, 3) {
+    // Bridge up to 12 dropped columns when the points on either side are as close as that many
+    // samples allow: a face with dropout stays one face (at 3, dropout 0.2 broke the disk's faces
+    // into pieces and the longest piece made a chord up to 28 mm short). A step or a shadow is
+    // farther than `jump` per column and still ends the run.
+    for (a, b) in runs(pts, cfg.jump, 12) {
         split(pts, a, b, cfg.split_tol, &mut pieces);
     }
     // Merge: adjacent pieces in the same run whose joint fit stays within tolerance.

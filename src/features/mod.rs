@@ -67,6 +67,23 @@ fn end_between(sensor: &SensorModel, line: &Line2, k: usize, k2: usize) -> Optio
     line.intersect(&ray)
 }
 
+/// Where `line` crosses the ray `offset` columns from column `k` toward its neighbour `k2` (0.5:
+/// halfway between them; beyond 1, extrapolated with the spacing of the two).
+fn end_beyond(
+    sensor: &SensorModel,
+    line: &Line2,
+    k: usize,
+    k2: usize,
+    offset: f64,
+) -> Option<Vector2<f64>> {
+    let (t0, t1) = (sensor.column_tan(k), sensor.column_tan(k2));
+    let ray = Line2 {
+        point: Vector2::new(0.0, sensor.apex_z),
+        dir: Vector2::new(t0 + offset * (t1 - t0), sensor.dir_z).normalize(),
+    };
+    line.intersect(&ray)
+}
+
 /// End of segment `seg` on one side: the corner with a neighbouring segment that continues without a
 /// jump, or else halfway to the next column.
 
@@ -119,8 +136,10 @@ fn tighten(pts: &[(usize, Vector2<f64>)], s: &Segment, tol: f64) -> (usize, usiz
         / interior.len() as f64)
         .sqrt();
     let thr = (4.0 * rms).clamp(1e-9, tol);
+    // Across dropped columns too (as `lines::runs` bridges them), so dropout near an end does not
+    // stop the face short.
     let ok = |i: usize, j: usize| {
-        pts[j].0.abs_diff(pts[i].0) == 1 && line.distance(&pts[j].1).abs() <= thr
+        pts[j].0.abs_diff(pts[i].0) <= 13 && line.distance(&pts[j].1).abs() <= thr
     };
     let (mut first, mut last) = (s.first + trim, s.last - trim);
     while first > 0 && ok(first, first - 1) {
@@ -172,6 +191,9 @@ pub fn disk_chord_step(
     // cylinder wall is curved, so a corner with it would not be exact).
     let (first, last, line) = tighten(&pts, &segs[best], cfg.split_tol);
     let s = &Segment { first, last, line };
+    // The sensor's dropout rate, measured on the face: the share of its columns without a point.
+    let span = pts[last].0 - pts[first].0 + 1;
+    let dropout = (span - (last - first + 1)) as f64 / span as f64;
     let end = |idx: usize, forward: bool| {
         let k = pts[idx].0;
         let k2 = if forward { k + 1 } else { k.wrapping_sub(1) };
@@ -192,7 +214,17 @@ pub fn disk_chord_step(
                 }
             }
         }
-        end_between(sensor, &s.line, k, k2).ok_or(FeatureError::ChordTruncated { column: k })
+        // Beyond a missing neighbour the face may go on under dropped points: given that the
+        // neighbour is missing, the face's last column lies j columns farther with probability
+        // proportional to p^j, so the end moves out by p / (1 - p) columns on average (none
+        // without dropout: then a missing neighbour is the rim's shadow).
+        let extra = if profile.points[k2].is_none() && dropout > 0.0 {
+            dropout / (1.0 - dropout).max(0.5)
+        } else {
+            0.0
+        };
+        end_beyond(sensor, &s.line, k, k2, 0.5 + extra)
+            .ok_or(FeatureError::ChordTruncated { column: k })
     };
     Ok(Chord {
         a: end(first, false)?,

@@ -291,6 +291,12 @@ fn chord_of(
     cfg: &SplitMerge,
 ) -> Result<Result<features::Chord, features::FeatureError>, CaptureError> {
     Ok(match &p.data {
+        // A chord of no length says nothing about the disk (a recording error): left out.
+        ProfileData::Chord { a, b } if (b - a).norm() <= 1e-9 * radius => {
+            Err(features::FeatureError::NoChord {
+                reason: "the chord has zero length".into(),
+            })
+        }
         ProfileData::Chord { a, b } => Ok(features::Chord { a: *a, b: *b }),
         ProfileData::Raw(prof) => {
             if c.specimen_kind == SpecimenType::DiskPaper {
