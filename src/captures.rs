@@ -109,6 +109,16 @@ pub enum CaptureError {
          these captures hold reduced ones (ball circles): record arc_mm or points_mm"
     )]
     NoRawFeatures,
+    #[error(
+        "{method}: {kept} groups with at least {per_feature} features each, {need} needed: {groups}"
+    )]
+    TooFewGroups {
+        method: Kind,
+        kept: usize,
+        need: usize,
+        per_feature: usize,
+        groups: String,
+    },
     #[error(transparent)]
     Feature(#[from] FeatureError),
     #[error("group {group}: {source}")]

@@ -259,8 +259,53 @@ fn bad_captures_give_typed_errors() {
             matches!(
                 e,
                 Error::Calib(CalibError::TooFewData { .. } | CalibError::Degenerate { .. })
+                    | Error::Captures(CaptureError::TooFewGroups { .. })
             ),
             "{kind}: {e:?}"
         );
+    }
+}
+
+#[test]
+fn a_group_that_loses_its_profiles_is_left_out_with_a_note() {
+    // Every profile of one group without its feature: that group is left out and said so; the
+    // others still calibrate. Too few groups left: the error names each group and its counts.
+    for &(kind, name) in CASES {
+        if kind == Kind::Ball {
+            continue; // the two-step method's groups are single poses (issue 14: any-pose).
+        }
+        let s = setup(kind, name, 0.0);
+        let mut caps = captures(&s, kind, 0);
+        let lost = caps.groups[1].id;
+        for p in caps.profiles.iter_mut().filter(|p| p.group == lost) {
+            p.data = ProfileData::Raw(lasercal::sensor::Profile {
+                points: vec![None; s.rig.sensor.columns],
+            });
+        }
+        if kind == Kind::Disk {
+            // The disk paper's four scans are the least the method takes: one lost is too many.
+            let e = calibrate(&caps, &s.rig.sensor).unwrap_err().to_string();
+            assert!(
+                e.contains(&format!("group {lost}: 0 of 100 profiles used"))
+                    && e.contains("left out"),
+                "{e}"
+            );
+            continue;
+        }
+        let cal = calibrate(&caps, &s.rig.sensor).unwrap();
+        let r = cal.groups.iter().find(|g| g.group == lost).unwrap();
+        assert!(r.left_out && r.used == 0 && r.profiles > 0, "{kind}: {r:?}");
+        assert!(r.describe().contains("left out"), "{}", r.describe());
+        let e = lasercal::calib::PoseError::between(&cal.flange_to_sensor, &s.rig.flange_to_sensor);
+        assert!(e.rotation_error_deg < 1e-6, "{kind}: {e:?}");
+        // All but one group lost.
+        let keep = caps.groups[0].id;
+        for p in caps.profiles.iter_mut().filter(|p| p.group != keep) {
+            p.data = ProfileData::Raw(lasercal::sensor::Profile {
+                points: vec![None; s.rig.sensor.columns],
+            });
+        }
+        let e = calibrate(&caps, &s.rig.sensor).unwrap_err().to_string();
+        assert!(e.contains(&format!("group {lost}: 0 of")), "{kind}: {e}");
     }
 }

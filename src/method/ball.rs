@@ -358,5 +358,6 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         figures: Metrics::default().with(Metric::Accuracy, Some(sol.spread * 1e3)),
         status: sol.status,
         missed: 0,
+        groups: Vec::new(),
     })
 }

@@ -322,8 +322,9 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     let radius = c
         .specimen_radius
         .ok_or(CaptureError::MissingRadius { method: Kind::Disk })?;
-    let mut scans = Vec::new();
-    let mut ends = Vec::new();
+    // Per scan: its chords and their ends, and what became of its profiles.
+    let mut per_scan = Vec::new();
+    let mut reports = Vec::new();
     for g in &c.groups {
         let ps = c.group_profiles(g.id);
         let (Some(first), Some(last)) = (ps.first(), ps.last()) else {
@@ -334,7 +335,8 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             last.base_to_flange.translation.vector,
         );
         let span = t1 - t0;
-        let mut chords = Vec::new();
+        let (mut chords, mut ends) = (Vec::new(), Vec::new());
+        let mut report = super::GroupReport::new(g.id);
         for p in &ps {
             let flange = p.base_to_flange;
             let u = if span.norm_squared() > 0.0 {
@@ -342,7 +344,9 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             } else {
                 0.0
             };
-            match chord_of(c, g, p, sensor, radius, &cfg)? {
+            let chord = chord_of(c, g, p, sensor, radius, &cfg)?;
+            report.count(&chord);
+            match chord {
                 Ok(ch) => {
                     ends.push((flange, ch.a));
                     ends.push((flange, ch.b));
@@ -355,13 +359,24 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                 Err(_) => missed += 1,
             }
         }
-        scans.push(DiskScan {
+        let scan = DiskScan {
             r_tcp: first.base_to_flange.rotation.to_rotation_matrix(),
             t_start: t0,
             t_end: t1,
             s: g.sign,
             chords,
-        });
+        };
+        per_scan.push((scan, ends));
+        reports.push(report);
+    }
+    // A scan with fewer than 3 chords cannot give its ellipse: left out, if 4 scans remain.
+    super::leave_out_thin_groups(&mut reports, 3, 4, Kind::Disk)?;
+    let (mut scans, mut ends) = (Vec::new(), Vec::new());
+    for ((scan, e), r) in per_scan.into_iter().zip(&reports) {
+        if !r.left_out {
+            scans.push(scan);
+            ends.extend(e);
+        }
     }
     let mut problem = DiskProblem::new(radius, scans);
     problem.min_scan_angle = 0.5f64.to_radians();
@@ -377,5 +392,6 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         figures: Metrics::default().with(Metric::Accuracy, Some(sol.accuracy * 1e3)),
         status: sol.status,
         missed,
+        groups: reports,
     })
 }

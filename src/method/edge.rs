@@ -284,14 +284,16 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         min_points: 4,
     };
     let mut missed = 0;
-    let mut groups = Vec::new();
-    let mut points = Vec::new();
+    let (mut per_group, mut reports) = (Vec::new(), Vec::new());
     for g in &c.groups {
-        let mut caps = Vec::new();
+        let (mut caps, mut pts) = (Vec::new(), Vec::new());
+        let mut report = super::GroupReport::new(g.id);
         for p in c.group_profiles(g.id) {
-            match point_of(g, &p.data, sensor, sense, &cfg)? {
+            let point = point_of(g, &p.data, sensor, sense, &cfg)?;
+            report.count(&point);
+            match point {
                 Ok(q) => {
-                    points.push((p.base_to_flange, q));
+                    pts.push((p.base_to_flange, q));
                     caps.push(EdgeCapture {
                         r_tcp: p.base_to_flange.rotation.to_rotation_matrix(),
                         t_tcp: p.base_to_flange.translation.vector,
@@ -301,7 +303,17 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                 Err(_) => missed += 1,
             }
         }
-        groups.push(caps);
+        per_group.push((caps, pts));
+        reports.push(report);
+    }
+    // A group with fewer than 3 edge points gives no rotation equations: left out, if 2 remain.
+    super::leave_out_thin_groups(&mut reports, 3, 2, Kind::Edge)?;
+    let (mut groups, mut points) = (Vec::new(), Vec::new());
+    for ((caps, pts), r) in per_group.into_iter().zip(&reports) {
+        if !r.left_out {
+            groups.push(caps);
+            points.extend(pts);
+        }
     }
     let sol = crate::calib::edge::solve(&EdgeProblem { groups })?;
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
@@ -320,5 +332,6 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             .with(Metric::EdgeDistance, Some(mean(&sol.point_distances) * 1e3)),
         status: sol.status,
         missed,
+        groups: reports,
     })
 }

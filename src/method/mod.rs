@@ -109,9 +109,96 @@ pub struct Calibration {
     pub status: Status,
     /// Profiles in which the feature was not found.
     pub missed: usize,
+    /// Per group: profiles, features found, rejections by reason, left out or not.
+    pub groups: Vec<GroupReport>,
     /// The raw features with their flange poses and the closed-form specimen pose: what the joint
     /// refinement starts from (None when the captures hold only reduced features, e.g. circles).
     pub refinable: Option<Arc<dyn Refinable>>,
+}
+
+/// What became of one group's profiles.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct GroupReport {
+    pub group: usize,
+    pub profiles: usize,
+    /// Profiles whose feature was found.
+    pub used: usize,
+    /// Rejected profiles, counted by reason.
+    pub rejected: Vec<(String, usize)>,
+    /// Left out of the calibration (too few features left).
+    pub left_out: bool,
+}
+
+impl GroupReport {
+    pub fn new(group: usize) -> GroupReport {
+        GroupReport {
+            group,
+            ..Default::default()
+        }
+    }
+
+    /// Count one profile: its feature, or why it has none.
+    pub fn count<T, E: std::fmt::Display>(&mut self, r: &Result<T, E>) {
+        self.profiles += 1;
+        match r {
+            Ok(_) => self.used += 1,
+            Err(e) => {
+                let reason = e.to_string();
+                match self.rejected.iter_mut().find(|(r, _)| *r == reason) {
+                    Some((_, n)) => *n += 1,
+                    None => self.rejected.push((reason, 1)),
+                }
+            }
+        }
+    }
+
+    /// One line: "group 3: 7 of 10 profiles used, 3 rejected (2 x no edge ..., 1 x ...); left out".
+    pub fn describe(&self) -> String {
+        let mut s = format!(
+            "group {}: {} of {} profiles used",
+            self.group, self.used, self.profiles
+        );
+        if !self.rejected.is_empty() {
+            let reasons: Vec<String> = self
+                .rejected
+                .iter()
+                .map(|(r, n)| format!("{n} x {r}"))
+                .collect();
+            s += &format!(", rejected: {}", reasons.join("; "));
+        }
+        if self.left_out {
+            s += "; left out";
+        }
+        s
+    }
+}
+
+/// Groups with fewer than `need` features are left out; when fewer than `min_groups` remain, the
+/// error names every group and its counts.
+pub fn leave_out_thin_groups(
+    reports: &mut [GroupReport],
+    need: usize,
+    min_groups: usize,
+    method: Kind,
+) -> Result<(), CaptureError> {
+    for r in reports.iter_mut() {
+        r.left_out = r.used < need;
+    }
+    let kept = reports.iter().filter(|r| !r.left_out).count();
+    if kept < min_groups {
+        return Err(CaptureError::TooFewGroups {
+            method,
+            kept,
+            need: min_groups,
+            per_feature: need,
+            groups: reports
+                .iter()
+                .map(GroupReport::describe)
+                .collect::<Vec<_>>()
+                .join(" | "),
+        });
+    }
+    Ok(())
 }
 
 impl Calibration {

@@ -48,11 +48,19 @@ pub fn run(a: Args) -> Result<()> {
             cal.missed
         );
     }
+    for g in cal
+        .groups
+        .iter()
+        .filter(|g| g.left_out || !g.rejected.is_empty())
+    {
+        println!("{}", g.describe());
+    }
     let mut doc = serde_json::json!({
         "method": method,
         "flange_to_sensor": est,
         "centre_in_base_mm": cal.centre_in_base.map(|c| [c.x * 1e3, c.y * 1e3, c.z * 1e3]),
         "missed_profiles": cal.missed,
+        "groups_left_out": cal.groups.iter().filter(|g| g.left_out).map(|g| g.group).collect::<Vec<_>>(),
         "status": cal.status,
     });
     for m in [Metric::Accuracy, Metric::EdgeAngleDev, Metric::EdgeDistance] {
