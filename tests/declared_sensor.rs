@@ -212,3 +212,63 @@ fn the_same_profiles_read_with_the_wrong_fan_place_ends_off_the_rays() {
         Err(e) => eprintln!("right fan {e_right:?}, wrong fan refused: {e}"),
     }
 }
+
+#[test]
+fn raw_profiles_of_any_length() {
+    // Profiles as the valid points only (as many profilers send them), with or without their
+    // columns: placed on the declared fan's rays, they calibrate exactly as the full records.
+    let sf = ScenarioFile::parse(&disk_raycast_text(FAN_295), "fan.toml").unwrap();
+    let setup = sf.scenario.build(&sf.file).unwrap();
+    let (caps, _) = trial_captures(&setup, lasercal::method::Kind::Disk, 1, 0);
+    let json = lasercal::io::captures::to_json(&caps.unwrap(), &setup.rig.sensor);
+    let full: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let reference = {
+        let (c, s) = lasercal::io::captures::from_json(&json, "full.json").unwrap();
+        lasercal::method::calibrate(&c, &s)
+            .unwrap()
+            .flange_to_sensor
+    };
+    let compact = |with_columns: bool| {
+        let mut doc = full.clone();
+        let mut lengths = Vec::new();
+        for p in doc["profiles"].as_array_mut().unwrap() {
+            let pts = p["points_mm"].as_array().unwrap().clone();
+            let kept: Vec<(usize, serde_json::Value)> = pts
+                .into_iter()
+                .enumerate()
+                .filter(|(_, q)| !q.is_null())
+                .collect();
+            lengths.push(kept.len());
+            p["points_mm"] = kept.iter().map(|(_, q)| q.clone()).collect();
+            p.as_object_mut().unwrap().remove("intensity");
+            if with_columns {
+                p["columns"] = kept.iter().map(|(k, _)| serde_json::json!(k)).collect();
+            }
+        }
+        (doc, lengths)
+    };
+    for with_columns in [false, true] {
+        let (doc, lengths) = compact(with_columns);
+        assert!(lengths.iter().any(|&n| n > 300 && n < 1280), "{lengths:?}");
+        let (c, s) = lasercal::io::captures::from_json(&doc.to_string(), "compact.json").unwrap();
+        let x = lasercal::method::calibrate(&c, &s)
+            .unwrap()
+            .flange_to_sensor;
+        let e = lasercal::calib::PoseError::between(&x, &reference);
+        assert!(
+            e.rotation_error_deg < 1e-9 && e.translation_error_mm < 1e-9,
+            "{e:?}"
+        );
+    }
+    // A point between the rays, without columns: an error naming it and the fix.
+    let (mut doc, _) = compact(false);
+    doc["profiles"][0]["points_mm"][3][0] =
+        serde_json::json!(doc["profiles"][0]["points_mm"][3][0].as_f64().unwrap() + 0.05);
+    let e = lasercal::io::captures::from_json(&doc.to_string(), "bad.json")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("profiles[0].points_mm[3]") && e.contains("columns"),
+        "{e}"
+    );
+}

@@ -86,6 +86,9 @@ struct ProfileV1 {
     points_mm: Option<Vec<Option<[f64; 2]>>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     intensity: Option<Vec<Option<f64>>>,
+    /// The sensor column of each entry of points_mm, when the list is not one entry per column.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    columns: Option<Vec<usize>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     chord_mm: Option<[[f64; 2]; 2]>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -142,6 +145,7 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
                     tcp_quaternion_wxyz: crate::math::quat_wxyz(&p.base_to_flange.rotation),
                     points_mm: None,
                     intensity: None,
+                    columns: None,
                     chord_mm: None,
                     circle_mm: None,
                     arc_mm: None,
@@ -398,7 +402,9 @@ fn profile_of(
     })
 }
 
-/// A raw profile: one entry per sensor column, null where the sensor saw nothing.
+/// A raw profile: one entry per sensor column (null where the sensor saw nothing); or any number of
+/// points with their columns given in `columns`; or any number of points that lie on the declared
+/// sensor's rays, each placed on its ray's column.
 fn raw_profile(
     pts: &[Option<[f64; 2]>],
     p: &ProfileV1,
@@ -406,18 +412,6 @@ fn raw_profile(
     at: &dyn Fn(&str) -> String,
     file: &str,
 ) -> Result<ProfileData, FormatError> {
-    if pts.len() != sensor.columns {
-        return Err(err(
-            file,
-            &at("points_mm"),
-            format!(
-                "{} entries; the {} has {} columns (give one per column, null where missing)",
-                pts.len(),
-                sensor.name,
-                sensor.columns
-            ),
-        ));
-    }
     let inten = p.intensity.as_ref();
     if let Some(iv) = inten
         && iv.len() != pts.len()
@@ -428,16 +422,81 @@ fn raw_profile(
             format!("{} entries, points_mm has {}", iv.len(), pts.len()),
         ));
     }
-    let points = pts
-        .iter()
-        .enumerate()
-        .map(|(k, q)| {
-            q.map(|q| ProfilePoint {
-                x: q[0] * 1e-3,
-                z: q[1] * 1e-3,
-                intensity: inten.and_then(|iv| iv[k]).unwrap_or(1.0),
-            })
+    let point = |j: usize| {
+        pts[j].map(|q| ProfilePoint {
+            x: q[0] * 1e-3,
+            z: q[1] * 1e-3,
+            intensity: inten.and_then(|iv| iv[j]).unwrap_or(1.0),
         })
-        .collect();
+    };
+    if p.columns.is_none() && pts.len() == sensor.columns {
+        return Ok(ProfileData::Raw(Profile {
+            points: (0..pts.len()).map(point).collect(),
+        }));
+    }
+    let columns = match &p.columns {
+        Some(c) if c.len() != pts.len() => {
+            return Err(err(
+                file,
+                &at("columns"),
+                format!("{} entries, points_mm has {}", c.len(), pts.len()),
+            ));
+        }
+        Some(c) => c.iter().map(|&k| Some(k)).collect(),
+        None => columns_on_rays(pts, sensor, at, file)?,
+    };
+    let mut points = vec![None; sensor.columns];
+    let mut last: Option<usize> = None;
+    for (j, k) in columns.into_iter().enumerate() {
+        let Some(k) = k else { continue };
+        if k >= sensor.columns || last.is_some_and(|l| k <= l) {
+            return Err(err(
+                file,
+                &at("columns"),
+                format!(
+                    "column {k} at entry {j}: columns must increase and stay below the {}'s {}",
+                    sensor.name, sensor.columns
+                ),
+            ));
+        }
+        last = Some(k);
+        points[k] = point(j);
+    }
     Ok(ProfileData::Raw(Profile { points }))
+}
+
+/// The column of each point on the declared sensor's rays (None for a missing point); an error when
+/// a point lies between rays: the file must then give the columns, or the sensor its geometry.
+fn columns_on_rays(
+    pts: &[Option<[f64; 2]>],
+    sensor: &SensorModel,
+    at: &dyn Fn(&str) -> String,
+    file: &str,
+) -> Result<Vec<Option<usize>>, FormatError> {
+    pts.iter()
+        .enumerate()
+        .map(|(j, q)| {
+            let Some(q) = q else { return Ok(None) };
+            let k = sensor.column_of(q[0] * 1e-3, q[1] * 1e-3);
+            match k {
+                Some(k) if (k - k.round()).abs() <= 0.25 && k.round() >= 0.0 => {
+                    Ok(Some(k.round() as usize))
+                }
+                _ => Err(err(
+                    file,
+                    &at(&format!("points_mm[{j}]")),
+                    format!(
+                        "({}, {}) mm lies on none of the {}'s {} rays ({} entries given): give each \
+                         point's column in `columns`, or declare the sensor's geometry \
+                         (docs/sensors.md)",
+                        q[0],
+                        q[1],
+                        sensor.name,
+                        sensor.columns,
+                        pts.len()
+                    ),
+                )),
+            }
+        })
+        .collect()
 }

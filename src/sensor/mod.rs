@@ -335,6 +335,26 @@ impl SensorModel {
         self.tans[k]
     }
 
+    /// The (fractional) column whose ray passes through a profile point (x, z): the inverse of the
+    /// spacing law. None behind the apex.
+    pub fn column_of(&self, x: f64, z: f64) -> Option<f64> {
+        let depth = self.dir_z * (z - self.apex_z);
+        if !(depth > 0.0) {
+            return None;
+        }
+        let t = x / depth;
+        let n = (self.columns - 1) as f64;
+        let u = match self.spacing {
+            RaySpacing::EqualTan => (t + self.tan_half_fov) / (2.0 * self.tan_half_fov),
+            RaySpacing::EqualAngle => {
+                let a = self.tan_half_fov.atan();
+                (t.atan() + a) / (2.0 * a)
+            }
+        };
+        let k = u * n;
+        Some(if self.x_reversed { n - k } else { k })
+    }
+
     /// Unit direction of column k's ray in the sensor frame.
     pub fn column_dir(&self, k: usize) -> Vector3<f64> {
         Vector3::new(self.column_tan(k), 0.0, self.dir_z).normalize()
