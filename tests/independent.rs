@@ -522,3 +522,85 @@ fn raw_against_features() {
         }
     }
 }
+
+#[test]
+fn edge_over_a_tilted_table_and_with_noise() {
+    let (s, fan, mut solids) = edge_case();
+    let sensor = declared(&fan, "fan-edge");
+    let caps = trial_captures(&s, Kind::Edge, 1, 0).0.unwrap();
+    let e = s.plan(Kind::Edge).unwrap();
+    let e = e
+        .as_any()
+        .downcast_ref::<lasercal::method::edge::EdgePlan>()
+        .unwrap();
+    // A table right under the bar (12 mm below its top face): in the fan's range.
+    let table_z = e.target.point.z - 0.012;
+    // What holds today is asserted (no point more than 1 mm off, at most a fifth of the profiles
+    // missed, the calibration within 0.1 deg and 0.1 mm); at sigma 0.2 over a table one point
+    // still lands 1.8 mm off and the calibration 1.1 deg off (issue 13, open): printed only.
+    for (label, tilt_deg, sigma_mm, holds) in [
+        ("flat table, sigma 0.1", 0.0, 0.1, true),
+        ("flat table, sigma 0.2", 0.0, 0.2, false),
+        ("table tilted 10 deg", 10.0, 0.0, true),
+        ("table tilted 20 deg", 20.0, 0.0, true),
+        ("no table", f64::NAN, 0.0, true),
+    ] {
+        solids.truncate(1);
+        if tilt_deg.is_finite() {
+            let t = f64::to_radians(tilt_deg);
+            solids.push(Solid::Plane {
+                point: Point3::new(e.target.point.x, e.target.point.y, table_z),
+                normal: nalgebra::Vector3::new(t.sin(), 0.0, t.cos()),
+            });
+        }
+        let noise = Noise {
+            sigma_z: sigma_mm * 1e-3,
+            dropout: 0.0,
+        };
+        let profiles = regenerate(&caps, &s, &fan, &solids, noise, 7);
+        let mut sensor = sensor.clone();
+        sensor.noise.z_sigma_near = sigma_mm * 1e-3;
+        sensor.noise.z_sigma_far = sigma_mm * 1e-3;
+        let tuned = lasercal::features::SplitMerge::for_sensor(&sensor);
+        let cfg = lasercal::features::SplitMerge {
+            split_tol: if sigma_mm == 0.0 {
+                0.1e-3
+            } else {
+                tuned.split_tol
+            },
+            jump: tuned.jump.max(0.5e-3),
+            min_points: 4,
+        };
+        let mut off = Vec::new();
+        let mut missed = 0;
+        for p in &profiles.profiles {
+            let ProfileData::Raw(prof) = &p.data else {
+                unreachable!()
+            };
+            let pose = p.base_to_flange * s.rig.flange_to_sensor;
+            let Some(q) = lasercal::sim::edge::exact_point(&pose, &e.target) else {
+                continue;
+            };
+            match lasercal::features::edge_point(prof, &sensor, e.sense, &cfg) {
+                Ok(x) => off.push((x - q).norm()),
+                Err(_) => missed += 1,
+            }
+        }
+        off.sort_by(f64::total_cmp);
+        let far = off.iter().filter(|d| **d > 1e-3).count();
+        let cal = errors(&profiles, &s, &sensor);
+        eprintln!(
+            "edge, {label}: points median {:.3} mm, worst {:.3} mm, {far} more than 1 mm off, {missed} missed; calibration {cal:?}",
+            off[off.len() / 2] * 1e3,
+            off[off.len() - 1] * 1e3,
+        );
+        if holds {
+            let (rot, tr, _) = cal.unwrap();
+            assert!(
+                far == 0 && missed <= 50,
+                "{label}: {far} off, {missed} missed"
+            );
+            assert!(rot < 0.1 && tr < 0.1, "{label}: {rot} deg, {tr} mm");
+        }
+    }
+}

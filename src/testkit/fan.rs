@@ -65,6 +65,11 @@ pub enum Solid {
     Table {
         height: f64,
     },
+    /// A plane through `point` with unit `normal` (a tilted table), seen from the normal's side.
+    Plane {
+        point: Point3<f64>,
+        normal: Vector3<f64>,
+    },
 }
 
 /// The nearest hit of a ray (origin o, unit direction d, both in the base frame) beyond `t_min`:
@@ -80,6 +85,12 @@ fn hit(s: &Solid, o: &Point3<f64>, d: &Vector3<f64>, t_min: f64) -> Option<(f64,
         Solid::Table { height } => {
             if d.z.abs() > 1e-15 {
                 keep((height - o.z) / d.z, Vector3::z());
+            }
+        }
+        Solid::Plane { point, normal } => {
+            let dn = normal.dot(d);
+            if dn.abs() > 1e-15 {
+                keep((point - o).dot(normal) / dn, *normal);
             }
         }
         Solid::Sphere { centre, radius } => {
