@@ -535,8 +535,8 @@ fn edge_over_a_tilted_table_and_with_noise() {
         .unwrap();
     // A table right under the bar (12 mm below its top face): in the fan's range.
     let table_z = e.target.point.z - 0.012;
-    // What holds today is asserted (no point more than 1 mm off, at most a fifth of the profiles
-    // missed, the calibration within 0.1 deg and 0.1 mm); at sigma 0.2 over a table one point
+    // What holds today is asserted (no point more than 1 mm off, at most 35 of 250 profiles
+    // missed, the calibration within 0.2 deg and 0.1 mm); at sigma 0.2 over a table one point
     // still lands 1.8 mm off and the calibration 1.1 deg off (issue 13, open): printed only.
     for (label, tilt_deg, sigma_mm, holds) in [
         ("flat table, sigma 0.1", 0.0, 0.1, true),
@@ -597,10 +597,10 @@ fn edge_over_a_tilted_table_and_with_noise() {
         if holds {
             let (rot, tr, _) = cal.unwrap();
             assert!(
-                far == 0 && missed <= 50,
+                far == 0 && missed <= 35,
                 "{label}: {far} off, {missed} missed"
             );
-            assert!(rot < 0.1 && tr < 0.1, "{label}: {rot} deg, {tr} mm");
+            assert!(rot < 0.2 && tr < 0.1, "{label}: {rot} deg, {tr} mm");
         }
     }
 }

@@ -116,6 +116,27 @@ fn drops_away(
     }
 }
 
+/// Whether profile point `p` (column, x, z) lies nearer the sensor than `line` continued to its
+/// column's ray, by more than `tol`.
+fn nearer_than_line(
+    sensor: &SensorModel,
+    line: &Line2,
+    p: (usize, Vector2<f64>),
+    tol: f64,
+) -> bool {
+    let ray = Line2 {
+        point: Vector2::new(0.0, sensor.apex_z),
+        dir: Vector2::new(sensor.column_tan(p.0), sensor.dir_z).normalize(),
+    };
+    match line.intersect(&ray) {
+        Some(on_line) => {
+            sensor.dir_z * (p.1.y - sensor.apex_z)
+                < sensor.dir_z * (on_line.y - sensor.apex_z) - tol
+        }
+        None => false,
+    }
+}
+
 /// Refit a segment's ends: split-and-merge decides with a coarse tolerance, so a wall point just off
 /// the face can join it, and a corner point goes to one side only. Fit the interior, then keep
 /// exactly the neighbouring points within 4 RMS of that line (at least 1 nm; at most `tol`).
@@ -419,18 +440,40 @@ pub fn edge_point(
         let floor = ends(&segs[nearest]).1 + 2.0e-3;
         cands.retain(|&j| ends(&segs[j]).0 <= floor);
     }
-    let mut i = cands
-        .iter()
-        .copied()
-        .max_by_key(|&j| segs[j].last - segs[j].first)
-        .ok_or_else(|| FeatureError::NoEdge {
-            reason: format!("no face of {} points", cfg.min_points),
-        })?;
+    // Largest first. A face whose walk finds no edge (it runs off the field of view, or meets a
+    // wall rising toward the sensor: a table seen beside the specimen) is not the top face: try
+    // the next one.
+    cands.sort_by_key(|&j| std::cmp::Reverse(segs[j].last - segs[j].first));
+    let mut first_err = None;
+    for &i in &cands {
+        match walk_to_edge(&pts, &segs, i, sensor, sense, cfg) {
+            Ok(p) => return Ok(p),
+            Err(e) => {
+                first_err.get_or_insert(e);
+            }
+        }
+    }
+    Err(first_err.unwrap_or_else(|| FeatureError::NoEdge {
+        reason: format!("no face of {} points", cfg.min_points),
+    }))
+}
+
+/// From face `i`, walk toward the edge in `sense` over shallow bevels to the corner with a steep
+/// wall falling away from the sensor, or to the face's end halfway to the next column when what
+/// lies beyond is farther from the sensor (or nothing). Anything else is not the specimen's edge.
+fn walk_to_edge(
+    pts: &[(usize, Vector2<f64>)],
+    segs: &[Segment],
+    mut i: usize,
+    sensor: &SensorModel,
+    sense: EdgeSense,
+    cfg: &SplitMerge,
+) -> Result<Vector2<f64>, FeatureError> {
     // The sense is a direction in x; the walk goes by column, which runs the other way on a
     // sensor whose column 0 is at +x.
     let forward = (sense == EdgeSense::Falling) != sensor.x_reversed;
     loop {
-        let (first, last, line) = tighten(&pts, &segs[i], cfg.split_tol);
+        let (first, last, line) = tighten(pts, &segs[i], cfg.split_tol);
         let idx = if forward { last } else { first };
         let k = pts[idx].0;
         let next = if forward {
@@ -444,11 +487,17 @@ pub fn edge_point(
             && let Some(j) = segs.iter().position(|s| s.first <= next && next <= s.last)
             && j != i
         {
-            let (f2, l2, line2) = tighten(&pts, &segs[j], cfg.split_tol);
+            let (f2, l2, line2) = tighten(pts, &segs[j], cfg.split_tol);
             let angle = line.angle_to(&line2);
             // A wall seen in a handful of noisy points gives a poor line: only trust the corner
             // when the wall is well sampled; otherwise fall through to the end of the face.
             if angle > std::f64::consts::FRAC_PI_4 && l2 + 1 - f2 >= 2 * cfg.min_points {
+                let beyond = if forward { l2 } else { f2 };
+                if nearer_than_line(sensor, &line, pts[beyond], cfg.split_tol) {
+                    return Err(FeatureError::NoEdge {
+                        reason: "the face meets a wall rising toward the sensor".into(),
+                    });
+                }
                 return line.intersect(&line2).ok_or_else(|| FeatureError::NoEdge {
                     reason: "parallel faces".into(),
                 });
@@ -462,6 +511,13 @@ pub fn edge_point(
         if k2 >= sensor.columns {
             return Err(FeatureError::NoEdge {
                 reason: "the face runs off the field of view".into(),
+            });
+        }
+        if let Some(&p) = pts.get(next)
+            && nearer_than_line(sensor, &line, p, cfg.split_tol)
+        {
+            return Err(FeatureError::NoEdge {
+                reason: "the profile rises toward the sensor beyond the face".into(),
             });
         }
         return end_between(sensor, &line, k, k2).ok_or_else(|| FeatureError::NoEdge {
