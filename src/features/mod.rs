@@ -213,8 +213,17 @@ pub fn disk_chord_step(
     let (first, last, line) = tighten(&pts, &segs[best], cfg.split_tol);
     let s = &Segment { first, last, line };
     // The sensor's dropout rate, measured on the face: the share of its columns without a point.
+    // Beyond 30 % the face falls apart into pieces that cannot be told from pieces of the table:
+    // no chord rather than a wrong one.
     let span = pts[last].0 - pts[first].0 + 1;
     let dropout = (span - (last - first + 1)) as f64 / span as f64;
+    if dropout > 0.3 {
+        return Err(FeatureError::NoChord {
+            reason: "over 30 % of the columns across the chord have no point: too few to place \
+                     its ends"
+                .into(),
+        });
+    }
     let end = |idx: usize, forward: bool| {
         let k = pts[idx].0;
         let k2 = if forward { k + 1 } else { k.wrapping_sub(1) };

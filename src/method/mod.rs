@@ -143,7 +143,9 @@ impl GroupReport {
         match r {
             Ok(_) => self.used += 1,
             Err(e) => {
-                let reason = e.to_string();
+                // One count per kind of reason: the numbers in a message (how many points, which
+                // column) would make every profile's reason its own.
+                let reason = without_numbers(&e.to_string());
                 match self.rejected.iter_mut().find(|(r, _)| *r == reason) {
                     Some((_, n)) => *n += 1,
                     None => self.rejected.push((reason, 1)),
@@ -171,6 +173,22 @@ impl GroupReport {
         }
         s
     }
+}
+
+/// A message with each number replaced by `N`.
+fn without_numbers(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    let mut in_number = false;
+    for c in s.chars() {
+        let digit = c.is_ascii_digit() || (in_number && c == '.');
+        if digit && !in_number {
+            out.push('N');
+        } else if !digit {
+            out.push(c);
+        }
+        in_number = digit;
+    }
+    out
 }
 
 /// Groups with fewer than `need` features are left out; when fewer than `min_groups` remain, the
