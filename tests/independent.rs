@@ -79,7 +79,7 @@ fn scenario(name: &str, edit: &dyn Fn(String) -> String) -> Setup {
 
 /// The disk paper's disk on its cylinder, scanned along the sensor's y (as the ray-cast tests).
 fn disk_case() -> (Setup, Fan, Vec<Solid>) {
-    let fan = Fan {
+    disk_case_with(Fan {
         apex_z: 0.295,
         dir_z: -1.0,
         half_angle: 14f64.to_radians(),
@@ -88,7 +88,12 @@ fn disk_case() -> (Setup, Fan, Vec<Solid>) {
         reversed: false,
         z_range: (-0.105, 0.105),
         camera: Point3::new(0.0, 0.120, 0.295),
-    };
+    })
+}
+
+/// The disk case seen by any fan whose frame is the Gocator's (origin at the range centre, z
+/// toward the sensor).
+fn disk_case_with(fan: Fan) -> (Setup, Fan, Vec<Solid>) {
     let s = scenario("chen2018-disk.toml", &|t| {
         t.replace("source = \"analytic\"", "source = \"raycast\"")
             .replace("directions_in_base", "directions_in_sensor")
@@ -606,6 +611,91 @@ fn edge_over_a_tilted_table_and_with_noise() {
                 "{label}: {far} off, {missed} missed"
             );
             assert!(rot < 0.2 && tr < 0.1, "{label}: {rot} deg, {tr} mm");
+        }
+    }
+}
+
+/// Chord-end errors and the calibration over sensor geometries, noise and dropout (README):
+/// `cargo test --test independent extraction_over_sensor_geometry -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn extraction_over_sensor_geometry() {
+    let fan =
+        |apex_mm: f64, half_deg: f64, columns: usize, equal_angle: bool, reversed: bool| Fan {
+            apex_z: apex_mm * 1e-3,
+            dir_z: -1.0,
+            half_angle: half_deg.to_radians(),
+            columns,
+            equal_angle,
+            reversed,
+            z_range: (-0.105, 0.105),
+            camera: Point3::new(0.0, 0.120, apex_mm * 1e-3),
+        };
+    println!(
+        "| fan | sigma mm | dropout | chord ends median / p95 / worst mm | missed | calibration deg / mm |"
+    );
+    println!("|---|---|---|---|---|---|");
+    for (name, f) in [
+        (
+            "apex 295 mm, +-14 deg, 1280 rays equal in angle",
+            fan(295.0, 14.0, 1280, true, false),
+        ),
+        (
+            "apex 310.7 mm, +-13.1 deg, 1280 rays equal in tan (the 2340's)",
+            fan(310.7, 13.13, 1280, false, false),
+        ),
+        (
+            "apex 250 mm, +-18 deg, 640 rays equal in angle, reversed",
+            fan(250.0, 18.0, 640, true, true),
+        ),
+        (
+            "apex 400 mm, +-10 deg, 2048 rays equal in tan",
+            fan(400.0, 10.0, 2048, false, false),
+        ),
+    ] {
+        let (s, f, solids) = disk_case_with(f);
+        let sensor = declared(&f, "fan");
+        let caps = trial_captures(&s, Kind::Disk, 1, 0).0.unwrap();
+        let target = lasercal::sim::disk::DiskTarget::from_pose(&s.base_to_specimen, 0.050);
+        for (sigma_mm, dropout) in [(0.0, 0.0), (0.1, 0.0), (0.0, 0.2), (0.1, 0.2)] {
+            let mut sensor = sensor.clone();
+            sensor.noise.z_sigma_near = sigma_mm * 1e-3;
+            sensor.noise.z_sigma_far = sigma_mm * 1e-3;
+            let cfg = lasercal::features::SplitMerge::for_sensor(&sensor);
+            let noise = Noise {
+                sigma_z: sigma_mm * 1e-3,
+                dropout,
+            };
+            let profiles = regenerate(&caps, &s, &f, &solids, noise, 11);
+            let (mut ends, mut missed) = (Vec::new(), 0);
+            for p in &profiles.profiles {
+                let ProfileData::Raw(prof) = &p.data else {
+                    unreachable!()
+                };
+                let pose = p.base_to_flange * s.rig.flange_to_sensor;
+                let Some((a, b)) = lasercal::sim::disk::exact_chord(&pose, &target) else {
+                    continue;
+                };
+                match lasercal::features::disk_chord_step(prof, &sensor, 0.050, &cfg) {
+                    Ok(ch) => ends.push((ch.a - a).norm().max((ch.b - b).norm())),
+                    Err(_) => missed += 1,
+                }
+            }
+            ends.sort_by(f64::total_cmp);
+            let q = |x: f64| {
+                ends.get(((ends.len() as f64 - 1.0) * x) as usize)
+                    .map_or(f64::NAN, |e| e * 1e3)
+            };
+            let cal = match errors(&profiles, &s, &sensor) {
+                Ok((r, t, _)) => format!("{r:.3} / {t:.3}"),
+                Err(e) => format!("refused: {}", e.chars().take(60).collect::<String>()),
+            };
+            println!(
+                "| {name} | {sigma_mm} | {dropout} | {:.3} / {:.3} / {:.3} | {missed} | {cal} |",
+                q(0.5),
+                q(0.95),
+                q(1.0)
+            );
         }
     }
 }

@@ -28,12 +28,30 @@ pub enum FeatureError {
     NoEdge { reason: String },
 }
 
-/// A chord of the disk seen in one profile: endpoints (x, z) in the sensor frame, `a` at the
-/// lower column.
+/// A chord of the disk seen in one profile: endpoints (x, z) in the sensor frame, `a` toward -x
+/// (as the analytic chords).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Chord {
     pub a: Vector2<f64>,
     pub b: Vector2<f64>,
+}
+
+impl Chord {
+    /// From its ends at the lower and the higher column: on a sensor whose column 0 is at +x those
+    /// run toward -x, so they swap.
+    fn by_x(low_column: Vector2<f64>, high_column: Vector2<f64>, sensor: &SensorModel) -> Chord {
+        if sensor.x_reversed {
+            Chord {
+                a: high_column,
+                b: low_column,
+            }
+        } else {
+            Chord {
+                a: low_column,
+                b: high_column,
+            }
+        }
+    }
 }
 
 /// Valid points with their column index.
@@ -256,10 +274,7 @@ pub fn disk_chord_step(
         end_beyond(sensor, &s.line, k, k2, 0.5 + extra)
             .ok_or(FeatureError::ChordTruncated { column: k })
     };
-    Ok(Chord {
-        a: end(first, false)?,
-        b: end(last, true)?,
-    })
+    Ok(Chord::by_x(end(first, false)?, end(last, true)?, sensor))
 }
 
 /// Chord of a white disk on black paper: the longest run of bright points (intensity above the
@@ -330,7 +345,7 @@ pub fn disk_chord_intensity(
         .ok_or(FeatureError::ChordTruncated { column: first })?;
     let b = end_between(sensor, &line, last, last + 1)
         .ok_or(FeatureError::ChordTruncated { column: last })?;
-    Ok(Chord { a, b })
+    Ok(Chord::by_x(a, b, sensor))
 }
 
 /// The ball's arc: among runs of neighbouring points, the one best fitted by a circle no larger than
