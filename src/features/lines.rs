@@ -141,13 +141,14 @@ pub fn split_and_merge(pts: &[(usize, Vector2<f64>)], cfg: &SplitMerge) -> Vec<S
     for (a, b) in runs(pts, cfg.jump, 12) {
         split(pts, a, b, cfg.split_tol, &mut pieces);
     }
-    // Merge: adjacent pieces in the same run whose joint fit stays within tolerance.
+    // Merge: adjacent pieces in the same run that one line fits as well as noise allows.
     let mut merged: Vec<(usize, usize)> = Vec::new();
     for (a, b) in pieces {
         if let Some(last) = merged.last_mut()
             && last.1 + 1 == a
             && (pts[a].1 - pts[last.1].1).norm() <= cfg.jump
-            && max_dev(pts, last.0, b).1 <= cfg.split_tol
+            && (max_dev(pts, last.0, b).1 <= cfg.split_tol
+                || !bends(pts, last.0, last.1, b, cfg.split_tol))
         {
             last.1 = b;
             continue;
