@@ -118,7 +118,7 @@ fn disk_case_with(fan: Fan) -> (Setup, Fan, Vec<Solid>) {
 /// The edge paper's parallel bar seen by a fan unlike the VLM350's: equal-angle rays, column 0 at
 /// +x, z away from the sensor.
 fn edge_case() -> (Setup, Fan, Vec<Solid>) {
-    let fan = Fan {
+    edge_case_with(Fan {
         apex_z: -0.030,
         dir_z: 1.0,
         half_angle: 12f64.to_radians(),
@@ -127,7 +127,11 @@ fn edge_case() -> (Setup, Fan, Vec<Solid>) {
         reversed: true,
         z_range: (0.060, 0.350),
         camera: Point3::new(0.0, 0.060, -0.030),
-    };
+    })
+}
+
+/// The edge case seen by any fan whose frame is the VLM350's (origin at the sensor, z away).
+fn edge_case_with(fan: Fan) -> (Setup, Fan, Vec<Solid>) {
     let s = scenario("xu2021-edge.toml", &|t| {
         t.replace("source = \"analytic\"", "source = \"raycast\"")
     });
@@ -684,6 +688,100 @@ fn extraction_over_sensor_geometry() {
             ends.sort_by(f64::total_cmp);
             let q = |x: f64| {
                 ends.get(((ends.len() as f64 - 1.0) * x) as usize)
+                    .map_or(f64::NAN, |e| e * 1e3)
+            };
+            let cal = match errors(&profiles, &s, &sensor) {
+                Ok((r, t, _)) => format!("{r:.3} / {t:.3}"),
+                Err(e) => format!("refused: {}", e.chars().take(60).collect::<String>()),
+            };
+            println!(
+                "| {name} | {sigma_mm} | {dropout} | {:.3} / {:.3} / {:.3} | {missed} | {cal} |",
+                q(0.5),
+                q(0.95),
+                q(1.0)
+            );
+        }
+    }
+}
+
+/// Edge points and the calibration over sensor geometries, noise and dropout (README):
+/// `cargo test --test independent edge_over_sensor_geometry -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn edge_over_sensor_geometry() {
+    let fan =
+        |apex_mm: f64, half_deg: f64, columns: usize, equal_angle: bool, reversed: bool| Fan {
+            apex_z: apex_mm * 1e-3,
+            dir_z: 1.0,
+            half_angle: half_deg.to_radians(),
+            columns,
+            equal_angle,
+            reversed,
+            z_range: (0.060, 0.350),
+            camera: Point3::new(0.0, 0.060, apex_mm * 1e-3),
+        };
+    println!(
+        "| fan | sigma mm | dropout | edge points median / p95 / worst mm | missed | calibration deg / mm |"
+    );
+    println!("|---|---|---|---|---|---|");
+    for (name, f) in [
+        (
+            "apex -30 mm, +-12 deg, 1000 rays equal in angle, reversed",
+            fan(-30.0, 12.0, 1000, true, true),
+        ),
+        (
+            "apex -40 mm, +-11.5 deg, 980 rays equal in tan (the VLM350's)",
+            fan(-40.0, 11.5, 980, false, false),
+        ),
+        (
+            "apex -20 mm, +-15 deg, 2048 rays equal in tan",
+            fan(-20.0, 15.0, 2048, false, false),
+        ),
+    ] {
+        let (s, f, solids) = edge_case_with(f);
+        let sensor = declared(&f, "fan");
+        let caps = trial_captures(&s, Kind::Edge, 1, 0).0.unwrap();
+        let plan = s.plan(Kind::Edge).unwrap();
+        let e = plan
+            .as_any()
+            .downcast_ref::<lasercal::method::edge::EdgePlan>()
+            .unwrap();
+        for (sigma_mm, dropout) in [(0.0, 0.0), (0.1, 0.0), (0.0, 0.2), (0.1, 0.2)] {
+            let mut sensor = sensor.clone();
+            sensor.noise.z_sigma_near = sigma_mm * 1e-3;
+            sensor.noise.z_sigma_far = sigma_mm * 1e-3;
+            let tuned = lasercal::features::SplitMerge::for_sensor(&sensor);
+            let cfg = lasercal::features::SplitMerge {
+                split_tol: if sigma_mm == 0.0 {
+                    0.1e-3
+                } else {
+                    tuned.split_tol
+                },
+                jump: tuned.jump.max(0.5e-3),
+                min_points: 4,
+            };
+            let noise = Noise {
+                sigma_z: sigma_mm * 1e-3,
+                dropout,
+            };
+            let profiles = regenerate(&caps, &s, &f, &solids, noise, 13);
+            let (mut off, mut missed) = (Vec::new(), 0);
+            for p in &profiles.profiles {
+                let ProfileData::Raw(prof) = &p.data else {
+                    unreachable!()
+                };
+                let pose = p.base_to_flange * s.rig.flange_to_sensor;
+                let Some(q) = lasercal::sim::edge::exact_point(&pose, &e.target) else {
+                    continue;
+                };
+                match lasercal::features::edge_point(prof, &sensor, e.sense, &cfg) {
+                    Ok(x) => off.push((x - q).norm()),
+                    Err(_) => missed += 1,
+                }
+            }
+            off.sort_by(f64::total_cmp);
+            let q = |x: f64| {
+                off.get(((off.len() as f64 - 1.0) * x) as usize)
                     .map_or(f64::NAN, |e| e * 1e3)
             };
             let cal = match errors(&profiles, &s, &sensor) {
