@@ -116,7 +116,7 @@ fn simulate(
         &setup.rig,
         &mut Sim {
             rng: r,
-            disturbance: &mut disturbance,
+            mover: crate::method::Mover::new(&mut disturbance),
             specimen_rng: &mut specimen_rng,
             radius_z,
         },

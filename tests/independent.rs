@@ -41,6 +41,14 @@ fn declared(fan: &Fan, name: &str) -> SensorModel {
     .unwrap()
 }
 
+/// The sensor told of z noise `sigma_mm` at both ends of its range (what tunes the extraction).
+fn with_sigma(sensor: &SensorModel, sigma_mm: f64) -> SensorModel {
+    let mut s = sensor.clone();
+    s.noise.z_sigma_near = sigma_mm * 1e-3;
+    s.noise.z_sigma_far = sigma_mm * 1e-3;
+    s
+}
+
 /// Replace every profile of `caps` by the generator's, seen from the true mounting.
 fn regenerate(
     caps: &Captures,
@@ -244,9 +252,7 @@ fn disk_on_independent_profiles() {
             },
             2,
         );
-        let mut sensor = sensor.clone();
-        sensor.noise.z_sigma_near = sigma_mm * 1e-3;
-        sensor.noise.z_sigma_far = sigma_mm * 1e-3;
+        let sensor = with_sigma(&sensor, sigma_mm);
         let e = errors(&noisy, &s, &sensor);
         eprintln!("disk, sigma {sigma_mm} mm: {e:?}");
         // Was 13.8 deg at 0.1 mm (long noisy faces split at random points, chords truncated):
@@ -408,9 +414,7 @@ fn ball_on_independent_profiles() {
             },
             4,
         );
-        let mut sensor = sensor.clone();
-        sensor.noise.z_sigma_near = sigma_mm * 1e-3;
-        sensor.noise.z_sigma_far = sigma_mm * 1e-3;
+        let sensor = with_sigma(&sensor, sigma_mm);
         let e = errors(&profiles, &s, &sensor);
         eprintln!("ball, sigma {sigma_mm} mm: {e:?}");
         let (rot, tr, _) = e.unwrap();
@@ -495,9 +499,7 @@ fn raw_against_features() {
             (0.1, 0.05),
             (0.1, 0.2),
         ] {
-            let mut sensor = declared(&fan, "fan");
-            sensor.noise.z_sigma_near = sigma_mm * 1e-3;
-            sensor.noise.z_sigma_far = sigma_mm * 1e-3;
+            let sensor = with_sigma(&declared(&fan, "fan"), sigma_mm);
             let (mut raw, mut feat, mut missed) = (Vec::new(), Vec::new(), 0);
             for t in 0..10u64 {
                 let caps = trial_captures(&s, kind, 1, t).0.unwrap();
@@ -572,9 +574,7 @@ fn edge_over_a_tilted_table_and_with_noise() {
             dropout: 0.0,
         };
         let profiles = regenerate(&caps, &s, &fan, &solids, noise, 7);
-        let mut sensor = sensor.clone();
-        sensor.noise.z_sigma_near = sigma_mm * 1e-3;
-        sensor.noise.z_sigma_far = sigma_mm * 1e-3;
+        let sensor = with_sigma(&sensor, sigma_mm);
         let tuned = lasercal::features::SplitMerge::for_sensor(&sensor);
         let cfg = lasercal::features::SplitMerge {
             split_tol: if sigma_mm == 0.0 {
@@ -662,9 +662,7 @@ fn extraction_over_sensor_geometry() {
         let caps = trial_captures(&s, Kind::Disk, 1, 0).0.unwrap();
         let target = lasercal::sim::disk::DiskTarget::from_pose(&s.base_to_specimen, 0.050);
         for (sigma_mm, dropout) in [(0.0, 0.0), (0.1, 0.0), (0.0, 0.2), (0.1, 0.2)] {
-            let mut sensor = sensor.clone();
-            sensor.noise.z_sigma_near = sigma_mm * 1e-3;
-            sensor.noise.z_sigma_far = sigma_mm * 1e-3;
+            let sensor = with_sigma(&sensor, sigma_mm);
             let cfg = lasercal::features::SplitMerge::for_sensor(&sensor);
             let noise = Noise {
                 sigma_z: sigma_mm * 1e-3,
@@ -747,9 +745,7 @@ fn edge_over_sensor_geometry() {
             .downcast_ref::<lasercal::method::edge::EdgePlan>()
             .unwrap();
         for (sigma_mm, dropout) in [(0.0, 0.0), (0.1, 0.0), (0.0, 0.2), (0.1, 0.2)] {
-            let mut sensor = sensor.clone();
-            sensor.noise.z_sigma_near = sigma_mm * 1e-3;
-            sensor.noise.z_sigma_far = sigma_mm * 1e-3;
+            let sensor = with_sigma(&sensor, sigma_mm);
             let tuned = lasercal::features::SplitMerge::for_sensor(&sensor);
             let cfg = lasercal::features::SplitMerge {
                 split_tol: if sigma_mm == 0.0 {

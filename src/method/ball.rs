@@ -171,10 +171,6 @@ impl Plan for BallPlanned {
         Some(self.target.centre)
     }
 
-    fn truth_checks(&self, _: &Rig, _: &Isometry3<f64>, _: u64) -> Metrics {
-        Metrics::default()
-    }
-
     fn simulate(&self, rig: &Rig, sim: &mut Sim) -> Result<Captures, Error> {
         let target = BallTarget {
             radius: self.target.radius + sim.radius_z * self.radius_tolerance,
@@ -187,15 +183,8 @@ impl Plan for BallPlanned {
             form,
         );
         let noisy = !rig.sensor.noise.is_off();
-        let mut k = 0usize;
-        let Sim {
-            rng, disturbance, ..
-        } = sim;
-        let mut actual = |f: &Isometry3<f64>| {
-            let a = disturbance.actual(&rig.robot, f, k);
-            k += 1;
-            a
-        };
+        let Sim { rng, mover, .. } = sim;
+        let mut actual = |f: &Isometry3<f64>| mover.actual(&rig.robot, f);
         let poses = self
             .plan
             .rotation_set

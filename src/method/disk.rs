@@ -182,10 +182,6 @@ impl Plan for DiskPlan {
         Some(self.target.centre)
     }
 
-    fn truth_checks(&self, _: &Rig, _: &Isometry3<f64>, _: u64) -> Metrics {
-        Metrics::default()
-    }
-
     fn simulate(&self, rig: &Rig, sim: &mut Sim) -> Result<Captures, Error> {
         let target = DiskTarget {
             radius: self.target.radius + sim.radius_z * self.radius_tolerance,
@@ -198,16 +194,8 @@ impl Plan for DiskPlan {
         );
         let noisy = !rig.sensor.noise.is_off();
         let (mut groups, mut profiles) = (Vec::new(), Vec::new());
-        // Profiles are numbered in the order they are taken (the vibration's clock).
-        let mut k = 0usize;
-        let Sim {
-            rng, disturbance, ..
-        } = sim;
-        let mut actual = |f: &Isometry3<f64>| {
-            let a = disturbance.actual(&rig.robot, f, k);
-            k += 1;
-            a
-        };
+        let Sim { rng, mover, .. } = sim;
+        let mut actual = |f: &Isometry3<f64>| mover.actual(&rig.robot, f);
         for (i, p) in self.plans.iter().enumerate() {
             groups.push(Group {
                 id: i,

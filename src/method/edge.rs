@@ -177,10 +177,6 @@ impl Plan for EdgePlan {
         flange_pose(&p.r_tcp, &p.tcps[p.tcps.len() / 2])
     }
 
-    fn true_centre(&self) -> Option<Point3<f64>> {
-        None
-    }
-
     fn truth_checks(&self, rig: &Rig, estimate: &Isometry3<f64>, validation_seed: u64) -> Metrics {
         let radius = self.validation.and_then(|v| {
             let mut vr = rng::stream(validation_seed, &[tag::SPECIMEN]);
@@ -203,10 +199,7 @@ impl Plan for EdgePlan {
         let form = FormError::draw(spec, &self.form, sim.specimen_rng);
         let scene = crate::scene::with_form(std::borrow::Cow::Borrowed(&self.scene), form);
         let noisy = !rig.sensor.noise.is_off();
-        let mut k = 0usize;
-        let Sim {
-            rng, disturbance, ..
-        } = sim;
+        let Sim { rng, mover, .. } = sim;
         let (mut groups, mut profiles) = (Vec::new(), Vec::new());
         for (g, p) in self.plans.iter().enumerate() {
             groups.push(Group {
@@ -216,8 +209,7 @@ impl Plan for EdgePlan {
             });
             for t in &p.tcps {
                 let f = flange_pose(&p.r_tcp, t);
-                let pose = rig.base_to_sensor(&disturbance.actual(&rig.robot, &f, k));
-                k += 1;
+                let pose = rig.base_to_sensor(&mover.actual(&rig.robot, &f));
                 let data = if self.raycast {
                     ProfileData::Raw(
                         rig.sensor

@@ -30,11 +30,38 @@ pub struct Sim<'a> {
     /// Sensor and feature noise.
     pub rng: &'a mut crate::rng::Rng,
     /// The robot that really moves (pose error, vibration, dynamics).
-    pub disturbance: &'a mut crate::sim::disturb::Disturbance,
+    pub mover: Mover<'a>,
     /// The specimen's imperfection.
     pub specimen_rng: &'a mut crate::rng::Rng,
     /// The true radius's draw, in standard deviations (taken first from `specimen_rng`).
     pub radius_z: f64,
+}
+
+/// The robot that really moves, with the count of profiles taken so far (the vibration's clock:
+/// profiles are numbered in the order they are taken).
+pub struct Mover<'a> {
+    disturbance: &'a mut crate::sim::disturb::Disturbance,
+    taken: usize,
+}
+
+impl<'a> Mover<'a> {
+    pub fn new(disturbance: &'a mut crate::sim::disturb::Disturbance) -> Mover<'a> {
+        Mover {
+            disturbance,
+            taken: 0,
+        }
+    }
+
+    /// Where the flange really is when the next profile is taken at `commanded`.
+    pub fn actual(
+        &mut self,
+        robot: &crate::robot::Robot,
+        commanded: &Isometry3<f64>,
+    ) -> Isometry3<f64> {
+        let a = self.disturbance.actual(robot, commanded, self.taken);
+        self.taken += 1;
+        a
+    }
 }
 
 /// One specimen method: what the generic code needs of it.
@@ -77,17 +104,21 @@ pub trait Plan: Send + Sync + fmt::Debug {
     /// The captures of one trial (features for the analytic sources, profiles for ray-cast ones).
     fn simulate(&self, rig: &Rig, sim: &mut Sim) -> Result<Captures, Error>;
 
-    /// The true specimen centre, for the centre error (disk and ball).
-    fn true_centre(&self) -> Option<Point3<f64>>;
+    /// The true specimen centre, for the centre error (disk and ball); none by default.
+    fn true_centre(&self) -> Option<Point3<f64>> {
+        None
+    }
 
     /// Figures that need the truth beyond the transform (the edge paper's Table 3 ball radius),
     /// drawn from `validation_seed`'s stream.
     fn truth_checks(
         &self,
-        rig: &Rig,
-        estimate: &Isometry3<f64>,
-        validation_seed: u64,
-    ) -> crate::metrics::Metrics;
+        _rig: &Rig,
+        _estimate: &Isometry3<f64>,
+        _validation_seed: u64,
+    ) -> crate::metrics::Metrics {
+        crate::metrics::Metrics::default()
+    }
 }
 
 /// The one dispatch over the specimen methods.
