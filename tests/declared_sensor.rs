@@ -272,3 +272,65 @@ fn raw_profiles_of_any_length() {
         "{e}"
     );
 }
+
+#[test]
+fn a_resampling_sensor_reports_on_its_grid_and_calibrates() {
+    // The same fan with resampled output (x_pitch_mm): every reported point lies on the grid
+    // x = 0.02 + 0.1 m mm, and the disk calibrates from those profiles as from the rays.
+    let text = disk_raycast_text(&format!("{FAN_295}x_pitch_mm = 0.1\nx_offset_mm = 0.02\n"));
+    let sf = ScenarioFile::parse(&text, "resampled.toml").unwrap();
+    let setup = sf.scenario.build(&sf.file).unwrap();
+    let sensor = &setup.rig.sensor;
+    let grid = sensor.resampling().unwrap();
+    assert!((grid.pitch - 0.1e-3).abs() < 1e-15 && (grid.offset - 0.02e-3).abs() < 1e-15);
+    // Slots across the far field of view: 2 x 400 mm x tan 14 deg / 0.1 mm.
+    let want = 2.0 * 0.400 * 14f64.to_radians().tan() / 0.1e-3;
+    assert!(
+        (sensor.columns as f64 - want).abs() <= 1.0,
+        "{}",
+        sensor.columns
+    );
+    let method: MethodId = "disk".parse().unwrap();
+    let (caps, _) = trial_captures(&setup, method.kind, 1, 0);
+    let caps = caps.unwrap();
+    let mut seen = 0;
+    for p in &caps.profiles {
+        let lasercal::captures::ProfileData::Raw(prof) = &p.data else {
+            panic!("raw profiles expected")
+        };
+        for (k, q) in prof.points.iter().enumerate() {
+            let Some(q) = q else { continue };
+            let m = (q.x - 0.02e-3) / 0.1e-3;
+            assert!(
+                (m - m.round()).abs() < 1e-6,
+                "x {} mm off the grid",
+                q.x * 1e3
+            );
+            assert!((sensor.column_of(q.x, q.z).unwrap() - k as f64).abs() < 1e-6);
+            seen += 1;
+        }
+    }
+    assert!(seen > 100_000, "{seen} points");
+    let out = run_trial(&setup, method, 1, 0);
+    let e = out.result.unwrap().error();
+    eprintln!("resampled fan: {e:?}, missed {}", out.missed_profiles);
+    assert_eq!(out.missed_profiles, 0);
+    assert!(
+        e.rotation_error_deg < 0.05 && e.translation_error_mm < 0.1,
+        "{e:?}"
+    );
+    // The capture file carries the grid, and reads back to the same transform.
+    let json = lasercal::io::captures::to_json(&caps, sensor);
+    assert!(
+        json.contains("\"x_pitch_mm\""),
+        "the file must carry the grid"
+    );
+    let (back, read) = lasercal::io::captures::from_json(&json, "r.json").unwrap();
+    let a = lasercal::method::calibrate(&caps, sensor).unwrap();
+    let b = lasercal::method::calibrate(&back, &read).unwrap();
+    let d = lasercal::calib::PoseError::between(&a.flange_to_sensor, &b.flange_to_sensor);
+    assert!(
+        d.rotation_error_deg < 1e-9 && d.translation_error_mm < 1e-9,
+        "{d:?}"
+    );
+}

@@ -37,6 +37,7 @@ fn declared(fan: &Fan, name: &str) -> SensorModel {
         x_reversed: fan.reversed,
         z_quantum: None,
         camera: fan.camera,
+        resample: None,
     })
     .unwrap()
 }
@@ -367,6 +368,87 @@ fn disk_with_dropout() {
                 "dropout {dropout}: {rot} deg, {tr} mm"
             );
         }
+    }
+}
+
+/// A profile resampled onto the x grid `offset + m pitch` as a resampling profiler does (each slot
+/// interpolated between two neighbouring rays that both saw something), written here apart from
+/// lasercal's resampler. Returns (m, x, z), in increasing x.
+fn resample(rays: &[Option<(f64, f64)>], pitch: f64, offset: f64) -> Vec<(i64, f64, f64)> {
+    let mut slots = std::collections::BTreeMap::new();
+    for w in rays.windows(2) {
+        let (Some(a), Some(b)) = (w[0], w[1]) else {
+            continue;
+        };
+        let (lo, hi) = if a.0 <= b.0 { (a, b) } else { (b, a) };
+        let m0 = ((lo.0 - offset) / pitch).ceil() as i64;
+        let m1 = ((hi.0 - offset) / pitch).floor() as i64;
+        for m in m0..=m1 {
+            let x = offset + m as f64 * pitch;
+            let f = if hi.0 > lo.0 {
+                (x - lo.0) / (hi.0 - lo.0)
+            } else {
+                0.0
+            };
+            slots.insert(m, (x, lo.1 + f * (hi.1 - lo.1)));
+        }
+    }
+    slots.into_iter().map(|(m, (x, z))| (m, x, z)).collect()
+}
+
+#[test]
+fn resampled_profiles_without_columns() {
+    // A capture file from a profiler that resamples onto uniform x (pitch 0.1 mm, grid offset
+    // 0.03 mm) and sends only the valid slots, without column indices, under the fan's declared
+    // geometry: the grid is measured from the points and the ends placed between its slots.
+    let (s, fan, solids) = disk_case();
+    let sensor = declared(&fan, "fan-295");
+    let caps = trial_captures(&s, Kind::Disk, 1, 0).0.unwrap();
+    let (pitch, offset) = (0.1e-3, 0.03e-3);
+    for sigma_mm in [0.0, 0.1] {
+        let noise = Noise {
+            sigma_z: sigma_mm * 1e-3,
+            dropout: 0.0,
+        };
+        let raw = regenerate(&caps, &s, &fan, &solids, noise, 4);
+        let sensor = with_sigma(&sensor, sigma_mm);
+        let mut doc: serde_json::Value =
+            serde_json::from_str(&lasercal::io::captures::to_json(&raw, &sensor)).unwrap();
+        for (p, rec) in raw
+            .profiles
+            .iter()
+            .zip(doc["profiles"].as_array_mut().unwrap())
+        {
+            let ProfileData::Raw(prof) = &p.data else {
+                unreachable!()
+            };
+            let rays: Vec<Option<(f64, f64)>> =
+                prof.points.iter().map(|q| q.map(|q| (q.x, q.z))).collect();
+            rec["points_mm"] = resample(&rays, pitch, offset)
+                .into_iter()
+                .map(|(_, x, z)| serde_json::json!([x * 1e3, z * 1e3]))
+                .collect();
+            rec.as_object_mut().unwrap().remove("intensity");
+        }
+        let (c, read) =
+            lasercal::io::captures::from_json(&doc.to_string(), "resampled.json").unwrap();
+        let grid = read.resampling().expect("the grid is measured");
+        assert!(
+            (grid.pitch - pitch).abs() < 1e-12 && (grid.offset - offset).abs() < 1e-12,
+            "{grid:?}"
+        );
+        assert!(read.name.contains("resampled"), "{}", read.name);
+        let (rot, tr, missed) = errors(&c, &s, &read).unwrap();
+        let (rot_rays, tr_rays, _) = errors(&raw, &s, &sensor).unwrap();
+        eprintln!(
+            "disk, sigma {sigma_mm} mm, resampled to 0.1 mm: {rot:.4} deg / {tr:.4} mm, {missed} \
+             missed (the rays themselves: {rot_rays:.4} deg / {tr_rays:.4} mm)"
+        );
+        assert_eq!(missed, 0);
+        assert!(
+            rot < 0.05 + 1.5 * sigma_mm && tr < 0.05 + 1.2 * sigma_mm,
+            "{rot} deg, {tr} mm"
+        );
     }
 }
 

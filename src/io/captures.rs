@@ -216,7 +216,7 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
         .method
         .parse()
         .map_err(|e: crate::method::UnknownMethod| err(file, "method", e))?;
-    let sensor = sensor_of(&f, file)?;
+    let sensor = with_measured_grid(sensor_of(&f, file)?, &f);
     let radius = radius_of(&f, kind, file)?;
     let truth = f.truth_flange_to_sensor_mm.map(|m| {
         let r = Matrix3::from_fn(|i, j| m[i][j]);
@@ -284,6 +284,97 @@ fn sensor_of(f: &FileV1, file: &str) -> Result<SensorModel, FormatError> {
         sensor.z_quantum = (n.z_quantum_mm > 0.0).then_some(n.z_quantum_mm * 1e-3);
     }
     Ok(sensor)
+}
+
+/// Profiles whose points lie on none of the declared sensor's rays but on one uniform x grid (a
+/// profiler's resampled output) are read on that grid: its pitch and offset are measured from the
+/// points, and the sensor becomes the declared one resampled onto it (its name says so). Otherwise
+/// the sensor is returned unchanged, and points off its rays are errors later.
+fn with_measured_grid(sensor: SensorModel, f: &FileV1) -> SensorModel {
+    if sensor.resampling().is_some() {
+        return sensor;
+    }
+    // Raw profiles that are not one entry per column and give no columns: those placed by ray.
+    let placed: Vec<&Vec<Option<[f64; 2]>>> = f
+        .profiles
+        .iter()
+        .filter(|p| p.columns.is_none())
+        .filter_map(|p| p.points_mm.as_ref())
+        .filter(|pts| pts.len() != sensor.columns)
+        .collect();
+    let on_rays = |q: &[f64; 2]| {
+        sensor
+            .column_of(q[0] * 1e-3, q[1] * 1e-3)
+            .is_some_and(|k| (k - k.round()).abs() <= 0.25)
+    };
+    if placed.iter().all(|pts| pts.iter().flatten().all(on_rays)) {
+        return sensor;
+    }
+    let Some(grid) = measured_grid(&placed) else {
+        return sensor;
+    };
+    let mut g = sensor.geometry();
+    g.name = format!(
+        "{} resampled to x = {:.6} + m {:.6} mm (measured from the profiles)",
+        g.name,
+        grid.offset * 1e3,
+        grid.pitch * 1e3
+    );
+    g.resample = Some(grid);
+    match SensorModel::from_geometry(g) {
+        Ok(mut m) => {
+            m.noise = sensor.noise;
+            m.z_quantum = sensor.z_quantum;
+            m
+        }
+        Err(_) => sensor,
+    }
+}
+
+/// The uniform x grid (metres) every point of these profiles lies on, to a tenth of its pitch: the
+/// pitch from the smallest steps between neighbouring points, the offset from the points' phases.
+/// None when there is no such grid.
+fn measured_grid(profiles: &[&Vec<Option<[f64; 2]>>]) -> Option<crate::sensor::Resample> {
+    let mut steps: Vec<f64> = profiles
+        .iter()
+        .flat_map(|pts| {
+            let xs: Vec<f64> = pts.iter().flatten().map(|q| q[0]).collect();
+            xs.windows(2)
+                .map(|w| (w[1] - w[0]).abs())
+                .filter(|d| *d > 0.0)
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    steps.sort_by(f64::total_cmp);
+    let smallest = *steps.first()?;
+    // Neighbouring slots are the common case: the steps within 1.5x the smallest are one pitch.
+    let ones: Vec<f64> = steps
+        .into_iter()
+        .take_while(|d| *d < 1.5 * smallest)
+        .collect();
+    let pitch = ones[ones.len() / 2];
+    // The offset: the mean phase of the points on a circle of one pitch (no wrap-around trouble).
+    let (mut c, mut s) = (0.0, 0.0);
+    let mut xs = profiles
+        .iter()
+        .flat_map(|pts| pts.iter().flatten().map(|q| q[0]));
+    for x in xs.by_ref() {
+        let a = std::f64::consts::TAU * x / pitch;
+        c += a.cos();
+        s += a.sin();
+    }
+    let offset = s.atan2(c) / std::f64::consts::TAU * pitch;
+    let on_grid = profiles
+        .iter()
+        .flat_map(|pts| pts.iter().flatten())
+        .all(|q| {
+            let m = (q[0] - offset) / pitch;
+            (m - m.round()).abs() <= 0.1
+        });
+    on_grid.then_some(crate::sensor::Resample {
+        pitch: pitch * 1e-3,
+        offset: offset * 1e-3,
+    })
 }
 
 /// The specimen's radius (metres), required by the methods that need it.
@@ -488,7 +579,7 @@ fn columns_on_rays(
                     format!(
                         "({}, {}) mm lies on none of the {}'s {} rays ({} entries given): give each \
                          point's column in `columns`, or declare the sensor's geometry \
-                         (docs/sensors.md)",
+                         (docs/sensors.md); the points lie on no uniform x grid either",
                         q[0],
                         q[1],
                         sensor.name,

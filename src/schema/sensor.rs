@@ -2,7 +2,7 @@
 //! `sensor` object of a capture file (docs/sensors.md). Lengths in mm, angles in degrees, in the
 //! sensor's own frame.
 
-use crate::sensor::{RaySpacing, SensorGeometry};
+use crate::sensor::{RaySpacing, Resample, SensorGeometry};
 use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 
@@ -46,6 +46,16 @@ pub struct GeometrySection {
     pub z_quantum_mm: f64,
     /// The camera's centre in the sensor frame (points it cannot see are missing from profiles).
     pub camera_mm: [f64; 3],
+    /// Resampled output: one point per x step of this pitch (x = x_offset_mm + m x_pitch_mm)
+    /// instead of one per ray; absent: one point per ray.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x_pitch_mm: Option<f64>,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub x_offset_mm: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 fn d_name() -> String {
@@ -123,6 +133,22 @@ impl GeometrySection {
                 "must be finite",
             ));
         }
+        if let Some(p) = self.x_pitch_mm
+            && !(p > 0.0 && p.is_finite())
+        {
+            return Err((
+                "x_pitch_mm",
+                p.to_string(),
+                "a resampling pitch must be a finite number > 0 (leave it out for one point per ray)",
+            ));
+        }
+        if !self.x_offset_mm.is_finite() {
+            return Err((
+                "x_offset_mm",
+                self.x_offset_mm.to_string(),
+                "must be finite",
+            ));
+        }
         Ok(SensorGeometry {
             name: self.name.clone(),
             frame: format!(
@@ -140,6 +166,10 @@ impl GeometrySection {
             x_reversed: self.x_reversed,
             z_quantum: (self.z_quantum_mm > 0.0).then_some(self.z_quantum_mm * 1e-3),
             camera: Point3::from(nalgebra::Vector3::from(self.camera_mm) * 1e-3),
+            resample: self.x_pitch_mm.map(|p| Resample {
+                pitch: p * 1e-3,
+                offset: self.x_offset_mm * 1e-3,
+            }),
         })
     }
 
@@ -162,6 +192,8 @@ impl GeometrySection {
             x_reversed: g.x_reversed,
             z_quantum_mm: g.z_quantum.unwrap_or(0.0) * 1e3,
             camera_mm: [g.camera.x * 1e3, g.camera.y * 1e3, g.camera.z * 1e3],
+            x_pitch_mm: g.resample.map(|r| r.pitch * 1e3),
+            x_offset_mm: g.resample.map_or(0.0, |r| r.offset * 1e3),
         }
     }
 }

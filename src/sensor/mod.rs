@@ -55,6 +55,7 @@ fn gocator_geometry(
         x_reversed: false,
         z_quantum: Some(0.013e-3),
         camera: Point3::new(0.0, 0.120, apex_z),
+        resample: None,
     }
 }
 
@@ -80,6 +81,7 @@ fn vlm350_geometry() -> SensorGeometry {
         x_reversed: false,
         z_quantum: Some(0.1e-3),
         camera: Point3::new(0.0, 0.060, apex_z),
+        resample: None,
     }
 }
 
@@ -139,6 +141,18 @@ pub struct SensorGeometry {
     pub z_quantum: Option<f64>,
     /// Camera centre in the sensor frame (points it cannot see are dropped).
     pub camera: Point3<f64>,
+    /// Resampled output: one point per x slot of a uniform grid instead of one per ray.
+    pub resample: Option<Resample>,
+}
+
+/// A profiler's resampled output (e.g. the Gocator's "uniform spacing"): z is reported at the x
+/// values `offset + m pitch` (integer m) across the far field of view, each interpolated between
+/// the two neighbouring rays that both found the surface. A slot's column is its index from the
+/// grid's low-x end (high-x with `x_reversed`); a slot's "ray" is the line x = its value.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Resample {
+    pub pitch: f64,
+    pub offset: f64,
 }
 
 /// Sizes a sensor record may have (columns) before it is refused: larger would be a typo, and the
@@ -146,8 +160,9 @@ pub struct SensorGeometry {
 pub const MAX_COLUMNS: usize = 65_536;
 
 /// A line-laser profiler. The laser fan lies in the sensor x-z plane and leaves a (virtual) apex on
-/// the z axis at `apex_z`, travelling toward `dir_z` (+1 or -1). Column k's ray has slope
-/// `x / depth = column_tan(k)` (the spacing law of its geometry); depth is measured from the apex
+/// the z axis at `apex_z`, travelling toward `dir_z` (+1 or -1). Ray k has slope `x / depth` by the
+/// spacing law of its geometry; a profile has one column per ray, or per slot of its resampling
+/// grid (`column_line` is where a column measures); depth is measured from the apex
 /// along the fan axis.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SensorModel {
@@ -167,8 +182,10 @@ pub struct SensorModel {
     /// Camera centre in the sensor frame (points it cannot see are dropped).
     pub camera: Point3<f64>,
     pub noise: NoiseModel,
-    /// Slope x/depth of each column's ray.
+    /// Slope x/depth of each ray.
     tans: Vec<f64>,
+    /// Resampled output: the grid and its lowest slot's m (`columns` slots from there).
+    resample: Option<(Resample, i64)>,
 }
 
 impl SensorModel {
@@ -243,6 +260,22 @@ impl SensorModel {
         {
             return Err(bad("z_quantum", q, "a z quantum must be > 0"));
         }
+        if let Some(r) = g.resample {
+            if !(r.pitch > 0.0 && r.pitch.is_finite()) {
+                return Err(bad("x_pitch", r.pitch, "a resampling pitch must be > 0"));
+            }
+            if !r.offset.is_finite() {
+                return Err(bad("x_offset", r.offset, "must be finite"));
+            }
+            let slots = 2.0 * g.tan_half_fov * g.depth_far / r.pitch;
+            if !(slots >= 1.0 && slots < MAX_COLUMNS as f64) {
+                return Err(bad(
+                    "x_pitch",
+                    r.pitch,
+                    "the pitch must give 2 to 65536 points across the far field of view",
+                ));
+            }
+        }
         Ok(Self::build(g))
     }
 
@@ -251,6 +284,12 @@ impl SensorModel {
         let t = g.tan_half_fov;
         let half_angle = t.atan();
         let n = (g.columns - 1).max(1) as f64;
+        let resample = g.resample.map(|r| {
+            let w = g.tan_half_fov * g.depth_far;
+            let lo = ((-w - r.offset) / r.pitch).ceil() as i64;
+            let hi = ((w - r.offset) / r.pitch).floor() as i64;
+            (r, lo, (hi - lo + 1).max(1) as usize)
+        });
         let tans = (0..g.columns)
             .map(|k| {
                 let kk = if g.x_reversed { g.columns - 1 - k } else { k };
@@ -270,13 +309,14 @@ impl SensorModel {
             depth_near: g.depth_near,
             depth_far: g.depth_far,
             tan_half_fov: t,
-            columns: g.columns,
+            columns: resample.map_or(g.columns, |r| r.2),
             spacing: g.spacing,
             x_reversed: g.x_reversed,
             z_quantum: g.z_quantum,
             camera: g.camera,
             noise: NoiseModel::default(),
             tans,
+            resample: resample.map(|r| (r.0, r.1)),
         }
     }
 
@@ -290,11 +330,12 @@ impl SensorModel {
             depth_near: self.depth_near,
             depth_far: self.depth_far,
             tan_half_fov: self.tan_half_fov,
-            columns: self.columns,
+            columns: self.tans.len(),
             spacing: self.spacing,
             x_reversed: self.x_reversed,
             z_quantum: self.z_quantum,
             camera: self.camera,
+            resample: self.resample.map(|r| r.0),
         }
     }
 
@@ -330,20 +371,59 @@ impl SensorModel {
         Point3::new(0.0, 0.0, self.apex_z)
     }
 
-    /// Slope x/depth of column k.
+    /// The resampling grid, when the output is resampled.
+    pub fn resampling(&self) -> Option<Resample> {
+        self.resample.map(|r| r.0)
+    }
+
+    /// Slope x/depth of ray k (column k, unless the output is resampled).
     pub fn column_tan(&self, k: usize) -> f64 {
         self.tans[k]
     }
 
-    /// The (fractional) column whose ray passes through a profile point (x, z): the inverse of the
-    /// spacing law. None behind the apex.
+    /// The x of output slot `u` (fractional) of a resampled profile.
+    fn slot_x(&self, r: &(Resample, i64), u: f64) -> f64 {
+        let u = if self.x_reversed {
+            (self.columns - 1) as f64 - u
+        } else {
+            u
+        };
+        r.0.offset + (r.1 as f64 + u) * r.0.pitch
+    }
+
+    /// The line along which output column `u` (fractional: between two columns, interpolated in
+    /// the spacing of the two nearest; beyond the ends, extrapolated) measures, in the profile
+    /// plane: a point on it and its unit direction (x, z), pointing away from the sensor. A ray of
+    /// the fan, or the line x = slot for a resampled profile.
+    pub fn column_line(&self, u: f64) -> ([f64; 2], [f64; 2]) {
+        if let Some(r) = &self.resample {
+            return ([self.slot_x(r, u), self.apex_z], [0.0, self.dir_z]);
+        }
+        let n = self.tans.len();
+        let k = (u.floor().max(0.0) as usize).min(n - 2);
+        let (t0, t1) = (self.column_tan(k), self.column_tan(k + 1));
+        let t = t0 + (u - k as f64) * (t1 - t0);
+        let norm = (t * t + 1.0).sqrt();
+        ([0.0, self.apex_z], [t / norm, self.dir_z / norm])
+    }
+
+    /// The (fractional) output column that measures a profile point (x, z): the inverse of the
+    /// spacing law (or of the resampling grid). None behind the apex.
     pub fn column_of(&self, x: f64, z: f64) -> Option<f64> {
+        if let Some((r, lo)) = &self.resample {
+            let u = (x - r.offset) / r.pitch - *lo as f64;
+            return Some(if self.x_reversed {
+                (self.columns - 1) as f64 - u
+            } else {
+                u
+            });
+        }
         let depth = self.dir_z * (z - self.apex_z);
         if !(depth > 0.0) {
             return None;
         }
         let t = x / depth;
-        let n = (self.columns - 1) as f64;
+        let n = (self.tans.len() - 1) as f64;
         let u = match self.spacing {
             RaySpacing::EqualTan => (t + self.tan_half_fov) / (2.0 * self.tan_half_fov),
             RaySpacing::EqualAngle => {
@@ -355,7 +435,7 @@ impl SensorModel {
         Some(if self.x_reversed { n - k } else { k })
     }
 
-    /// Unit direction of column k's ray in the sensor frame.
+    /// Unit direction of ray k in the sensor frame.
     pub fn column_dir(&self, k: usize) -> Vector3<f64> {
         Vector3::new(self.column_tan(k), 0.0, self.dir_z).normalize()
     }
@@ -386,9 +466,26 @@ impl SensorModel {
         )
     }
 
+    /// How far beyond its last column a surface's end lies on average, in columns, at a depth: the
+    /// end is somewhere up to the next ray, so half a ray spacing; on a resampled profile the last
+    /// slot on the surface lies up to a pitch before the last ray on it (slots beyond are
+    /// interpolated across the end, or empty), so half a pitch plus half a ray spacing.
+    pub fn end_offset_columns(&self, depth: f64) -> f64 {
+        match &self.resample {
+            Some((r, _)) => {
+                let ray_step = 2.0 * self.tan_half_fov * depth / (self.tans.len() - 1) as f64;
+                0.5 + 0.5 * ray_step.abs() / r.pitch
+            }
+            None => 0.5,
+        }
+    }
+
     /// Spacing of the x samples at a depth (metres).
     pub fn x_step_at_depth(&self, depth: f64) -> f64 {
-        2.0 * self.tan_half_fov * depth / (self.columns - 1).max(1) as f64
+        match &self.resample {
+            Some((r, _)) => r.pitch,
+            None => 2.0 * self.tan_half_fov * depth / (self.tans.len() - 1).max(1) as f64,
+        }
     }
 
     /// Ray-cast one profile with the sensor at `base_to_sensor`. Geometry only (no noise) when `rng`
@@ -404,8 +501,8 @@ impl SensorModel {
         let max_toi = self.depth_far / self.dir_z.abs()
             * (1.0 + self.tan_half_fov * self.tan_half_fov).sqrt()
             + 1e-9;
-        let mut points = Vec::with_capacity(self.columns);
-        for k in 0..self.columns {
+        let mut points = Vec::with_capacity(self.tans.len());
+        for k in 0..self.tans.len() {
             let dir = base_to_sensor.rotation * self.column_dir(k);
             let p = scene.cast_ray(&apex, &dir, max_toi).and_then(|hit| {
                 let p_in_sensor = base_to_sensor.inverse_transform_point(&hit.p_in_base);
@@ -436,13 +533,58 @@ impl SensorModel {
                     self.noise.apply(self, p, intensity, specular, r)
                 }
             };
-            points.push(point.map(|mut q| {
-                if let Some(step) = self.z_quantum {
-                    q.z = (q.z / step).round() * step;
-                }
-                q
-            }));
+            points.push(point);
+        }
+        if let Some(r) = &self.resample {
+            points = self.resampled(r, &points);
+        }
+        if let Some(step) = self.z_quantum {
+            for q in points.iter_mut().flatten() {
+                q.z = (q.z / step).round() * step;
+            }
         }
         Profile { points }
+    }
+
+    /// The rays' points resampled onto the uniform x grid: each slot interpolated linearly between
+    /// the two neighbouring rays that both have a point and bracket it (nothing where either is
+    /// missing), as a resampling profiler does; a slot between the two sides of a step gets a point
+    /// on the line joining them.
+    fn resampled(
+        &self,
+        r: &(Resample, i64),
+        rays: &[Option<ProfilePoint>],
+    ) -> Vec<Option<ProfilePoint>> {
+        let mut out = vec![None; self.columns];
+        for pair in rays.windows(2) {
+            let (Some(a), Some(b)) = (pair[0], pair[1]) else {
+                continue;
+            };
+            let (lo, hi) = if a.x <= b.x { (a, b) } else { (b, a) };
+            let Some(u0) = self.column_of(lo.x, lo.z) else {
+                continue;
+            };
+            let Some(u1) = self.column_of(hi.x, hi.z) else {
+                continue;
+            };
+            let (ua, ub) = (u0.min(u1), u0.max(u1));
+            let first = ua.ceil().max(0.0) as usize;
+            let last = (ub.floor() as i64).min(self.columns as i64 - 1);
+            for k in first as i64..=last {
+                let k = k as usize;
+                let x = self.slot_x(r, k as f64);
+                let f = if hi.x > lo.x {
+                    (x - lo.x) / (hi.x - lo.x)
+                } else {
+                    0.0
+                };
+                out[k] = Some(ProfilePoint {
+                    x,
+                    z: lo.z + f * (hi.z - lo.z),
+                    intensity: lo.intensity + f * (hi.intensity - lo.intensity),
+                });
+            }
+        }
+        out
     }
 }
