@@ -562,14 +562,23 @@ fn exact_features(caps: &Captures, s: &Setup, sigma: f64, seed: u64) -> Captures
 /// sphere, or the bar's top face). Faces are fitted with a line and end halfway to the next column,
 /// as lasercal places them; the ball's arc is those points. What is left is the sampling and the
 /// noise, not the segmentation.
-fn oracle_features(noisy: &Captures, clean: &Captures, s: &Setup, sensor: &SensorModel) -> Captures {
+fn oracle_features(
+    noisy: &Captures,
+    clean: &Captures,
+    s: &Setup,
+    sensor: &SensorModel,
+) -> Captures {
     use lasercal::features::Line2;
     use nalgebra::Vector2;
     let plan = s.plan(noisy.method).unwrap();
     let disk = lasercal::sim::disk::DiskTarget::from_pose(&s.base_to_specimen, 0.050);
     let mut out = noisy.clone();
     out.profiles.retain_mut(|p| {
-        let q = clean.profiles.iter().find(|q| q.base_to_flange == p.base_to_flange).unwrap();
+        let q = clean
+            .profiles
+            .iter()
+            .find(|q| q.base_to_flange == p.base_to_flange)
+            .unwrap();
         let (ProfileData::Raw(n), ProfileData::Raw(c)) = (&p.data, &q.data) else {
             unreachable!()
         };
@@ -581,9 +590,7 @@ fn oracle_features(noisy: &Captures, clean: &Captures, s: &Setup, sensor: &Senso
                     disk.normal.dot(&(b - disk.centre)).abs() < 1e-9
                         && (b - disk.centre).norm() <= disk.radius + 1e-9
                 }
-                Kind::Ball => {
-                    ((b - plan.true_centre().unwrap()).norm() - 0.0695).abs() < 1e-9
-                }
+                Kind::Ball => ((b - plan.true_centre().unwrap()).norm() - 0.0695).abs() < 1e-9,
                 Kind::Edge => {
                     let e = &plan
                         .as_any()
@@ -635,7 +642,11 @@ fn oracle_features(noisy: &Captures, clean: &Captures, s: &Setup, sensor: &Senso
                         .target,
                 )
                 .unwrap();
-                ProfileData::EdgePoint(if (a - want).norm() < (b - want).norm() { a } else { b })
+                ProfileData::EdgePoint(if (a - want).norm() < (b - want).norm() {
+                    a
+                } else {
+                    b
+                })
             }
         };
         true
@@ -650,7 +661,13 @@ fn raw_profiles_lose_nothing_to_segmentation() {
     // extractor), and the ball's arcs under noise and dropout are the oracle's arcs (at dropout 0.2
     // the arcs used to break at dropped columns: 0.42 mm against the oracle's 0.15 mm).
     for (kind, case, sigma_mm, dropout, ratio) in [
-        (Kind::Disk, disk_case as fn() -> (Setup, Fan, Vec<Solid>), 0.0, 0.0, 1.0 + 1e-9),
+        (
+            Kind::Disk,
+            disk_case as fn() -> (Setup, Fan, Vec<Solid>),
+            0.0,
+            0.0,
+            1.0 + 1e-9,
+        ),
         (Kind::Ball, ball_case, 0.1, 0.2, 1.05),
     ] {
         let (s, fan, solids) = case();
@@ -994,5 +1011,134 @@ fn edge_over_sensor_geometry() {
                 q(1.0)
             );
         }
+    }
+}
+
+/// The ball over sensor geometries (README, issue 13): the arc circle's centre and radius against
+/// the exact section of the sphere by the laser plane, and the calibration.
+/// `cargo test --release --test independent ball_over_sensor_geometry -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn ball_over_sensor_geometry() {
+    let fan =
+        |apex_mm: f64, half_deg: f64, columns: usize, equal_angle: bool, reversed: bool| Fan {
+            apex_z: apex_mm * 1e-3,
+            dir_z: -1.0,
+            half_angle: half_deg.to_radians(),
+            columns,
+            equal_angle,
+            reversed,
+            z_range: (-0.105, 0.105),
+            camera: Point3::new(0.0, 0.120, apex_mm * 1e-3),
+        };
+    println!(
+        "| fan | sigma mm | dropout | arc centre median / p95 / worst mm | missed | calibration deg / mm |"
+    );
+    println!("|---|---|---|---|---|---|");
+    let (s, _, solids) = ball_case();
+    let caps = trial_captures(&s, Kind::Ball, 1, 0).0.unwrap();
+    let (centre, radius) = (s.plan(Kind::Ball).unwrap().true_centre().unwrap(), 0.0695);
+    for (name, f) in [
+        (
+            "apex 295 mm, +-14 deg, 1280 rays equal in angle",
+            fan(295.0, 14.0, 1280, true, false),
+        ),
+        (
+            "apex 250 mm, +-18 deg, 640 rays equal in angle, reversed",
+            fan(250.0, 18.0, 640, true, true),
+        ),
+        (
+            "apex 400 mm, +-10 deg, 2048 rays equal in tan",
+            fan(400.0, 10.0, 2048, false, false),
+        ),
+    ] {
+        for (sigma_mm, dropout) in [(0.0, 0.0), (0.1, 0.0), (0.0, 0.2), (0.1, 0.2)] {
+            let sensor = with_sigma(&declared(&f, "fan"), sigma_mm);
+            let cfg = lasercal::features::SplitMerge::for_sensor(&sensor);
+            let noise = Noise {
+                sigma_z: sigma_mm * 1e-3,
+                dropout,
+            };
+            let profiles = regenerate(&caps, &s, &f, &solids, noise, 17);
+            let (mut off, mut missed) = (Vec::new(), 0);
+            for p in &profiles.profiles {
+                let ProfileData::Raw(prof) = &p.data else {
+                    unreachable!()
+                };
+                // The section: the sphere's centre dropped onto the laser plane (sensor y = 0).
+                let c =
+                    (p.base_to_flange * s.rig.flange_to_sensor).inverse_transform_point(&centre);
+                if c.y.abs() >= radius {
+                    continue;
+                }
+                match lasercal::features::ball_arc(prof, radius, &cfg) {
+                    Ok(circle) => {
+                        off.push((circle.centre - nalgebra::Vector2::new(c.x, c.z)).norm())
+                    }
+                    Err(_) => missed += 1,
+                }
+            }
+            off.sort_by(f64::total_cmp);
+            let q = |x: f64| {
+                off.get(((off.len() as f64 - 1.0) * x) as usize)
+                    .map_or(f64::NAN, |e| e * 1e3)
+            };
+            let cal = match errors(&profiles, &s, &sensor) {
+                Ok((r, t, _)) => format!("{r:.3} / {t:.3}"),
+                Err(e) => format!("refused: {}", e.chars().take(60).collect::<String>()),
+            };
+            println!(
+                "| {name} | {sigma_mm} | {dropout} | {:.3} / {:.3} / {:.3} | {missed} | {cal} |",
+                q(0.5),
+                q(0.95),
+                q(1.0)
+            );
+        }
+    }
+}
+
+#[test]
+fn ball_refinement_converges_on_independent_profiles() {
+    // Issue 14 reports `ball-refined` stopping at its iteration limit on independent captures
+    // (6 / 9 / 18 of 30 at sigma 0.05 / 0.1 / 0.2 mm). On these profiles every refinement
+    // converges (as it did here with the former z residuals too: the discriminating case is the
+    // 1 deg / 2.3 mm start in tests/methods.rs) and ends ten times better than the closed form.
+    let (s, fan, solids) = ball_case();
+    for sigma_mm in [0.05, 0.1, 0.2] {
+        let sensor = with_sigma(&declared(&fan, "fan"), sigma_mm);
+        let (mut stalled, mut closed, mut refined) = (0, 0.0, 0.0);
+        let n = 30;
+        for t in 0..n {
+            let caps = trial_captures(&s, Kind::Ball, 1, t).0.unwrap();
+            let noise = Noise {
+                sigma_z: sigma_mm * 1e-3,
+                dropout: 0.0,
+            };
+            let raw = regenerate(&caps, &s, &fan, &solids, noise, 300 + t);
+            let cal = lasercal::method::calibrate(&raw, &sensor).unwrap();
+            let r = cal
+                .refinable
+                .clone()
+                .unwrap()
+                .refine(
+                    &cal.flange_to_sensor,
+                    &lasercal::calib::refine::Options::default(),
+                )
+                .unwrap();
+            if !matches!(r.status, lasercal::calib::Status::Converged { .. }) {
+                stalled += 1;
+            }
+            let err = |x| {
+                lasercal::calib::PoseError::between(x, &s.rig.flange_to_sensor).rotation_error_deg
+            };
+            closed += err(&cal.flange_to_sensor) / n as f64;
+            refined += err(&r.flange_to_sensor) / n as f64;
+        }
+        eprintln!(
+            "ball, sigma {sigma_mm} mm: {stalled} of {n} refinements stalled; mean rotation error \
+             {closed:.4} deg closed form -> {refined:.4} deg refined"
+        );
+        assert_eq!(stalled, 0, "sigma {sigma_mm} mm");
+        assert!(refined < 0.2 * closed, "{refined} vs {closed}");
     }
 }

@@ -1,11 +1,17 @@
 //! The ball's refinement model: arc points against the sphere.
 //!
-//! Specimen parameters: the centre c (3). Residual per arc point: its z minus the sphere's z at its
-//! x in the laser plane (the sensor's noise is in z), on the side of the sphere the point was on
-//! at the start.
+//! Specimen parameters: the centre c (3). Residual per arc point: its distance from the sphere
+//! along the sphere's normal (|p - s| - R with s the centre in the sensor frame), divided by the
+//! normal's |z| (floored) so that it is the z offset the sensor's noise makes. The former z
+//! residual (the point's z minus the sphere's z at its x) needed a branch label per point and was
+//! ill-conditioned near an arc's ends, where the sphere's z changes fast with x: refinements
+//! stalled at their iteration limit (issue 14). The normal residual needs no label.
 
 use super::{Model, Transform, skew};
 use nalgebra::{DMatrix, DVector, Isometry3, Point3, Vector2, Vector3};
+
+/// The least |n_z| a point's residual is divided by (about 73 deg from the sensor's z).
+const NZ_MIN: f64 = 0.3;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct BallModel {
@@ -39,35 +45,37 @@ impl Model for BallModel {
         1
     }
 
-    fn labels(&self, x: &Transform, c: &Vector3<f64>) -> Vec<f64> {
-        self.points
-            .iter()
-            .map(|(f, p)| {
-                let s = x.rot.inverse() * (f.rotation.inverse() * (c - f.translation.vector) - x.t);
-                if p.y >= s.z { 1.0 } else { -1.0 }
-            })
-            .collect()
-    }
-
     fn eval(
         &self,
         x: &Transform,
         c: &Vector3<f64>,
-        branch: &[f64],
+        _branch: &[f64],
         r: &mut DVector<f64>,
         mut j: Option<&mut DMatrix<f64>>,
     ) {
         let rmat = *x.rot.matrix();
-        let radius = self.radius;
         for (i, (f, p)) in self.points.iter().enumerate() {
             let fr = *f.rotation.to_rotation_matrix().matrix();
             let s = Self::centre_in_sensor(x, f, c);
-            let d = radius * radius - s.y * s.y - (p.x - s.x).powi(2);
-            let sd = d.max(1e-12).sqrt();
-            let b = branch.get(i).copied().unwrap_or(1.0);
-            r[i] = p.y - (s.z + b * sd);
+            let v = Vector3::new(p.x, 0.0, p.y) - s;
+            let dist = v.norm().max(1e-12);
+            let g = dist - self.radius;
+            // The noise is in z: a distance g along the normal is a z offset g / |n_z|, so divide
+            // by |n_z| (the z residual's weight, to first order) but no more than 1 / NZ_MIN, which
+            // keeps an arc's ends from dominating.
+            let nz = v.z.abs() / dist;
+            let w = nz.max(NZ_MIN);
+            r[i] = g / w;
             if let Some(j) = j.as_deref_mut() {
-                let dr_ds = Vector3::new(-b * (p.x - s.x) / sd, b * s.y / sd, -1.0);
+                // d g / d v = v / |v|; d w / d v = sign(v_z) (e_z / |v| - v_z v / |v|^3) above
+                // the floor; v = p - s, so d r / d s = -(d g / d v / w - g d w / d v / w^2).
+                let dg = v / dist;
+                let dw = if nz > NZ_MIN {
+                    (Vector3::z() / dist - v * (v.z / dist.powi(3))) * v.z.signum()
+                } else {
+                    Vector3::zeros()
+                };
+                let dr_ds = -(dg / w - dw * (g / (w * w)));
                 let dw = dr_ds.transpose() * skew(&s);
                 let dt = -(dr_ds.transpose() * rmat.transpose());
                 let dc = dr_ds.transpose() * rmat.transpose() * fr.transpose();
