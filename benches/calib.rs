@@ -77,5 +77,46 @@ fn bench(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench);
+/// Issue 14's timing case: the ball from 15 free poses of 1,500 arc points each (z noise 0.05 mm),
+/// global start + linear solve + joint refinement over all 22,500 points.
+fn any_pose(c: &mut Criterion) {
+    use lasercal::calib::ball_any::{ArcView, solve};
+    use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector2, Vector3};
+    let mut g = testkit::rng(14);
+    let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rand::RngExt::random::<f64>(&mut g);
+    let radius = 0.0254;
+    let x = Isometry3::from_parts(
+        Translation3::new(0.02, -0.05, 0.3),
+        UnitQuaternion::from_euler_angles(0.3, -0.2, 1.1),
+    );
+    let centre = Point3::new(0.6, 0.1, 0.1);
+    let views: Vec<ArcView> = (0..15)
+        .map(|_| {
+            let rot = UnitQuaternion::from_euler_angles(u(-0.6, 0.6), u(-0.6, 0.6), u(-3.1, 3.1));
+            let s = Vector3::new(u(-0.02, 0.02), u(-0.7, 0.7) * radius, u(-0.03, 0.03));
+            let sensor = Isometry3::from_parts(Translation3::from(centre.coords - rot * s), rot);
+            let r = (radius * radius - s.y * s.y).sqrt();
+            let points = (0..1500)
+                .map(|k| {
+                    let a = -1.0 + 2.0 * k as f64 / 1499.0;
+                    Vector2::new(
+                        s.x + r * a.sin(),
+                        s.z + r * a.cos() + u(-0.087e-3, 0.087e-3),
+                    )
+                })
+                .collect();
+            ArcView {
+                base_to_flange: sensor * x.inverse(),
+                circle_centre: Vector2::new(s.x, s.z),
+                circle_radius: r,
+                points,
+            }
+        })
+        .collect();
+    c.bench_function("any_pose/ball_15_poses_1500_points", |b| {
+        b.iter(|| black_box(solve(black_box(&views), radius)))
+    });
+}
+
+criterion_group!(benches, bench, any_pose);
 criterion_main!(benches);

@@ -119,6 +119,13 @@ pub enum CaptureError {
         per_feature: usize,
         groups: String,
     },
+    #[error("the {method} method has no any-pose estimator")]
+    NoAnyPose { method: Kind },
+    #[error(
+        "group {group}: the {method} closed form needs the side of the laser plane (sign +1 or -1); \
+         give it, or use {method}-any-pose, which infers it"
+    )]
+    MissingSign { group: usize, method: Kind },
     #[error(transparent)]
     Feature(#[from] FeatureError),
     #[error("group {group}: {source}")]

@@ -18,6 +18,18 @@ pub enum Kind {
 impl Kind {
     pub const ALL: [Kind; 3] = [Kind::Disk, Kind::Ball, Kind::Edge];
 
+    /// The estimators this specimen has (the any-pose estimator only where one is written).
+    pub fn estimators(self) -> &'static [Estimator] {
+        match self {
+            Kind::Ball => &[
+                Estimator::ClosedForm,
+                Estimator::Refined,
+                Estimator::AnyPose,
+            ],
+            Kind::Disk | Kind::Edge => &[Estimator::ClosedForm, Estimator::Refined],
+        }
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Kind::Disk => "disk",
@@ -53,15 +65,22 @@ pub enum Estimator {
     ClosedForm,
     /// Joint Levenberg-Marquardt refinement of the closed form over every raw feature.
     Refined,
+    /// From any poses that see the specimen: no groups, no protocol, no labels, no start.
+    AnyPose,
 }
 
 impl Estimator {
-    pub const ALL: [Estimator; 2] = [Estimator::ClosedForm, Estimator::Refined];
+    pub const ALL: [Estimator; 3] = [
+        Estimator::ClosedForm,
+        Estimator::Refined,
+        Estimator::AnyPose,
+    ];
 
     fn suffix(self) -> &'static str {
         match self {
             Estimator::ClosedForm => "",
             Estimator::Refined => "-refined",
+            Estimator::AnyPose => "-any-pose",
         }
     }
 }
@@ -82,7 +101,7 @@ impl MethodId {
     pub fn all() -> impl Iterator<Item = MethodId> {
         Kind::ALL
             .into_iter()
-            .flat_map(|k| Estimator::ALL.map(move |e| MethodId::new(k, e)))
+            .flat_map(|k| k.estimators().iter().map(move |&e| MethodId::new(k, e)))
     }
 }
 

@@ -60,7 +60,7 @@ fn error_of(x: &Isometry3<f64>, s: &Setup) -> (f64, f64) {
 fn every_estimator_recovers_the_truth_from_exact_data() {
     for &(kind, name) in CASES {
         let s = setup(kind, name, 0.0);
-        for estimator in Estimator::ALL {
+        for &estimator in kind.estimators() {
             let id = MethodId::new(kind, estimator);
             let out = run_trial(&s, id, 1, 0);
             let e = out.result.as_ref().unwrap().error();
@@ -199,14 +199,22 @@ fn capture_files_round_trip() {
         let (back, sensor) = lasercal::io::captures::from_json(&json, "c.json").unwrap();
         assert_eq!(back.method, kind);
         assert_eq!(back.profiles.len(), caps.profiles.len());
-        for estimator in Estimator::ALL {
+        for &estimator in kind.estimators() {
             let id = MethodId::new(kind, estimator);
             let (a, _) = estimate(id, &caps, &s.rig.sensor).unwrap();
             let (b, _) = estimate(id, &back, &sensor).unwrap();
             let e = lasercal::calib::PoseError::between(&a.flange_to_sensor, &b.flange_to_sensor);
-            // The file holds mm in shortest round-trip decimal: equal to rounding.
+            // The file holds mm in shortest round-trip decimal: equal to rounding. The any-pose
+            // estimator's refinement starts from its own linear solve, which rounding moves; the
+            // refinement stops when a step gains under 1e-12 of the cost, which locates the
+            // minimum to about 1e-10 m at this noise: equal to that.
+            let tol = if estimator == Estimator::AnyPose {
+                1e-6
+            } else {
+                1e-9
+            };
             assert!(
-                e.rotation_error_deg < 1e-9 && e.translation_error_mm < 1e-9,
+                e.rotation_error_deg < tol && e.translation_error_mm < tol,
                 "{id}: {e:?}"
             );
         }
@@ -217,7 +225,7 @@ fn capture_files_round_trip() {
 fn trials_are_deterministic() {
     for &(kind, name) in CASES {
         let s = setup(kind, name, 0.1);
-        for estimator in Estimator::ALL {
+        for &estimator in kind.estimators() {
             let id = MethodId::new(kind, estimator);
             let (a, b) = (run_trial(&s, id, 9, 4), run_trial(&s, id, 9, 4));
             assert_eq!(a, b, "{id}");

@@ -2,6 +2,7 @@
 //! status). Pure math: no I/O.
 
 pub mod ball;
+pub mod ball_any;
 pub mod disk;
 pub mod edge;
 pub mod ellipse;

@@ -261,12 +261,12 @@ pub fn disk_chord_step(
             return Err(FeatureError::ChordTruncated { column: k });
         }
         // Where the next column finds nothing, the chord may run on out of the measurement range.
-        if profile.points[k2].is_none() {
-            if let Some(p) = s.line.intersect(&column_line(sensor, k2 as f64)) {
-                let depth = sensor.dir_z * (p.y - sensor.apex_z);
-                if depth < sensor.depth_near || depth > sensor.depth_far {
-                    return Err(FeatureError::ChordTruncated { column: k });
-                }
+        if profile.points[k2].is_none()
+            && let Some(p) = s.line.intersect(&column_line(sensor, k2 as f64))
+        {
+            let depth = sensor.dir_z * (p.y - sensor.apex_z);
+            if depth < sensor.depth_near || depth > sensor.depth_far {
+                return Err(FeatureError::ChordTruncated { column: k });
             }
         }
         // Beyond a missing neighbour the face may go on under dropped points: given that the

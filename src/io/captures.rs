@@ -398,11 +398,25 @@ fn radius_of(f: &FileV1, kind: Kind, file: &str) -> Result<Option<f64>, FormatEr
 fn groups_of(f: &FileV1, kind: Kind, file: &str) -> Result<Vec<Group>, FormatError> {
     let mut groups: Vec<Group> = Vec::new();
     for (i, g) in f.groups.iter().enumerate() {
-        if method(kind).uses_group_signs() && g.sign != 1.0 && g.sign != -1.0 {
+        // 0 (or no sign) is "not recorded": the any-pose estimator infers it; the closed form
+        // then says it needs it.
+        let inferable = kind
+            .estimators()
+            .contains(&crate::method::Estimator::AnyPose);
+        let unrecorded_ok = inferable && g.sign == 0.0;
+        if method(kind).uses_group_signs() && g.sign != 1.0 && g.sign != -1.0 && !unrecorded_ok {
             return Err(err(
                 file,
                 &format!("groups[{i}].sign"),
-                format!("{}: the {kind} method needs s_i = 1 or -1", g.sign),
+                if inferable {
+                    format!(
+                        "{}: the {kind} method's s_i is 1 or -1 (leave it out when not recorded: \
+                         {kind}-any-pose infers it)",
+                        g.sign
+                    )
+                } else {
+                    format!("{}: the {kind} method needs s_i = 1 or -1", g.sign)
+                },
             ));
         }
         if groups.iter().any(|x| x.id == g.id) {

@@ -129,6 +129,14 @@ impl Method for Ball {
         calibrate(c, sensor)
     }
 
+    fn calibrate_any_pose(
+        &self,
+        c: &Captures,
+        sensor: &SensorModel,
+    ) -> Result<(super::Calibration, crate::calib::refine::Refined), Error> {
+        any_pose(c, sensor)
+    }
+
     fn needs_radius(&self) -> bool {
         true
     }
@@ -308,6 +316,13 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                 ),
                 _ => arc_points = None,
             }
+            if g.sign != 1.0 && g.sign != -1.0 {
+                return Err(CaptureError::MissingSign {
+                    group: g.id,
+                    method: Kind::Ball,
+                }
+                .into());
+            }
             centres.push((p, centre_from_arc(&circle, radius, g.sign)));
         }
         match g.role {
@@ -349,4 +364,57 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         missed: 0,
         groups: Vec::new(),
     })
+}
+
+/// The any-pose estimator (`calib::ball_any`): every profile's arc, whatever its group's role; the
+/// sides of the laser plane inferred. A profile without an arc is counted in its group's report
+/// and left out; the hand-given signs, where the file has them, are not used.
+fn any_pose(
+    c: &Captures,
+    sensor: &SensorModel,
+) -> Result<(super::Calibration, crate::calib::refine::Refined), Error> {
+    let cfg = SplitMerge::for_sensor(sensor);
+    let radius = c
+        .specimen_radius
+        .ok_or(CaptureError::MissingRadius { method: Kind::Ball })?;
+    let mut views = Vec::new();
+    let mut reports = Vec::new();
+    for g in &c.groups {
+        let mut report = super::GroupReport::new(g.id);
+        for p in c.group_profiles(g.id) {
+            let view = circle_of(g, p, radius, &cfg).and_then(|circle| {
+                let points = match &p.data {
+                    ProfileData::Arc(a) => a.clone(),
+                    ProfileData::Raw(prof) => features::arc_points(prof, &circle),
+                    _ => return Err(CaptureError::NoRawFeatures),
+                };
+                Ok(crate::calib::ball_any::ArcView {
+                    base_to_flange: p.base_to_flange,
+                    circle_centre: circle.centre,
+                    circle_radius: circle.radius,
+                    points,
+                })
+            });
+            if matches!(view, Err(CaptureError::NoRawFeatures)) {
+                return Err(CaptureError::NoRawFeatures.into());
+            }
+            report.count(&view);
+            if let Ok(v) = view {
+                views.push(v);
+            }
+        }
+        reports.push(report);
+    }
+    let sol = crate::calib::ball_any::solve(&views, radius)?;
+    let missed = reports.iter().map(|r| r.profiles - r.used).sum();
+    let cal = super::Calibration {
+        flange_to_sensor: sol.flange_to_sensor,
+        centre_in_base: Some(sol.centre_in_base.coords),
+        figures: Metrics::default(),
+        status: sol.refined.status,
+        missed,
+        groups: reports,
+        refinable: Some(std::sync::Arc::new(sol.problem)),
+    };
+    Ok((cal, sol.refined))
 }

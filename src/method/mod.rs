@@ -83,6 +83,19 @@ pub trait Method: Sync {
     /// Extract the features from the captures and solve in closed form (the paper's method).
     fn calibrate(&self, caps: &Captures, sensor: &SensorModel) -> Result<Calibration, Error>;
 
+    /// The any-pose estimator: every profile that sees the specimen, whatever its group, with the
+    /// labels inferred and no start given; the joint refinement's result included.
+    fn calibrate_any_pose(
+        &self,
+        _caps: &Captures,
+        _sensor: &SensorModel,
+    ) -> Result<(Calibration, Refined), Error> {
+        Err(CaptureError::NoAnyPose {
+            method: self.kind(),
+        }
+        .into())
+    }
+
     /// Whether a capture file must give the specimen's radius.
     fn needs_radius(&self) -> bool;
 
@@ -265,15 +278,19 @@ pub fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<Calibration, Erro
 }
 
 /// Run an estimator on captures: the closed form, then (for `Refined`) the joint refinement from
-/// it, whose estimate and specimen centre replace the closed form's.
+/// it, whose estimate and specimen centre replace the closed form's; or the any-pose estimator.
 pub fn estimate(
     id: MethodId,
     caps: &Captures,
     sensor: &SensorModel,
 ) -> Result<(Calibration, Option<Refined>), Error> {
+    if id.estimator == Estimator::AnyPose {
+        let (cal, r) = method(id.kind).calibrate_any_pose(caps, sensor)?;
+        return Ok((cal, Some(r)));
+    }
     let mut cal = calibrate(caps, sensor)?;
     match id.estimator {
-        Estimator::ClosedForm => Ok((cal, None)),
+        Estimator::ClosedForm | Estimator::AnyPose => Ok((cal, None)),
         Estimator::Refined => {
             let r = cal.refine(&Default::default())?;
             cal.flange_to_sensor = r.flange_to_sensor;

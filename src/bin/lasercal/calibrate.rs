@@ -10,8 +10,9 @@ use std::path::PathBuf;
 pub struct Args {
     /// Capture file (JSON, docs/captures.md), from a real rig or `lasercal simulate`
     file: PathBuf,
-    /// Method: the file's specimen method (disk, ball or edge), closed form by default, or its
-    /// refined variant (disk-refined, ball-refined, edge-refined)
+    /// Method: the file's specimen method (disk, ball or edge), closed form by default; its
+    /// refined variant (disk-refined, ball-refined, edge-refined); or ball-any-pose (any poses,
+    /// no groups or signs needed)
     #[arg(long)]
     method: Option<MethodId>,
     /// Write the result as JSON
@@ -27,11 +28,16 @@ pub fn run(a: Args) -> Result<()> {
         .method
         .unwrap_or(MethodId::new(caps.method, Estimator::ClosedForm));
     if method.kind != caps.method {
+        let known: Vec<String> = caps
+            .method
+            .estimators()
+            .iter()
+            .map(|&e| MethodId::new(caps.method, e).to_string())
+            .collect();
         bail!(
-            "--method {method}: {name} holds {} captures; use {} or {}-refined",
+            "--method {method}: {name} holds {} captures; use {}",
             caps.method,
-            caps.method,
-            caps.method
+            known.join(", ")
         );
     }
     let (cal, refined) = lasercal::method::estimate(method, &caps, &sensor)

@@ -1,0 +1,322 @@
+//! Issue 14, item 1 for the ball: `ball-any-pose` calibrates from any poses that see the ball, with
+//! no groups, no hand-given side of the laser plane and no start. Tested on profiles from the
+//! independent generator (`testkit::fan`) for random declared sensors, random mountings and random
+//! pose sets.
+
+mod common;
+
+use lasercal::calib::PoseError;
+use lasercal::captures::{CaptureProfile, Captures, Group, ProfileData, Role};
+use lasercal::method::{Estimator, Kind, MethodId};
+use lasercal::rng::{Rng, gauss};
+use lasercal::scene::SpecimenType;
+use lasercal::sensor::{Profile, ProfilePoint, RaySpacing, SensorGeometry, SensorModel};
+use lasercal::testkit::fan::{Fan, Noise, Solid, profile};
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use rand::RngExt;
+
+const ANY: MethodId = MethodId::new(Kind::Ball, Estimator::AnyPose);
+const RADIUS: f64 = 0.0254; // a 2-inch sphere, as in public data sets
+
+fn uniform(rng: &mut Rng, lo: f64, hi: f64) -> f64 {
+    lo + (hi - lo) * rng.random::<f64>()
+}
+
+/// A random fan (z toward the sensor, Gocator-like frame: range centred on z = 0).
+fn random_fan(rng: &mut Rng) -> Fan {
+    let apex = uniform(rng, 0.15, 0.45);
+    let half_range = uniform(rng, 0.04, 0.1);
+    Fan {
+        apex_z: apex,
+        dir_z: -1.0,
+        half_angle: uniform(rng, 8.0, 20.0).to_radians(),
+        columns: [640, 1000, 1280, 2048][rng.random_range(0..4)],
+        equal_angle: rng.random::<bool>(),
+        reversed: rng.random::<bool>(),
+        z_range: (-half_range, half_range),
+        camera: Point3::new(0.0, uniform(rng, 0.05, 0.15), apex),
+    }
+}
+
+fn declared(fan: &Fan) -> SensorModel {
+    let depth = |z: f64| fan.dir_z * (z - fan.apex_z);
+    let (a, b) = (depth(fan.z_range.0), depth(fan.z_range.1));
+    SensorModel::from_geometry(SensorGeometry {
+        name: "random fan".into(),
+        frame: "test".into(),
+        apex_z: fan.apex_z,
+        dir_z: fan.dir_z,
+        depth_near: a.min(b),
+        depth_far: a.max(b),
+        tan_half_fov: fan.half_angle.tan(),
+        columns: fan.columns,
+        spacing: if fan.equal_angle {
+            RaySpacing::EqualAngle
+        } else {
+            RaySpacing::EqualTan
+        },
+        x_reversed: fan.reversed,
+        z_quantum: None,
+        camera: fan.camera,
+        resample: None,
+    })
+    .unwrap()
+}
+
+fn random_rotation(rng: &mut Rng, scale: f64) -> UnitQuaternion<f64> {
+    UnitQuaternion::from_scaled_axis(Vector3::new(gauss(rng), gauss(rng), gauss(rng)) * scale)
+}
+
+/// A sensor pose that sees the ball: the fan axis tilted up to 50 deg from straight down, the
+/// ball's centre within the range and the middle half of the fan, the laser plane up to 0.7 R from
+/// the centre; `orientation`: reuse this rotation (for pure translations).
+fn sensor_pose(
+    rng: &mut Rng,
+    fan: &Fan,
+    centre: &Point3<f64>,
+    orientation: Option<UnitQuaternion<f64>>,
+) -> Isometry3<f64> {
+    let rot = orientation.unwrap_or_else(|| {
+        // Sensor z (toward the sensor) points up, tilted; a random turn about it.
+        let tilt = uniform(rng, 0.0, 50f64.to_radians());
+        let azimuth = uniform(rng, 0.0, std::f64::consts::TAU);
+        let up = Vector3::new(
+            tilt.sin() * azimuth.cos(),
+            tilt.sin() * azimuth.sin(),
+            tilt.cos(),
+        );
+        let turn = uniform(rng, 0.0, std::f64::consts::TAU);
+        UnitQuaternion::rotation_between(&Vector3::z(), &up).unwrap()
+            * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), turn)
+    });
+    // The ball centre in the sensor frame: z within the range (less the radius), x within the
+    // fan's middle, y within 0.7 R of the plane.
+    let z = uniform(rng, fan.z_range.0 + RADIUS, fan.z_range.1 - RADIUS);
+    let half_width = (fan.apex_z - z) * fan.half_angle.tan();
+    let s = Vector3::new(
+        uniform(rng, -0.4, 0.4) * half_width,
+        uniform(rng, -0.7, 0.7) * RADIUS,
+        z,
+    );
+    // centre = pose * s  =>  translation = centre - rot * s.
+    Isometry3::from_parts(Translation3::from(centre.coords - rot * s), rot)
+}
+
+struct Setup {
+    caps: Captures,
+    sensor: SensorModel,
+    truth: Isometry3<f64>,
+}
+
+/// A random rig and `n` poses (`translations` of them pure translations of the first), one group
+/// each, no signs recorded.
+fn random_setup(seed: u64, n: usize, translations: usize, sigma: f64) -> Setup {
+    let mut rng = lasercal::testkit::rng(seed);
+    let fan = random_fan(&mut rng);
+    let sensor = declared(&fan);
+    let truth = Isometry3::from_parts(
+        Translation3::new(
+            uniform(&mut rng, -0.1, 0.1),
+            uniform(&mut rng, -0.1, 0.1),
+            uniform(&mut rng, 0.05, 0.4),
+        ),
+        random_rotation(&mut rng, 2.0),
+    );
+    let centre = Point3::new(
+        uniform(&mut rng, 0.3, 0.8),
+        uniform(&mut rng, -0.4, 0.4),
+        uniform(&mut rng, 0.0, 0.3),
+    );
+    let solids = [Solid::Sphere {
+        centre,
+        radius: RADIUS,
+    }];
+    let mut groups = Vec::new();
+    let mut profiles = Vec::new();
+    let mut first = None;
+    for i in 0..n {
+        let orientation = (i > 0 && i <= translations).then(|| first.unwrap());
+        let base_to_sensor = sensor_pose(&mut rng, &fan, &centre, orientation);
+        first.get_or_insert(base_to_sensor.rotation);
+        let base_to_flange = base_to_sensor * truth.inverse();
+        let noise = Noise {
+            sigma_z: sigma,
+            dropout: 0.0,
+        };
+        let pts = profile(&fan, &solids, &base_to_sensor, noise, &mut rng);
+        groups.push(Group {
+            id: i,
+            role: Role::Translation,
+            sign: 0.0,
+        });
+        profiles.push(CaptureProfile {
+            group: i,
+            base_to_flange,
+            data: ProfileData::Raw(Profile {
+                points: pts
+                    .into_iter()
+                    .map(|q| {
+                        q.map(|(x, z)| ProfilePoint {
+                            x,
+                            z,
+                            intensity: 1.0,
+                        })
+                    })
+                    .collect(),
+            }),
+        });
+    }
+    Setup {
+        caps: Captures {
+            method: Kind::Ball,
+            sensor: sensor.name.clone(),
+            specimen_kind: SpecimenType::Ball,
+            specimen_radius: Some(RADIUS),
+            edge_sense: None,
+            truth: Some(truth),
+            groups,
+            profiles,
+        },
+        sensor,
+        truth,
+    }
+}
+
+#[test]
+fn exact_on_a_hundred_random_rigs_and_pose_sets() {
+    // 100 setups: random sensor, mounting, ball position and 6-50 poses (a few of them pure
+    // translations, as in public data sets); no signs, no start. Noise-free: the truth to 1e-9.
+    let mut worst = (0.0f64, 0.0f64);
+    for seed in 0..100u64 {
+        let n = 6 + (seed as usize * 7) % 45;
+        let s = random_setup(1000 + seed, n, (seed % 4) as usize, 0.0);
+        let (cal, r) = lasercal::method::estimate(ANY, &s.caps, &s.sensor)
+            .unwrap_or_else(|e| panic!("setup {seed} ({n} poses): {e}"));
+        let r = r.unwrap();
+        assert!(
+            matches!(r.status, lasercal::calib::Status::Converged { .. }),
+            "setup {seed}: {:?}",
+            r.status
+        );
+        let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
+        worst.0 = worst.0.max(e.rotation_error_deg);
+        worst.1 = worst.1.max(e.translation_error_mm);
+        assert!(
+            e.rotation_error_deg < 1e-9 && e.translation_error_mm < 1e-9,
+            "setup {seed} ({n} poses): {e:?}"
+        );
+        assert_eq!(cal.missed, 0, "setup {seed}");
+    }
+    eprintln!("worst of 100: {:.1e} deg, {:.1e} mm", worst.0, worst.1);
+}
+
+#[test]
+fn pure_translations_are_refused_with_the_missing_motion() {
+    // Every pose at one orientation: the translation cannot be told from the ball's position.
+    let s = random_setup(7, 12, 11, 0.0);
+    let e = lasercal::method::estimate(ANY, &s.caps, &s.sensor)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        e.contains("cannot determine") && e.contains("translation") && e.contains("orientations"),
+        "{e}"
+    );
+}
+
+#[test]
+fn noisy_free_poses_against_the_truth() {
+    // sigma 0.1 mm, 15 free poses (3 translations): median over 20 rigs, and every run converged.
+    let mut rot = Vec::new();
+    let mut tr = Vec::new();
+    for seed in 0..20u64 {
+        let s = random_setup(5000 + seed, 15, 3, 0.1e-3);
+        let mut sensor = s.sensor.clone();
+        sensor.noise.z_sigma_near = 0.1e-3;
+        sensor.noise.z_sigma_far = 0.1e-3;
+        let (cal, r) = lasercal::method::estimate(ANY, &s.caps, &sensor).unwrap();
+        assert!(matches!(
+            r.unwrap().status,
+            lasercal::calib::Status::Converged { .. }
+        ));
+        let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
+        rot.push(e.rotation_error_deg);
+        tr.push(e.translation_error_mm);
+    }
+    rot.sort_by(f64::total_cmp);
+    tr.sort_by(f64::total_cmp);
+    eprintln!(
+        "sigma 0.1 mm, 15 free poses: median {:.4} deg / {:.4} mm, worst {:.4} / {:.4}",
+        rot[10], tr[10], rot[19], tr[19]
+    );
+    assert!(rot[10] < 0.1 && tr[10] < 0.2, "{rot:?} {tr:?}");
+}
+
+#[test]
+fn the_papers_protocol_captures_calibrate_too() {
+    // The disk paper's ball protocol (ray-cast, z noise 0.02-0.06 mm): any-pose ignores the
+    // groups and signs and lands where the refined two-step method does (one minimum).
+    let text = std::fs::read_to_string(common::scen("comparison.toml")).unwrap();
+    let sf = lasercal::scenario::ScenarioFile::parse(&text, "comparison.toml").unwrap();
+    let setup = sf.scenario.build(&sf.file).unwrap();
+    for trial in 0..3 {
+        let caps = lasercal::trial::trial_captures(&setup, Kind::Ball, 1, trial)
+            .0
+            .unwrap();
+        let refined = MethodId::new(Kind::Ball, Estimator::Refined);
+        let (a, _) = lasercal::method::estimate(ANY, &caps, &setup.rig.sensor).unwrap();
+        let (b, _) = lasercal::method::estimate(refined, &caps, &setup.rig.sensor).unwrap();
+        let ea = PoseError::between(&a.flange_to_sensor, &setup.rig.flange_to_sensor);
+        let eb = PoseError::between(&b.flange_to_sensor, &setup.rig.flange_to_sensor);
+        eprintln!("trial {trial}: any-pose {ea:?}, refined {eb:?}");
+        let d = PoseError::between(&a.flange_to_sensor, &b.flange_to_sensor);
+        assert!(
+            d.rotation_error_deg < 1e-6 && d.translation_error_mm < 1e-6,
+            "trial {trial}: any-pose and refined differ by {d:?}"
+        );
+    }
+}
+
+#[test]
+fn calibrate_a_capture_file_without_signs() {
+    // `lasercal calibrate --method ball-any-pose` on a file whose groups carry no sign; the closed
+    // form on the same file says what it misses and names the fix.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("ball.json");
+    let (code, _, err) = common::lasercal(&[
+        "simulate",
+        &common::scen("comparison.toml"),
+        "--method",
+        "ball",
+        "--out",
+        file.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    for g in doc["groups"].as_array_mut().unwrap() {
+        g.as_object_mut().unwrap().remove("sign");
+    }
+    std::fs::write(&file, doc.to_string()).unwrap();
+    let json = dir.path().join("out.json");
+    let (code, out, err) = common::lasercal(&[
+        "calibrate",
+        file.to_str().unwrap(),
+        "--method",
+        "ball-any-pose",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("ball-any-pose"), "{out}");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert!(v["rotation_error_deg"].as_f64().unwrap() < 0.05, "{v}");
+    assert!(v["translation_error_mm"].as_f64().unwrap() < 0.1, "{v}");
+    let (code, _, err) = common::lasercal(&["calibrate", file.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("sign") && err.contains("ball-any-pose"),
+        "{err}"
+    );
+}
