@@ -116,6 +116,28 @@ fn any_pose(c: &mut Criterion) {
     c.bench_function("any_pose/ball_15_poses_1500_points", |b| {
         b.iter(|| black_box(solve(black_box(&views), radius)))
     });
+
+    // The plane from 48 free poses of the Gocator 2340 (1,280 columns) on the table: line
+    // extraction, the normal search, the linear start and the joint refinement.
+    let dir = env!("CARGO_MANIFEST_DIR");
+    let text = std::fs::read_to_string(format!("{dir}/scenarios/plane.toml"))
+        .unwrap()
+        .replace("poses = 24", "poses = 48");
+    let sf = ScenarioFile::parse(&text, "plane.toml").unwrap();
+    let setup = sf.scenario.build(&sf.file).unwrap();
+    let caps = lasercal::trial::trial_captures(&setup, lasercal::method::Kind::Plane, 1, 0)
+        .0
+        .unwrap();
+    let id: lasercal::method::MethodId = "plane-any-pose".parse().unwrap();
+    c.bench_function("any_pose/plane_48_poses_1280_columns", |b| {
+        b.iter(|| {
+            black_box(lasercal::method::estimate(
+                id,
+                black_box(&caps),
+                &setup.rig.sensor,
+            ))
+        })
+    });
 }
 
 criterion_group!(benches, bench, any_pose);

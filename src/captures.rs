@@ -39,14 +39,17 @@ pub enum Role {
     Rotation,
     Translation,
     RotationGroup,
+    /// One free pose (any-pose estimators, the plane).
+    Pose,
 }
 
 impl Role {
-    pub const ALL: [Role; 4] = [
+    pub const ALL: [Role; 5] = [
         Role::Scan,
         Role::Rotation,
         Role::Translation,
         Role::RotationGroup,
+        Role::Pose,
     ];
 
     pub fn name(&self) -> &'static str {
@@ -55,6 +58,7 @@ impl Role {
             Role::Rotation => "rotation",
             Role::Translation => "translation",
             Role::RotationGroup => "rotation-group",
+            Role::Pose => "pose",
         }
     }
 }

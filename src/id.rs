@@ -13,10 +13,12 @@ pub enum Kind {
     Ball,
     /// Straight edge (Xu et al.).
     Edge,
+    /// A flat plate or the table face, from any poses (beyond both papers).
+    Plane,
 }
 
 impl Kind {
-    pub const ALL: [Kind; 3] = [Kind::Disk, Kind::Ball, Kind::Edge];
+    pub const ALL: [Kind; 4] = [Kind::Disk, Kind::Ball, Kind::Edge, Kind::Plane];
 
     /// The estimators this specimen has (the any-pose estimator only where one is written).
     pub fn estimators(self) -> &'static [Estimator] {
@@ -27,6 +29,8 @@ impl Kind {
                 Estimator::AnyPose,
             ],
             Kind::Disk | Kind::Edge => &[Estimator::ClosedForm, Estimator::Refined],
+            // No paper closed form: the any-pose estimator is the plane's method.
+            Kind::Plane => &[Estimator::AnyPose],
         }
     }
 
@@ -35,6 +39,7 @@ impl Kind {
             Kind::Disk => "disk",
             Kind::Ball => "ball",
             Kind::Edge => "edge",
+            Kind::Plane => "plane",
         }
     }
 }

@@ -545,6 +545,8 @@ fn exact_features(caps: &Captures, s: &Setup, sigma: f64, seed: u64) -> Captures
                 lasercal::sim::edge::exact_point(&pose, &e.target)
                     .map(|q| ProfileData::EdgePoint(q + nalgebra::Vector2::new(0.0, dz())))
             }
+            // The plane's features are its profiles' lines: the raw profiles are the baseline.
+            Kind::Plane => None,
         };
         match data {
             Some(d) => {
@@ -599,6 +601,7 @@ fn oracle_features(
                         .target;
                     e.up.dot(&(b - e.point)).abs() < 1e-9 && e.outward.dot(&(b - e.point)) <= 1e-9
                 }
+                Kind::Plane => false,
             }
         };
         let cols: Vec<usize> = (0..c.points.len())

@@ -19,6 +19,7 @@ const CASES: &[(Kind, &str)] = &[
     (Kind::Disk, "chen2018-disk"),
     (Kind::Ball, "chen2018-ball"),
     (Kind::Edge, "xu2021-edge"),
+    (Kind::Plane, "plane"),
 ];
 
 /// The case's scenario with its method's feature noise set to `sigma_mm` and every method of the
@@ -35,8 +36,16 @@ fn setup(kind: Kind, name: &str, sigma_mm: f64) -> Setup {
         if line.starts_with('[') {
             section = line.trim_matches(|c| c == '[' || c == ']').to_string();
         }
+        // The plane's profiles are ray-cast: its noise is the sensor's (and no z quantum).
+        let sensor_noise = kind == Kind::Plane
+            && section == "sensor.noise"
+            && (line.starts_with("z_sigma_near_mm") || line.starts_with("z_sigma_far_mm"));
         if section == kind.name() && line.starts_with("sigma_mm") {
             out += &format!("sigma_mm = {sigma_mm}\n");
+        } else if sensor_noise {
+            out += &format!("{} = {sigma_mm}\n", line.split('=').next().unwrap().trim());
+        } else if kind == Kind::Plane && line.starts_with("quantise") {
+            out += "quantise = false\n";
         } else {
             out += line;
             out += "\n";

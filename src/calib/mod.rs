@@ -6,6 +6,7 @@ pub mod ball_any;
 pub mod disk;
 pub mod edge;
 pub mod ellipse;
+pub mod plane;
 pub mod refine;
 
 use nalgebra::{Isometry3, Matrix3, UnitQuaternion};

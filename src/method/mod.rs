@@ -8,6 +8,7 @@
 pub mod ball;
 pub mod disk;
 pub mod edge;
+pub mod plane;
 
 use crate::calib::Status;
 use crate::calib::refine::{Options, Refinable, Refined};
@@ -140,6 +141,7 @@ pub fn method(kind: Kind) -> &'static dyn Method {
         Kind::Disk => &disk::Disk,
         Kind::Ball => &ball::Ball,
         Kind::Edge => &edge::Edge,
+        Kind::Plane => &plane::PlaneMethod,
     }
 }
 

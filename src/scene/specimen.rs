@@ -52,9 +52,12 @@ pub enum SpecimenType {
     ParallelBar,
     Scale,
     KnifeBlade,
+    /// A flat face: in the simulator, the table's (the plane method's specimen).
+    Plane,
 }
 
 impl SpecimenType {
+    /// The specimens a scenario's `[specimen]` can place (the plane is the table's face).
     pub const ALL: [SpecimenType; 6] = [
         SpecimenType::DiskCylinder,
         SpecimenType::DiskPaper,
@@ -72,6 +75,7 @@ impl SpecimenType {
             SpecimenType::ParallelBar => "parallel-bar",
             SpecimenType::Scale => "scale",
             SpecimenType::KnifeBlade => "knife-blade",
+            SpecimenType::Plane => "plane",
         }
     }
 

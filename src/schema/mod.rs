@@ -11,6 +11,7 @@ mod checks;
 mod common;
 pub mod disk;
 pub mod edge;
+pub mod plane;
 mod sections;
 pub mod sensor;
 mod validator;
@@ -68,6 +69,8 @@ pub struct Scenario {
     pub ball: Option<ball::Section>,
     #[serde(default)]
     pub edge: Option<edge::Section>,
+    #[serde(default)]
+    pub plane: Option<plane::Section>,
     #[serde(default)]
     pub robot_error: Option<RobotErrorSection>,
     #[serde(default)]

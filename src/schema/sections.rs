@@ -181,6 +181,14 @@ impl SpecimenSection {
                 thickness: opt(self.thickness_mm, 0.6, "thickness_mm")?,
                 bevel: opt(self.bevel_mm, 1.0, "bevel_mm")?,
             },
+            SpecimenType::Plane => {
+                return Err(v.bad(
+                    &k("kind"),
+                    "\"plane\"",
+                    "the plane method's plane is the table's face: give [table] height_mm and \
+                     [plane], and place another specimen here (or none is needed)",
+                ));
+            }
         };
         if let Some(t) = self.radius_tolerance_mm {
             v.non_negative(&k("radius_tolerance_mm"), t)?;

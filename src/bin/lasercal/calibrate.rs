@@ -2,7 +2,7 @@ use super::common::{matrix_text, refinement};
 use anyhow::{Context, Result, bail};
 use lasercal::calib::PoseError;
 use lasercal::math::pose_to_rows_mm;
-use lasercal::method::{Estimator, MethodId};
+use lasercal::method::MethodId;
 use lasercal::metrics::Metric;
 use std::path::PathBuf;
 
@@ -12,7 +12,7 @@ pub struct Args {
     file: PathBuf,
     /// Method: the file's specimen method (disk, ball or edge), closed form by default; its
     /// refined variant (disk-refined, ball-refined, edge-refined); or ball-any-pose (any poses,
-    /// no groups or signs needed)
+    /// no groups or signs needed); plane-any-pose for plane files
     #[arg(long)]
     method: Option<MethodId>,
     /// Write the result as JSON
@@ -26,7 +26,7 @@ pub fn run(a: Args) -> Result<()> {
     let (caps, sensor) = lasercal::io::captures::from_json(&text, &name)?;
     let method = a
         .method
-        .unwrap_or(MethodId::new(caps.method, Estimator::ClosedForm));
+        .unwrap_or(MethodId::new(caps.method, caps.method.estimators()[0]));
     if method.kind != caps.method {
         let known: Vec<String> = caps
             .method

@@ -12,6 +12,7 @@
 pub mod ball;
 pub mod disk;
 pub mod edge;
+pub mod plane;
 
 use super::{CalibError, Status};
 use nalgebra::{

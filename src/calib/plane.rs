@@ -1,0 +1,263 @@
+//! The plane from any poses (beyond both papers: a flat plate or the table face, after Carlson et
+//! al. 2015 and Sharifzadeh et al. 2020). Each profile sees the plane as a line in the laser plane:
+//! a centroid c_i and a direction u_i (sensor x, z). With the plane {q : n.q = d} in the base frame,
+//! flange pose (R_i, t_i) and flange_to_sensor (R, t):
+//!
+//!   n . R_i R u_i = 0                                   (1)  the line lies in the plane
+//!   n . (R_i (R c_i + t) + t_i) = d                     (2)  and so does its centroid
+//!
+//! 1. For a given normal n, (1) is linear and homogeneous in R's first and third columns (u_i has
+//!    no y): the smallest eigenvector of a 6x6 matrix, projected onto SO(3). The normal is found by
+//!    a search over 2,000 directions of a hemisphere (n and -n are one plane), scored by (1).
+//! 2. (2) is then linear in (t, d). The sign of the eigenvector leaves R or R turned 180 deg about
+//!    y, which (1) cannot tell apart, and when every profile's centroid lies at one depth (2)
+//!    cannot either: the turned sensor looks at the plane from behind. The robot decides: the
+//!    sensor's apex must lie on the flange's side of the plane (an arm does not reach through it).
+//!    Otherwise the better fit of (2).
+//! 3. From the best three normals, the joint refinement over every point's distance from the plane
+//!    (`refine::plane`) on a subsample; the physical, lowest-cost one is refined over every point.
+//!
+//! A plane fixes, in each pose, only the sensor's offset along its normal and two tilts: the
+//! observability check of the refinement refuses pose sets that leave a direction free, and the
+//! error says which motion or second surface adds it.
+
+use super::CalibError;
+use super::refine::plane::{Plane, PlaneModel};
+use super::refine::{Options, Problem, Refined, refine};
+use crate::math::nearest_rotation;
+use nalgebra::{Isometry3, Matrix3, Matrix4, Matrix6, Rotation3, Translation3, UnitQuaternion};
+use nalgebra::{Vector2, Vector3, Vector4, Vector6};
+
+const METHOD: &str = "plane";
+
+/// The fewest profiles (poses) the plane is solved from.
+pub const MIN_VIEWS: usize = 7;
+
+/// One profile's view of the plane: the flange pose, the fitted line (a point on it and its unit
+/// direction, sensor x, z) and the points on it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LineView {
+    pub base_to_flange: Isometry3<f64>,
+    pub centroid: Vector2<f64>,
+    pub direction: Vector2<f64>,
+    pub points: Vec<Vector2<f64>>,
+}
+
+#[derive(Debug, Clone)]
+pub struct PlaneSolution {
+    pub flange_to_sensor: Isometry3<f64>,
+    pub plane: Plane,
+    pub refined: Refined,
+    pub problem: Problem<PlaneModel>,
+}
+
+/// `apex`: the sensor's laser apex in its own frame (which side of the plane the sensor is on).
+pub fn solve(views: &[LineView], apex: &Vector3<f64>) -> Result<PlaneSolution, CalibError> {
+    // Each profile gives two equations for nine unknowns, but from six poses the equations can
+    // have a second exact solution (two random setups of six: both had one, 175 deg away): seven.
+    if views.len() < MIN_VIEWS {
+        return Err(CalibError::TooFewData {
+            method: METHOD,
+            what: "profiles of the plane (each at its own orientation)",
+            got: views.len(),
+            need: MIN_VIEWS,
+        });
+    }
+    let mut starts: Vec<(f64, Vector3<f64>)> = hemisphere(2000)
+        .map(|n| (rotation_cost(views, &n).0, n))
+        .collect();
+    starts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // The starts are told apart on at most 64 points per profile (their spread along the line is
+    // what fixes the tilts); the winner is then refined over every point.
+    let model_of = |stride: &dyn Fn(&LineView) -> usize| PlaneModel {
+        points: views
+            .iter()
+            .flat_map(|v| {
+                v.points
+                    .iter()
+                    .step_by(stride(v))
+                    .map(move |p| (v.base_to_flange, *p))
+            })
+            .collect(),
+    };
+    let screen = model_of(&|v| v.points.len().div_ceil(64).max(1));
+    let mut best: Option<(Refined, Plane, bool)> = None;
+    let mut tried: Vec<Vector3<f64>> = Vec::new();
+    for (_, n) in &starts {
+        if tried.len() == 3 {
+            break;
+        }
+        if tried
+            .iter()
+            .any(|m| m.dot(n).abs() > 10f64.to_radians().cos())
+        {
+            continue;
+        }
+        tried.push(*n);
+        let (x, plane) = start_from(views, n, apex);
+        let (refined, plane) =
+            refine(&screen, &x, &plane, &Options::default()).map_err(with_plane_advice)?;
+        let physical = behind(views, &refined.flange_to_sensor, &plane, apex) == 0;
+        // A physical solution beats one that puts the sensor behind the plane; among equals,
+        // starts that reach one minimum end equal to rounding: keep the first (see ball_any).
+        let better = |b: &(Refined, Plane, bool)| {
+            (physical && !b.2) || (physical == b.2 && refined.cost < b.0.cost * (1.0 - 1e-9))
+        };
+        if best.as_ref().is_none_or(better) {
+            best = Some((refined, plane, physical));
+        }
+    }
+    let (screened, plane, _) = best.ok_or(CalibError::TooFewData {
+        method: METHOD,
+        what: "starts",
+        got: 0,
+        need: 1,
+    })?;
+    let model = model_of(&|_| 1);
+    let (refined, plane) = refine(
+        &model,
+        &screened.flange_to_sensor,
+        &plane,
+        &Options::default(),
+    )
+    .map_err(with_plane_advice)?;
+    Ok(PlaneSolution {
+        flange_to_sensor: refined.flange_to_sensor,
+        plane,
+        refined,
+        problem: Problem {
+            model,
+            specimen: plane,
+        },
+    })
+}
+
+/// What a plane cannot fix, and what adds it.
+fn with_plane_advice(e: CalibError) -> CalibError {
+    match e {
+        CalibError::Unobservable {
+            method,
+            ratio,
+            weakest,
+            ..
+        } => CalibError::Unobservable {
+            method,
+            ratio,
+            fix: format!(
+                "a plane fixes, per pose, only the sensor's offset along its normal and two tilts, \
+                 so the {weakest} is left free: tilt the sensor against the plane about two \
+                 different axes (10-30 deg each way) and turn it about the plane's normal between \
+                 poses, or add a second, non-parallel surface"
+            ),
+            weakest,
+        },
+        other => other,
+    }
+}
+
+/// Directions spread over the upper hemisphere (z >= 0), Fibonacci spiral.
+fn hemisphere(n: usize) -> impl Iterator<Item = Vector3<f64>> {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (0..n).map(move |i| {
+        let z = 1.0 - (i as f64 + 0.5) / n as f64;
+        let rho = (1.0 - z * z).sqrt();
+        let phi = golden * i as f64;
+        Vector3::new(rho * phi.cos(), rho * phi.sin(), z)
+    })
+}
+
+/// Step 1 for normal `n`: R from (1), and the sum of squared (1) residuals with it.
+fn rotation_cost(views: &[LineView], n: &Vector3<f64>) -> (f64, Rotation3<f64>) {
+    let mut g = Matrix6::zeros();
+    let rows: Vec<Vector6<f64>> = views
+        .iter()
+        .map(|v| {
+            let w = v.base_to_flange.rotation.inverse() * n;
+            let (ux, uz) = (v.direction.x, v.direction.y);
+            Vector6::new(w.x * ux, w.y * ux, w.z * ux, w.x * uz, w.y * uz, w.z * uz)
+        })
+        .collect();
+    for r in &rows {
+        g += r * r.transpose();
+    }
+    let eig = nalgebra::SymmetricEigen::new(g);
+    let k = eig.eigenvalues.imin();
+    let v = eig.eigenvectors.column(k);
+    let (r1, r3) = (
+        Vector3::new(v[0], v[1], v[2]),
+        Vector3::new(v[3], v[4], v[5]),
+    );
+    let r = nearest_rotation(&Matrix3::from_columns(&[r1, r3.cross(&r1), r3]));
+    let cost = views
+        .iter()
+        .map(|v| {
+            let u = Vector3::new(v.direction.x, 0.0, v.direction.y);
+            (n.dot(&(v.base_to_flange.rotation * (r * u)))).powi(2)
+        })
+        .sum();
+    (cost, r)
+}
+
+/// How many views put the sensor's apex on the other side of the plane from the flange.
+fn behind(views: &[LineView], x: &Isometry3<f64>, plane: &Plane, apex: &Vector3<f64>) -> usize {
+    let n = plane.normal();
+    views
+        .iter()
+        .filter(|v| {
+            let a = (v.base_to_flange * x).transform_point(&(*apex).into());
+            let side_apex = n.dot(&a.coords) - plane.offset;
+            let side_flange = n.dot(&v.base_to_flange.translation.vector) - plane.offset;
+            side_apex * side_flange < 0.0
+        })
+        .count()
+}
+
+/// Steps 1-2 for normal `n`: the transform and the plane to refine from.
+fn start_from(
+    views: &[LineView],
+    n: &Vector3<f64>,
+    apex: &Vector3<f64>,
+) -> (Isometry3<f64>, Plane) {
+    let (_, r) = rotation_cost(views, n);
+    let flipped = r * Rotation3::from_axis_angle(&Vector3::y_axis(), std::f64::consts::PI);
+    let candidate = |rot: Rotation3<f64>| {
+        let (t, d, cost) = position(views, n, &rot);
+        let x = Isometry3::from_parts(
+            Translation3::from(t),
+            UnitQuaternion::from_rotation_matrix(&rot),
+        );
+        let plane = Plane::new(n, d);
+        (behind(views, &x, &plane, apex), cost, x, plane)
+    };
+    let (a, b) = (candidate(r), candidate(flipped));
+    let pick = if (a.0, a.1) <= (b.0, b.1) { a } else { b };
+    (pick.2, pick.3)
+}
+
+/// (2) in least squares for (t, d) given n and R, with its sum of squared residuals.
+fn position(views: &[LineView], n: &Vector3<f64>, r: &Rotation3<f64>) -> (Vector3<f64>, f64, f64) {
+    let mut a = Matrix4::zeros();
+    let mut rhs = Vector4::zeros();
+    let rows: Vec<(Vector4<f64>, f64)> = views
+        .iter()
+        .map(|v| {
+            let w = v.base_to_flange.rotation.inverse() * n;
+            let c = Vector3::new(v.centroid.x, 0.0, v.centroid.y);
+            let b = -n.dot(&v.base_to_flange.translation.vector)
+                - n.dot(&(v.base_to_flange.rotation * (r * c)));
+            (Vector4::new(w.x, w.y, w.z, -1.0), b)
+        })
+        .collect();
+    for (row, b) in &rows {
+        a += row * row.transpose();
+        rhs += row * *b;
+    }
+    // Poses at one orientation leave (t, d) singular: the minimum-norm start, which the
+    // refinement's observability check then refuses.
+    let x = a
+        .pseudo_inverse(1e-12 * a.norm())
+        .map(|inv| inv * rhs)
+        .unwrap_or_else(|_| Vector4::zeros());
+    let cost = rows.iter().map(|(row, b)| (row.dot(&x) - b).powi(2)).sum();
+    (Vector3::new(x[0], x[1], x[2]), x[3], cost)
+}
