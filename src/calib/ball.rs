@@ -52,18 +52,18 @@ pub fn rotation_from_translations(set: &[BallCapture]) -> Result<Rotation3<f64>,
             need: 4,
         });
     }
-    let r0 = set[0].r_tcp;
-    if let Some(i) = set
-        .iter()
-        .position(|c| (c.r_tcp.matrix() - r0.matrix()).norm() > 1e-9)
-    {
-        return Err(CalibError::Degenerate {
+    let rotations: Vec<Rotation3<f64>> = set.iter().map(|c| c.r_tcp).collect();
+    let r0 =
+        super::shared_orientation(&rotations).map_err(|(i, angle)| CalibError::Degenerate {
             method: METHOD,
-            what: format!("rotation-set capture {i} has a different orientation from capture 0"),
+            what: format!(
+                "rotation-set capture {i} is {angle:.3} deg from the set's mean orientation \
+                 (tolerance {} deg)",
+                super::ORIENTATION_TOLERANCE_DEG
+            ),
             part: "rotation",
-            fix: "take the rotation set by translating the flange only",
-        });
-    }
+            fix: "take the rotation set by translating the flange only, or use ball-any-pose",
+        })?;
     let n = set.len() as f64;
     let qm = set.iter().map(|c| c.q_in_sensor).sum::<Vector3<f64>>() / n;
     let tm = set.iter().map(|c| c.t_tcp).sum::<Vector3<f64>>() / n;

@@ -105,18 +105,18 @@ pub fn rotation(groups: &[Vec<EdgeCapture>]) -> Result<Rotation3<f64>, CalibErro
                 need: 3,
             });
         }
-        let r0 = caps[0].r_tcp;
-        if caps
-            .iter()
-            .any(|c| (c.r_tcp.matrix() - r0.matrix()).norm() > 1e-9)
-        {
-            return Err(CalibError::Degenerate {
+        let rotations: Vec<Rotation3<f64>> = caps.iter().map(|c| c.r_tcp).collect();
+        let r0 =
+            super::shared_orientation(&rotations).map_err(|(i, angle)| CalibError::Degenerate {
                 method: METHOD,
-                what: format!("group {g} mixes flange rotations"),
+                what: format!(
+                    "group {g}: capture {i} is {angle:.3} deg from the group's mean orientation \
+                     (tolerance {} deg)",
+                    super::ORIENTATION_TOLERANCE_DEG
+                ),
                 part: "rotation",
                 fix: "keep the rotation fixed within a group",
-            });
-        }
+            })?;
         let rb = *r0.matrix();
         let us: Vec<Vector3<f64>> = caps[1..]
             .iter()

@@ -9,8 +9,37 @@ pub mod ellipse;
 pub mod plane;
 pub mod refine;
 
-use nalgebra::{Isometry3, Matrix3, UnitQuaternion};
+use nalgebra::{Isometry3, Matrix3, Rotation3, UnitQuaternion};
 use thiserror::Error;
+
+/// How far apart (deg) flange orientations a protocol wants equal may be: a real controller's
+/// reported W, P, R jitter by 0.003-0.055 deg between "pure translations" (public data sets).
+pub const ORIENTATION_TOLERANCE_DEG: f64 = 0.1;
+
+/// The orientation a protocol's "one orientation" captures share: their chordal mean, or, when
+/// one lies more than `ORIENTATION_TOLERANCE_DEG` from it, (its index, its angle in deg).
+pub fn shared_orientation(rotations: &[Rotation3<f64>]) -> Result<Rotation3<f64>, (usize, f64)> {
+    let first = rotations
+        .first()
+        .copied()
+        .unwrap_or_else(Rotation3::identity);
+    // Equal orientations (simulated protocols) keep the first exactly, not a rounded mean.
+    if rotations
+        .iter()
+        .all(|r| (r.matrix() - first.matrix()).norm() <= 1e-12)
+    {
+        return Ok(first);
+    }
+    let sum: Matrix3<f64> = rotations.iter().map(|r| *r.matrix()).sum();
+    let mean = crate::math::nearest_rotation(&sum);
+    for (i, r) in rotations.iter().enumerate() {
+        let angle = mean.angle_to(r).to_degrees();
+        if angle > ORIENTATION_TOLERANCE_DEG {
+            return Err((i, angle));
+        }
+    }
+    Ok(mean)
+}
 
 /// How a solver finished. A closed-form method is `ClosedForm`; an iterative one says whether it
 /// converged (not converging is a result to report, not an error).
