@@ -533,3 +533,92 @@ fn protocols_accept_a_controllers_orientation_jitter() {
         "{err}"
     );
 }
+
+fn plane_setup(text: &str) -> Result<lasercal::scenario::Setup, String> {
+    let sf =
+        lasercal::scenario::ScenarioFile::parse(text, "plane.toml").map_err(|e| e.to_string())?;
+    sf.scenario.build(&sf.file).map_err(|e| e.to_string())
+}
+
+#[test]
+fn pose_sets_listed_as_flange_poses_or_joints_give_the_generated_results() {
+    // The generated pose set of scenarios/plane.toml, written back as a list of flange poses and
+    // as joint angles: the same captures and the same calibration.
+    // Without the sweep (its grid sets the count).
+    let full = std::fs::read_to_string(common::scen("plane.toml")).unwrap();
+    let text = full[..full.find("[sweep]").unwrap()].to_string();
+    let generated = plane_setup(&text).unwrap();
+    let plan = generated.plan(Kind::Plane).unwrap();
+    let poses = plan
+        .as_any()
+        .downcast_ref::<lasercal::method::plane::PlanePlan>()
+        .unwrap()
+        .poses
+        .clone();
+    let tcp: Vec<String> = poses
+        .iter()
+        .map(|f| {
+            let (t, q) = (f.translation.vector * 1e3, f.rotation);
+            format!(
+                "[{}, {}, {}, {}, {}, {}, {}]",
+                t.x, t.y, t.z, q.w, q.i, q.j, q.k
+            )
+        })
+        .collect();
+    let joints: Vec<String> = poses
+        .iter()
+        .map(|f| {
+            let q = generated.rig.robot.ik(f, None).unwrap()[0];
+            format!("{:?}", q.map(f64::to_degrees))
+        })
+        .collect();
+    let as_list = |key: &str, items: &[String]| {
+        text.replace("count = 24", &format!("{key} = [{}]", items.join(", ")))
+    };
+    let cal = |s: &lasercal::scenario::Setup| {
+        let caps = lasercal::trial::trial_captures(s, Kind::Plane, 1, 0)
+            .0
+            .unwrap();
+        lasercal::method::estimate(PLANE, &caps, &s.rig.sensor)
+            .unwrap()
+            .0
+            .flange_to_sensor
+    };
+    let reference = cal(&generated);
+    for (key, items) in [("tcp_mm_wxyz", &tcp), ("joints_deg", &joints)] {
+        let s = plane_setup(&as_list(key, items)).unwrap_or_else(|e| panic!("{key}: {e}"));
+        let d = PoseError::between(&cal(&s), &reference);
+        assert!(
+            d.rotation_error_deg < 1e-6 && d.translation_error_mm < 1e-6,
+            "{key}: {d:?}"
+        );
+    }
+    // Two ways at once, a bad quaternion, the two-step method on free poses: errors that say so.
+    let both = text.replace(
+        "count = 24",
+        "count = 24\njoints_deg = [[0, 0, 0, 0, 0, 0]]",
+    );
+    let e = plane_setup(&both).unwrap_err();
+    assert!(
+        e.contains("plane.poses") && e.contains("exactly one of"),
+        "{e}"
+    );
+    let bad_q = as_list("tcp_mm_wxyz", &tcp).replacen(&tcp[3], "[400, 0, 300, 2, 0, 0, 0]", 1);
+    let e = plane_setup(&bad_q).unwrap_err();
+    assert!(
+        e.contains("plane.poses.tcp_mm_wxyz[3]") && e.contains("unit quaternion"),
+        "{e}"
+    );
+    let ball = std::fs::read_to_string(common::scen("ball-free.toml"))
+        .unwrap()
+        .replace(
+            "methods = [\"ball-any-pose\"]",
+            "methods = [\"ball\", \"ball-any-pose\"]",
+        );
+    let sf = lasercal::scenario::ScenarioFile::parse(&ball, "ball-free.toml");
+    let e = sf.map(|_| ()).unwrap_err().to_string();
+    assert!(
+        e.contains("methods") && e.contains("use ball-any-pose"),
+        "{e}"
+    );
+}

@@ -2,7 +2,7 @@
 //! orientation fixes R_sensor, a translation set fixes T_sensor. Its `[ball]` scenario section,
 //! plan, simulation, arc features and solve, with the arc-point refinement model.
 
-use super::{Kind, Method, Plan, Sim};
+use super::{Estimator, Kind, Method, Plan, Sim};
 use crate::calib::ball::{BallCapture, BallProblem, centre_from_arc};
 use crate::calib::refine::Problem;
 use crate::calib::refine::ball::BallModel;
@@ -39,15 +39,30 @@ impl Method for Ball {
                 "the ball method needs a ball (here or in [ball.specimen])",
             ));
         }
-        if b.rotation_tcp_mm.len() < 4 {
+        if let Some(ps) = &b.poses {
+            ps.source("ball.poses", 6, v)?;
+            if let Some(m) = sc
+                .methods
+                .iter()
+                .find(|m| m.kind == Kind::Ball && m.estimator != Estimator::AnyPose)
+            {
+                return Err(v.bad(
+                    "methods",
+                    format!("\"{m}\""),
+                    "the two-step method needs its protocol (ball.rotation_tcp_mm and the \
+                     translation set); with [ball.poses] use ball-any-pose",
+                ));
+            }
+        } else if b.rotation_tcp_mm.len() < 4 {
             return Err(v.bad(
                 "ball.rotation_tcp_mm",
                 format!("{} positions", b.rotation_tcp_mm.len()),
                 "R_sensor needs at least 4 captures at one orientation",
             ));
         }
-        if b.translation_tcp_mm.len() < 3
-            || b.translation_tcp_mm.len() != b.translation_rpy_rad.len()
+        if b.poses.is_none()
+            && (b.translation_tcp_mm.len() < 3
+                || b.translation_tcp_mm.len() != b.translation_rpy_rad.len())
         {
             return Err(v.bad(
                 "ball.translation_tcp_mm",
@@ -112,6 +127,20 @@ impl Method for Ball {
         };
         crate::sim::ball::check(&common.rig, &target, &plan)
             .map_err(|e| v.bad("ball.rotation_tcp_mm", "..", e.to_string()))?;
+        let free = match &b.poses {
+            Some(ps) => {
+                let source = ps.source("ball.poses", 6, v)?;
+                let aim = crate::sim::poses::Aim {
+                    point: target.centre,
+                    normal: Vector3::z(),
+                    off_plane: 0.7 * radius,
+                };
+                let mut g = crate::rng::stream(sc.seed, &[crate::rng::tag::PLAN, 2]);
+                crate::sim::poses::poses(&common.rig, &aim, &source, &mut g)
+                    .map_err(|e| v.bad("ball.poses", "..", e.to_string()))?
+            }
+            None => Vec::new(),
+        };
         let section = b.specimen.as_ref().unwrap_or(&sc.specimen);
         Ok(Box::new(BallPlanned {
             target,
@@ -122,6 +151,7 @@ impl Method for Ball {
             x_step: b.x_step_mm * 1e-3,
             radius_tolerance: section.radius_tolerance_mm.unwrap_or(0.0) * 1e-3,
             form: section.form(),
+            free,
         }))
     }
 
@@ -159,6 +189,8 @@ pub struct BallPlanned {
     /// Standard deviation of the true radius (metres).
     pub radius_tolerance: f64,
     pub form: FormTolerance,
+    /// Free poses (`[ball.poses]`) instead of the protocol: flange poses, one group each.
+    pub free: Vec<Isometry3<f64>>,
 }
 
 impl Plan for BallPlanned {
@@ -171,6 +203,9 @@ impl Plan for BallPlanned {
     }
 
     fn first_flange_pose(&self) -> Isometry3<f64> {
+        if let Some(f) = self.free.first() {
+            return *f;
+        }
         let p = &self.plan.rotation_set[0];
         flange_pose(&p.r_tcp, &p.t_tcp)
     }
@@ -193,24 +228,45 @@ impl Plan for BallPlanned {
         let noisy = !rig.sensor.noise.is_off();
         let Sim { rng, mover, .. } = sim;
         let mut actual = |f: &Isometry3<f64>| mover.actual(&rig.robot, f);
-        let poses = self
-            .plan
-            .rotation_set
+        // The paper's protocol (one rotation group, translation groups), or free poses (one
+        // group each, for ball-any-pose).
+        let free: Vec<(Role, Pose, usize)> = self
+            .free
             .iter()
-            .map(|p| (Role::Rotation, p, 1))
-            .chain(
-                self.plan
-                    .translation_set
-                    .iter()
-                    .map(|p| (Role::Translation, p, self.plan.arcs.max(1))),
-            );
-        let mut groups = vec![Group {
-            id: 0,
-            role: Role::Rotation,
-            sign: 0.0,
-        }];
+            .map(|f| {
+                let p = Pose {
+                    r_tcp: f.rotation.to_rotation_matrix(),
+                    t_tcp: f.translation.vector,
+                };
+                (Role::Pose, p, 1)
+            })
+            .collect();
+        let poses: Vec<(Role, Pose, usize)> = if free.is_empty() {
+            let rotation = self
+                .plan
+                .rotation_set
+                .iter()
+                .map(|p| (Role::Rotation, *p, 1));
+            let translation = self
+                .plan
+                .translation_set
+                .iter()
+                .map(|p| (Role::Translation, *p, self.plan.arcs.max(1)));
+            rotation.chain(translation).collect()
+        } else {
+            free
+        };
+        let mut groups = if self.free.is_empty() {
+            vec![Group {
+                id: 0,
+                role: Role::Rotation,
+                sign: 0.0,
+            }]
+        } else {
+            Vec::new()
+        };
         let mut profiles = Vec::new();
-        let mut gid = 0;
+        let mut next_id = groups.len();
         for (role, p, m) in poses {
             let f = flange_pose(&p.r_tcp, &p.t_tcp);
             let sign = crate::sim::ball::sign(&rig.base_to_sensor(&f), &target);
@@ -218,13 +274,13 @@ impl Plan for BallPlanned {
                 groups[0].sign = sign;
                 0
             } else {
-                gid += 1;
                 groups.push(Group {
-                    id: gid,
+                    id: next_id,
                     role,
                     sign,
                 });
-                gid
+                next_id += 1;
+                next_id - 1
             };
             for _ in 0..m {
                 let pose = rig.base_to_sensor(&actual(&f));

@@ -12,9 +12,9 @@ use crate::rng::{self, tag};
 use crate::scene::{Scene, SpecimenType};
 use crate::schema::{Common, Scenario, ScenarioError, Validator};
 use crate::sensor::SensorModel;
-use crate::sim::{Rig, check_reachable};
-use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector2, Vector3};
-use rand::RngExt;
+use crate::sim::Rig;
+use crate::sim::poses::Aim;
+use nalgebra::{Isometry3, Point3, Vector2, Vector3};
 
 /// The plane method.
 pub struct PlaneMethod;
@@ -29,27 +29,11 @@ impl Method for PlaneMethod {
 
     fn validate(&self, sc: &Scenario, v: &Validator) -> Result<(), ScenarioError> {
         let p = v.section(sc.plane.as_ref(), Kind::Plane)?;
-        v.at_least(
-            "plane.poses",
-            p.poses,
-            crate::calib::plane::MIN_VIEWS,
-            "at least 7 poses, each at its own orientation",
-        )?;
-        if p.poses > 10_000 {
-            return Err(v.bad("plane.poses", p.poses, "at most 10000 poses"));
-        }
-        let [lo, hi] = p.tilt_deg;
-        if !(lo >= 0.0 && hi >= lo && hi < 75.0) {
-            return Err(v.bad(
-                "plane.tilt_deg",
-                format!("{:?}", p.tilt_deg),
-                "give [min, max] with 0 <= min <= max < 75 (deg from the plane's normal)",
-            ));
-        }
+        p.poses
+            .source("plane.poses", crate::calib::plane::MIN_VIEWS, v)?;
         if p.aim_mm.iter().any(|x| !x.is_finite()) {
             return Err(v.bad("plane.aim_mm", format!("{:?}", p.aim_mm), "must be finite"));
         }
-        v.non_negative("plane.spread_mm", p.spread_mm)?;
         if sc.table.is_none() {
             return Err(v.bad(
                 "table",
@@ -70,39 +54,17 @@ impl Method for PlaneMethod {
         let table = common
             .table
             .ok_or_else(|| v.bad("table", "(missing)", "the plane method needs [table]"))?;
-        let rig = &common.rig;
+        let source = p
+            .poses
+            .source("plane.poses", crate::calib::plane::MIN_VIEWS, v)?;
+        let aim = Aim {
+            point: Point3::new(p.aim_mm[0] * 1e-3, p.aim_mm[1] * 1e-3, table.height_m),
+            normal: Vector3::z(),
+            off_plane: 0.0,
+        };
         let mut g = rng::stream(sc.seed, &[tag::PLAN, 4]);
-        let (lo, hi) = (p.tilt_deg[0].to_radians(), p.tilt_deg[1].to_radians());
-        let mut poses = Vec::with_capacity(p.poses);
-        for i in 0..p.poses {
-            // Draw until the robot reaches the pose (a pose set is only useful when it can be
-            // driven); a hundred misses in a row mean the aim or the tilts are out of reach.
-            let mut last = None;
-            let found = (0..100).find_map(|_| {
-                let f = draw_pose(&mut g, rig, table.height_m, p.aim_mm, p.spread_mm, lo, hi);
-                match check_reachable(&rig.robot, i, &f) {
-                    Ok(()) => Some(f),
-                    Err(e) => {
-                        last = Some(e);
-                        None
-                    }
-                }
-            });
-            match found {
-                Some(f) => poses.push(f),
-                None => {
-                    return Err(v.bad(
-                        "plane.aim_mm",
-                        format!("{:?}", p.aim_mm),
-                        format!(
-                            "pose {i}: 100 draws were out of the robot's reach (last: {}); aim \
-                             nearer the robot or narrow plane.tilt_deg",
-                            last.map_or_else(String::new, |e| e.to_string())
-                        ),
-                    ));
-                }
-            }
-        }
+        let poses = crate::sim::poses::poses(&common.rig, &aim, &source, &mut g)
+            .map_err(|e| v.bad("plane.poses", "..", e.to_string()))?;
         Ok(Box::new(PlanePlan {
             poses,
             scene: Scene::new(Some(table)),
@@ -129,52 +91,6 @@ impl Method for PlaneMethod {
     fn uses_group_signs(&self) -> bool {
         false
     }
-}
-
-/// A flange pose whose sensor looks at the table at `tilt` in [lo, hi] from its normal, the middle
-/// of its range on the table within `spread` of `aim`, turned at random about the normal and about
-/// the laser's axis.
-fn draw_pose(
-    g: &mut crate::rng::Rng,
-    rig: &Rig,
-    height: f64,
-    aim_mm: [f64; 2],
-    spread_mm: f64,
-    lo: f64,
-    hi: f64,
-) -> Isometry3<f64> {
-    let tilt = lo + (hi - lo) * g.random::<f64>();
-    let (azimuth, roll) = (
-        std::f64::consts::TAU * g.random::<f64>(),
-        std::f64::consts::TAU * g.random::<f64>(),
-    );
-    let (r, a) = (
-        spread_mm * 1e-3 * g.random::<f64>().sqrt(),
-        std::f64::consts::TAU * g.random::<f64>(),
-    );
-    let aim = Point3::new(
-        aim_mm[0] * 1e-3 + r * a.cos(),
-        aim_mm[1] * 1e-3 + r * a.sin(),
-        height,
-    );
-    // The laser travels along the sensor's z times dir_z; it should point down, tilted.
-    let ray = -Vector3::new(
-        tilt.sin() * azimuth.cos(),
-        tilt.sin() * azimuth.sin(),
-        tilt.cos(),
-    );
-    let z_axis = ray * rig.sensor.dir_z;
-    let rot = UnitQuaternion::rotation_between(&Vector3::z(), &z_axis).unwrap_or_else(|| {
-        UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
-    }) * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), roll);
-    // The aim lands up to 35 % of the range before or beyond its middle: profiles at one depth
-    // leave the sensor turned 180 deg about y nearly as good a fit (see calib::plane).
-    let s = &rig.sensor;
-    let depth = 0.5 * (s.depth_near + s.depth_far)
-        + 0.35 * (s.depth_far - s.depth_near) * (2.0 * g.random::<f64>() - 1.0);
-    let at = Vector3::new(0.0, 0.0, s.apex_z + s.dir_z * depth);
-    let base_to_sensor = Isometry3::from_parts(Translation3::from(aim.coords - rot * at), rot);
-    base_to_sensor * rig.flange_to_sensor.inverse()
 }
 
 /// The plane method's plan on one rig: its flange poses and the table.

@@ -20,12 +20,19 @@ pub struct Section {
     #[serde(default = "d_one")]
     pub arcs: usize,
     /// Flange positions of the rotation set (one shared orientation, at least 4).
+    #[serde(default)]
     pub rotation_tcp_mm: Vec<[f64; 3]>,
     /// That orientation, (rx, ry, rz) radians, R = Rz Ry Rx.
+    #[serde(default)]
     pub rotation_rpy_rad: [f64; 3],
     /// Flange positions and orientations of the translation set (at least 3).
+    #[serde(default)]
     pub translation_tcp_mm: Vec<[f64; 3]>,
+    #[serde(default)]
     pub translation_rpy_rad: Vec<[f64; 3]>,
+    /// Free poses instead of the protocol (`ball-any-pose` only): `[ball.poses]`.
+    #[serde(default)]
+    pub poses: Option<super::poses::PoseSet>,
     /// The ball, when the scenario's [specimen] is another specimen.
     #[serde(default)]
     pub specimen: Option<SpecimenSection>,

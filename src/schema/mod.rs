@@ -12,6 +12,7 @@ mod common;
 pub mod disk;
 pub mod edge;
 pub mod plane;
+pub mod poses;
 mod sections;
 pub mod sensor;
 mod validator;

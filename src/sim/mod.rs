@@ -5,6 +5,7 @@ pub mod disk;
 pub mod disturb;
 pub mod dynamics;
 pub mod edge;
+pub mod poses;
 
 use crate::robot::{Robot, RobotError};
 use crate::sensor::SensorModel;

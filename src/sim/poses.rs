@@ -1,0 +1,136 @@
+//! Free pose sets (issue 14): generated around a specimen, or listed, and checked against the
+//! robot. The any-pose estimators' data collection instead of a paper's protocol.
+
+use super::{PlanError, Rig, check_reachable};
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use rand::RngExt;
+
+/// Which way a pose set is given, checked.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PoseSource {
+    Generate {
+        count: usize,
+        tilt: (f64, f64),
+        spread: f64,
+    },
+    /// Flange poses: position (m) and unit quaternion (w, x, y, z).
+    Tcp(Vec<([f64; 3], [f64; 4])>),
+    /// Joint angles (rad).
+    Joints(Vec<[f64; 6]>),
+}
+
+/// Where generated poses look: a point of the specimen, its normal on the sensor's side, and how
+/// far from the laser plane the point may lie (0 for a plane; up to 0.7 R for a ball, so that
+/// the plane cuts an arc).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Aim {
+    pub point: Point3<f64>,
+    pub normal: Vector3<f64>,
+    pub off_plane: f64,
+}
+
+/// The flange poses of a pose set: generated (each drawn until the robot reaches it, at most a
+/// hundred times), or listed (flange poses the robot must reach; joint angles within limits).
+pub fn poses(
+    rig: &Rig,
+    aim: &Aim,
+    source: &PoseSource,
+    rng: &mut crate::rng::Rng,
+) -> Result<Vec<Isometry3<f64>>, PlanError> {
+    match source {
+        PoseSource::Generate {
+            count,
+            tilt,
+            spread,
+        } => (0..*count)
+            .map(|i| {
+                let mut last = None;
+                for _ in 0..100 {
+                    let f = draw(rig, aim, *tilt, *spread, rng);
+                    match check_reachable(&rig.robot, i, &f) {
+                        Ok(()) => return Ok(f),
+                        Err(e) => last = Some(e),
+                    }
+                }
+                Err(PlanError::BadScan {
+                    scan: i,
+                    reason: format!(
+                        "100 draws were out of the robot's reach (last: {}); aim nearer the \
+                         robot or narrow the tilts",
+                        last.map_or_else(String::new, |e| e.to_string())
+                    ),
+                })
+            })
+            .collect(),
+        PoseSource::Tcp(list) => list
+            .iter()
+            .enumerate()
+            .map(|(i, (p, q))| {
+                let f = Isometry3::from_parts(
+                    Translation3::new(p[0], p[1], p[2]),
+                    UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+                        q[0], q[1], q[2], q[3],
+                    )),
+                );
+                check_reachable(&rig.robot, i, &f).map(|()| f)
+            })
+            .collect(),
+        PoseSource::Joints(list) => list
+            .iter()
+            .enumerate()
+            .map(|(i, q)| {
+                if !rig.robot.within_limits(q, 1e-9) {
+                    return Err(PlanError::BadScan {
+                        scan: i,
+                        reason: format!(
+                            "joints {:?} deg lie outside the robot's limits",
+                            q.map(f64::to_degrees)
+                        ),
+                    });
+                }
+                Ok(rig.robot.fk(q))
+            })
+            .collect(),
+    }
+}
+
+/// One generated pose: the laser tilted from -normal by an angle in `tilt`, turned at random
+/// about the normal and about its own axis; the aim point at a random depth within the middle 70 %
+/// of the range, up to `spread` along the laser line and `off_plane` across it.
+fn draw(
+    rig: &Rig,
+    aim: &Aim,
+    tilt: (f64, f64),
+    spread: f64,
+    g: &mut crate::rng::Rng,
+) -> Isometry3<f64> {
+    let s = &rig.sensor;
+    let mut u = || g.random::<f64>();
+    let theta = tilt.0 + (tilt.1 - tilt.0) * u();
+    let (azimuth, roll) = (std::f64::consts::TAU * u(), std::f64::consts::TAU * u());
+    let to_normal =
+        UnitQuaternion::rotation_between(&Vector3::z(), &aim.normal).unwrap_or_else(|| {
+            UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
+        });
+    let ray = to_normal
+        * -Vector3::new(
+            theta.sin() * azimuth.cos(),
+            theta.sin() * azimuth.sin(),
+            theta.cos(),
+        );
+    // The laser travels along the sensor's z times dir_z.
+    let rot =
+        UnitQuaternion::rotation_between(&Vector3::z(), &(ray * s.dir_z)).unwrap_or_else(|| {
+            UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
+        }) * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), roll);
+    let depth = 0.5 * (s.depth_near + s.depth_far)
+        + 0.35 * (s.depth_far - s.depth_near) * (2.0 * u() - 1.0);
+    let target = Vector3::new(
+        spread * (2.0 * u() - 1.0),
+        aim.off_plane * (2.0 * u() - 1.0),
+        s.apex_z + s.dir_z * depth,
+    );
+    let base_to_sensor =
+        Isometry3::from_parts(Translation3::from(aim.point.coords - rot * target), rot);
+    base_to_sensor * rig.flange_to_sensor.inverse()
+}
