@@ -135,10 +135,19 @@ fn refinement_reaches_the_same_minimum_from_the_closed_form_as_from_the_truth() 
                 };
                 let from_cf = problem.refine(&cal.flange_to_sensor, &opts).unwrap();
                 let from_truth = problem.refine(&s.rig.flange_to_sensor, &opts).unwrap();
-                assert!(
-                    from_cf.cost < from_cf.initial_cost,
-                    "{kind} {trial}: the refinement did not lower the cost"
-                );
+                // A closed form is not the optimum; the plane's own estimate (any-pose) is
+                // already refined, so there the cost may only stay.
+                if kind.estimators().contains(&Estimator::ClosedForm) {
+                    assert!(
+                        from_cf.cost < from_cf.initial_cost,
+                        "{kind} {trial}: the refinement did not lower the cost"
+                    );
+                } else {
+                    assert!(
+                        from_cf.cost <= from_cf.initial_cost * (1.0 + 1e-12),
+                        "{kind} {trial}: the refinement raised the cost"
+                    );
+                }
                 let e = lasercal::calib::PoseError::between(
                     &from_cf.flange_to_sensor,
                     &from_truth.flange_to_sensor,
