@@ -126,6 +126,11 @@ pub enum CaptureError {
     #[error("the {method} method has no any-pose estimator")]
     NoAnyPose { method: Kind },
     #[error(
+        "{method}-full refines over every profile point: it needs raw profiles (points_mm), \
+         these captures hold features only"
+    )]
+    NoFullProfile { method: Kind },
+    #[error(
         "group {group}: the {method} closed form needs the side of the laser plane (sign +1 or -1); \
          give it, or use {method}-any-pose, which infers it"
     )]

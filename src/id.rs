@@ -28,7 +28,12 @@ impl Kind {
                 Estimator::Refined,
                 Estimator::AnyPose,
             ],
-            Kind::Disk | Kind::Edge => &[Estimator::ClosedForm, Estimator::Refined],
+            Kind::Disk => &[
+                Estimator::ClosedForm,
+                Estimator::Refined,
+                Estimator::FullProfile,
+            ],
+            Kind::Edge => &[Estimator::ClosedForm, Estimator::Refined],
             // No paper closed form: the any-pose estimator is the plane's method.
             Kind::Plane => &[Estimator::AnyPose],
         }
@@ -72,13 +77,17 @@ pub enum Estimator {
     Refined,
     /// From any poses that see the specimen: no groups, no protocol, no labels, no start.
     AnyPose,
+    /// The joint refinement over every profile point on the specimen's surfaces, not only the
+    /// features.
+    FullProfile,
 }
 
 impl Estimator {
-    pub const ALL: [Estimator; 3] = [
+    pub const ALL: [Estimator; 4] = [
         Estimator::ClosedForm,
         Estimator::Refined,
         Estimator::AnyPose,
+        Estimator::FullProfile,
     ];
 
     fn suffix(self) -> &'static str {
@@ -86,6 +95,7 @@ impl Estimator {
             Estimator::ClosedForm => "",
             Estimator::Refined => "-refined",
             Estimator::AnyPose => "-any-pose",
+            Estimator::FullProfile => "-full",
         }
     }
 }

@@ -213,6 +213,17 @@ pub fn disk_chord_step(
     disk_radius: f64,
     cfg: &SplitMerge,
 ) -> Result<Chord, FeatureError> {
+    disk_chord_and_face(profile, sensor, disk_radius, cfg).map(|(chord, _)| chord)
+}
+
+/// `disk_chord_step` with the points of the disk's face the chord was fitted to (what the
+/// full-profile refinement uses).
+pub fn disk_chord_and_face(
+    profile: &Profile,
+    sensor: &SensorModel,
+    disk_radius: f64,
+    cfg: &SplitMerge,
+) -> Result<(Chord, Vec<Vector2<f64>>), FeatureError> {
     let pts = valid_points(profile);
     if pts.len() < cfg.min_points {
         return Err(FeatureError::TooFewPoints {
@@ -280,7 +291,8 @@ pub fn disk_chord_step(
         };
         end_beyond(sensor, &s.line, k, k2, extra).ok_or(FeatureError::ChordTruncated { column: k })
     };
-    Ok(Chord::by_x(end(first, false)?, end(last, true)?, sensor))
+    let chord = Chord::by_x(end(first, false)?, end(last, true)?, sensor);
+    Ok((chord, pts[first..=last].iter().map(|p| p.1).collect()))
 }
 
 /// Chord of a white disk on black paper: the longest run of bright points (intensity above the

@@ -407,6 +407,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         translation_set,
     })?;
     Ok(super::Calibration {
+        full_profile: None,
         refinable: arc_points.map(|points| {
             std::sync::Arc::new(Problem {
                 model: BallModel { radius, points },
@@ -471,6 +472,7 @@ fn any_pose(
         missed,
         groups: reports,
         refinable: Some(std::sync::Arc::new(sol.problem)),
+        full_profile: None,
     };
     Ok((cal, sol.refined))
 }

@@ -269,7 +269,11 @@ fn plane_normal(
     if n.z < 0.0 { -n } else { n }
 }
 
-/// The chord of one capture: given, or extracted from the raw profile.
+/// Face points per profile the full-profile refinement keeps.
+const FACE_POINTS: usize = 64;
+
+/// The chord of one capture (with the face points it was fitted to, from a raw profile): given, or
+/// extracted from the raw profile.
 fn chord_of(
     c: &Captures,
     g: &Group,
@@ -277,7 +281,7 @@ fn chord_of(
     sensor: &SensorModel,
     radius: f64,
     cfg: &SplitMerge,
-) -> Result<Result<features::Chord, features::FeatureError>, CaptureError> {
+) -> Result<Result<(features::Chord, Vec<Vector2<f64>>), features::FeatureError>, CaptureError> {
     Ok(match &p.data {
         // A chord of no length says nothing about the disk (a recording error): left out.
         ProfileData::Chord { a, b } if (b - a).norm() <= 1e-9 * radius => {
@@ -285,12 +289,13 @@ fn chord_of(
                 reason: "the chord has zero length".into(),
             })
         }
-        ProfileData::Chord { a, b } => Ok(features::Chord { a: *a, b: *b }),
+        ProfileData::Chord { a, b } => Ok((features::Chord { a: *a, b: *b }, Vec::new())),
         ProfileData::Raw(prof) => {
             if c.specimen_kind == SpecimenType::DiskPaper {
                 features::disk_chord_intensity(prof, sensor, cfg.min_points)
+                    .map(|ch| (ch, Vec::new()))
             } else {
-                features::disk_chord_step(prof, sensor, radius, cfg)
+                features::disk_chord_and_face(prof, sensor, radius, cfg)
             }
         }
         _ => {
@@ -323,7 +328,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             last.base_to_flange.translation.vector,
         );
         let span = t1 - t0;
-        let (mut chords, mut ends) = (Vec::new(), Vec::new());
+        let (mut chords, mut ends, mut face) = (Vec::new(), Vec::new(), Vec::new());
         let mut report = super::GroupReport::new(g.id);
         for p in &ps {
             let flange = p.base_to_flange;
@@ -335,7 +340,11 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             let chord = chord_of(c, g, p, sensor, radius, &cfg)?;
             report.count(&chord);
             match chord {
-                Ok(ch) => {
+                Ok((ch, points)) => {
+                    // The full-profile refinement's face points: up to 64 per profile, spread
+                    // over the chord (more cost than information beyond that).
+                    let stride = points.len().div_ceil(FACE_POINTS).max(1);
+                    face.extend(points.into_iter().step_by(stride).map(|q| (flange, q)));
                     ends.push((flange, ch.a));
                     ends.push((flange, ch.b));
                     chords.push(DiskChord {
@@ -354,27 +363,44 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             s: g.sign,
             chords,
         };
-        per_scan.push((scan, ends));
+        per_scan.push((scan, ends, face));
         reports.push(report);
     }
     // A scan with fewer than 3 chords cannot give its ellipse: left out, if 4 scans remain.
     super::leave_out_thin_groups(&mut reports, 3, 4, Kind::Disk)?;
-    let (mut scans, mut ends) = (Vec::new(), Vec::new());
-    for ((scan, e), r) in per_scan.into_iter().zip(&reports) {
+    let (mut scans, mut ends, mut face) = (Vec::new(), Vec::new(), Vec::new());
+    for ((scan, e, f), r) in per_scan.into_iter().zip(&reports) {
         if !r.left_out {
             scans.push(scan);
             ends.extend(e);
+            face.extend(f);
         }
     }
     let mut problem = DiskProblem::new(radius, scans);
     problem.min_scan_angle = 0.5f64.to_radians();
     let sol = crate::calib::disk::solve(&problem)?;
     let normal = plane_normal(&ends, &sol.flange_to_sensor);
+    let specimen = DiskPose::new(sol.centre_in_base.into(), &normal);
+    let full_profile = (!face.is_empty()).then(|| {
+        std::sync::Arc::new(Problem {
+            model: DiskModel {
+                radius,
+                ends: ends.clone(),
+                face,
+            },
+            specimen,
+        }) as std::sync::Arc<dyn crate::calib::refine::Refinable>
+    });
     Ok(super::Calibration {
         refinable: Some(std::sync::Arc::new(Problem {
-            model: DiskModel { radius, ends },
-            specimen: DiskPose::new(sol.centre_in_base.into(), &normal),
+            model: DiskModel {
+                radius,
+                ends,
+                face: Vec::new(),
+            },
+            specimen,
         })),
+        full_profile,
         flange_to_sensor: sol.flange_to_sensor,
         centre_in_base: Some(sol.centre_in_base),
         figures: Metrics::default().with(Metric::Accuracy, Some(sol.accuracy * 1e3)),

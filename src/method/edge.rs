@@ -310,6 +310,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     let sol = crate::calib::edge::solve(&EdgeProblem { groups })?;
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
     Ok(super::Calibration {
+        full_profile: None,
         refinable: Some(std::sync::Arc::new(Problem {
             model: EdgeModel { points },
             specimen: EdgeLine::new(sol.edge_point.into(), &sol.edge_direction),

@@ -160,6 +160,9 @@ pub struct Calibration {
     /// The raw features with their flange poses and the closed-form specimen pose: what the joint
     /// refinement starts from (None when the captures hold only reduced features, e.g. circles).
     pub refinable: Option<Arc<dyn Refinable>>,
+    /// The same with every profile point on the specimen's surfaces too (full-profile
+    /// refinement), where the method has it and the captures hold raw profiles.
+    pub full_profile: Option<Arc<dyn Refinable>>,
 }
 
 /// What became of one group's profiles.
@@ -293,8 +296,22 @@ pub fn estimate(
     let mut cal = calibrate(caps, sensor)?;
     match id.estimator {
         Estimator::ClosedForm | Estimator::AnyPose => Ok((cal, None)),
-        Estimator::Refined => {
-            let r = cal.refine(&Default::default())?;
+        Estimator::Refined | Estimator::FullProfile => {
+            let r = if id.estimator == Estimator::FullProfile {
+                let p = cal
+                    .full_profile
+                    .as_ref()
+                    .ok_or(CaptureError::NoFullProfile { method: id.kind })?;
+                // Hundreds of points per profile: a stray one (a blend at the rim, a speck)
+                // must not pull, so the robust loss.
+                let opts = Options {
+                    loss: crate::calib::refine::Loss::Huber { k: 1.5 },
+                    ..Default::default()
+                };
+                p.refine(&cal.flange_to_sensor, &opts)?
+            } else {
+                cal.refine(&Default::default())?
+            };
             cal.flange_to_sensor = r.flange_to_sensor;
             cal.status = r.status;
             if let Some(c) = r.centre {

@@ -224,6 +224,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<(Calibration, Refined
         missed,
         groups: reports,
         refinable: Some(std::sync::Arc::new(sol.problem)),
+        full_profile: None,
     };
     Ok((cal, sol.refined))
 }

@@ -12,7 +12,8 @@ pub struct Args {
     file: PathBuf,
     /// Method: the file's specimen method (disk, ball or edge), closed form by default; its
     /// refined variant (disk-refined, ball-refined, edge-refined); or ball-any-pose (any poses,
-    /// no groups or signs needed); plane-any-pose for plane files
+    /// no groups or signs needed); disk-full (every face point too; raw profiles);
+    /// plane-any-pose for plane files
     #[arg(long)]
     method: Option<MethodId>,
     /// Write the result as JSON

@@ -2,7 +2,8 @@
 //!
 //! Specimen parameters: centre c (3) and normal n = Q z, Q <- Q exp([d1, d2, 0]) (2). Residuals per
 //! chord end q: its distance from the plane n.(q - c), and from the rim |w| - r with
-//! w = (q - c) - (n.(q - c)) n.
+//! w = (q - c) - (n.(q - c)) n. Full profile (issue 14): every face point's distance from the
+//! plane too (along the normal), after the chord ends.
 
 use super::{Model, Transform, exp, frame_with, transform_columns};
 use nalgebra::{DMatrix, DVector, Isometry3, Point3, Rotation3, Vector2, Vector3};
@@ -12,6 +13,8 @@ pub struct DiskModel {
     pub radius: f64,
     /// Chord ends (sensor x, z) with the flange pose each was seen from.
     pub ends: Vec<(Isometry3<f64>, Vector2<f64>)>,
+    /// Points of the disk's face (full profile; empty for the chord-end refinement).
+    pub face: Vec<(Isometry3<f64>, Vector2<f64>)>,
 }
 
 /// The disk's centre and orientation (normal = q z).
@@ -49,6 +52,9 @@ impl Model for DiskModel {
     fn residuals_per_feature(&self) -> usize {
         2
     }
+    fn n_residuals(&self) -> usize {
+        2 * self.ends.len() + self.face.len()
+    }
 
     fn eval(
         &self,
@@ -81,6 +87,21 @@ impl Model for DiskModel {
                     j[(k, 9)] = dd[0];
                     j[(k, 10)] = dd[1];
                 }
+            }
+        }
+        let base = 2 * self.ends.len();
+        for (i, (f, p)) in self.face.iter().enumerate() {
+            let k = base + i;
+            let (qb, dq_dw, dq_dt) = x.point_in_base(f, p, j.is_some());
+            let v = qb - s.centre;
+            r[k] = nrm.dot(&v);
+            if let Some(j) = j.as_deref_mut() {
+                transform_columns(j, k, &nrm, &dq_dw, &dq_dt);
+                for c in 0..3 {
+                    j[(k, 6 + c)] = -nrm[c];
+                }
+                j[(k, 9)] = v.dot(&dn1);
+                j[(k, 10)] = v.dot(&dn2);
             }
         }
     }

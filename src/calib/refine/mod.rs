@@ -80,6 +80,11 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
     /// Features (chord ends, arc points, edge points) and residuals per feature.
     fn n_features(&self) -> usize;
     fn residuals_per_feature(&self) -> usize;
+    /// All residuals: features times residuals per feature, unless a model mixes kinds (the
+    /// disk's full-profile face points).
+    fn n_residuals(&self) -> usize {
+        self.n_features() * self.residuals_per_feature()
+    }
 
     /// Discrete labels fixed at the start so the residual stays smooth (the side of the sphere an
     /// arc point is on); none by default.
@@ -289,7 +294,7 @@ pub fn frame_with(v: &Vector3<f64>, axis: usize) -> Rotation3<f64> {
 }
 
 fn n_residuals<M: Model>(m: &M) -> usize {
-    m.n_features() * m.residuals_per_feature()
+    m.n_residuals()
 }
 
 /// Residuals and, with `jac`, the Jacobian (an empty matrix without).
