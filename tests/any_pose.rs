@@ -6,11 +6,11 @@
 mod common;
 
 use lasercal::calib::PoseError;
-use lasercal::captures::{CaptureProfile, Captures, Group, ProfileData, Role};
+use lasercal::captures::{CaptureProfile, Captures, Group, Role};
 use lasercal::method::{Estimator, Kind, MethodId};
 use lasercal::rng::{Rng, gauss};
 use lasercal::scene::SpecimenType;
-use lasercal::sensor::{Profile, ProfilePoint, RaySpacing, SensorGeometry, SensorModel};
+use lasercal::sensor::SensorModel;
 use lasercal::testkit::fan::{Fan, Noise, Solid, profile};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use rand::RngExt;
@@ -36,31 +36,6 @@ fn random_fan(rng: &mut Rng) -> Fan {
         z_range: (-half_range, half_range),
         camera: Point3::new(0.0, uniform(rng, 0.05, 0.15), apex),
     }
-}
-
-fn declared(fan: &Fan) -> SensorModel {
-    let depth = |z: f64| fan.dir_z * (z - fan.apex_z);
-    let (a, b) = (depth(fan.z_range.0), depth(fan.z_range.1));
-    SensorModel::from_geometry(SensorGeometry {
-        name: "random fan".into(),
-        frame: "test".into(),
-        apex_z: fan.apex_z,
-        dir_z: fan.dir_z,
-        depth_near: a.min(b),
-        depth_far: a.max(b),
-        tan_half_fov: fan.half_angle.tan(),
-        columns: fan.columns,
-        spacing: if fan.equal_angle {
-            RaySpacing::EqualAngle
-        } else {
-            RaySpacing::EqualTan
-        },
-        x_reversed: fan.reversed,
-        z_quantum: None,
-        camera: fan.camera,
-        resample: None,
-    })
-    .unwrap()
 }
 
 fn random_rotation(rng: &mut Rng, scale: f64) -> UnitQuaternion<f64> {
@@ -113,7 +88,7 @@ struct Setup {
 fn random_setup(seed: u64, n: usize, translations: usize, sigma: f64) -> Setup {
     let mut rng = lasercal::testkit::rng(seed);
     let fan = random_fan(&mut rng);
-    let sensor = declared(&fan);
+    let sensor = common::declared(&fan, "random fan");
     let truth = Isometry3::from_parts(
         Translation3::new(
             uniform(&mut rng, -0.1, 0.1),
@@ -152,18 +127,7 @@ fn random_setup(seed: u64, n: usize, translations: usize, sigma: f64) -> Setup {
         profiles.push(CaptureProfile {
             group: i,
             base_to_flange,
-            data: ProfileData::Raw(Profile {
-                points: pts
-                    .into_iter()
-                    .map(|q| {
-                        q.map(|(x, z)| ProfilePoint {
-                            x,
-                            z,
-                            intensity: 1.0,
-                        })
-                    })
-                    .collect(),
-            }),
+            data: common::raw(pts),
         });
     }
     Setup {
@@ -326,7 +290,7 @@ fn calibrate_a_capture_file_without_signs() {
 fn random_plane_setup(seed: u64, n: usize, same_orientation: bool, sigma: f64) -> Setup {
     let mut rng = lasercal::testkit::rng(seed);
     let fan = random_fan(&mut rng);
-    let sensor = declared(&fan);
+    let sensor = common::declared(&fan, "random fan");
     // The flange behind the sensor (beyond its apex, away from the plane), as on a robot: an arm
     // does not reach through the plane, which is what tells the sensor's side (calib::plane).
     let rot = random_rotation(&mut rng, 2.0);
@@ -390,18 +354,7 @@ fn random_plane_setup(seed: u64, n: usize, same_orientation: bool, sigma: f64) -
         profiles.push(CaptureProfile {
             group: i,
             base_to_flange: base_to_sensor * truth.inverse(),
-            data: ProfileData::Raw(Profile {
-                points: pts
-                    .into_iter()
-                    .map(|q| {
-                        q.map(|(x, z)| ProfilePoint {
-                            x,
-                            z,
-                            intensity: 1.0,
-                        })
-                    })
-                    .collect(),
-            }),
+            data: common::raw(pts),
         });
     }
     Setup {

@@ -11,36 +11,10 @@ mod common;
 use lasercal::captures::{Captures, ProfileData};
 use lasercal::method::Kind;
 use lasercal::scenario::{ScenarioFile, Setup};
-use lasercal::sensor::{Profile, ProfilePoint, RaySpacing, SensorGeometry, SensorModel};
+use lasercal::sensor::{Profile, ProfilePoint, SensorModel};
 use lasercal::testkit::fan::{Fan, Noise, Solid, profile};
 use lasercal::trial::trial_captures;
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion};
-
-/// The sensor lasercal is told: the generator's fan as a geometry record.
-fn declared(fan: &Fan, name: &str) -> SensorModel {
-    let depth = |z: f64| fan.dir_z * (z - fan.apex_z);
-    let (a, b) = (depth(fan.z_range.0), depth(fan.z_range.1));
-    SensorModel::from_geometry(SensorGeometry {
-        name: name.into(),
-        frame: "independent fan".into(),
-        apex_z: fan.apex_z,
-        dir_z: fan.dir_z,
-        depth_near: a.min(b),
-        depth_far: a.max(b),
-        tan_half_fov: fan.half_angle.tan(),
-        columns: fan.columns,
-        spacing: if fan.equal_angle {
-            RaySpacing::EqualAngle
-        } else {
-            RaySpacing::EqualTan
-        },
-        x_reversed: fan.reversed,
-        z_quantum: None,
-        camera: fan.camera,
-        resample: None,
-    })
-    .unwrap()
-}
 
 /// The sensor told of z noise `sigma_mm` at both ends of its range (what tunes the extraction).
 fn with_sigma(sensor: &SensorModel, sigma_mm: f64) -> SensorModel {
@@ -177,7 +151,7 @@ fn errors(caps: &Captures, s: &Setup, sensor: &SensorModel) -> Result<(f64, f64,
 fn the_generator_agrees_with_the_fan_it_declares() {
     // The generator's rays are the declared sensor's rays (column by column).
     let (_, fan, _) = disk_case();
-    let m = declared(&fan, "fan");
+    let m = common::declared(&fan, "fan");
     for k in [0, 1, 639, 640, 1279] {
         let d = fan.ray(k);
         assert!(
@@ -207,7 +181,7 @@ fn the_generator_agrees_with_the_fan_it_declares() {
 #[test]
 fn disk_on_independent_profiles() {
     let (s, fan, solids) = disk_case();
-    let sensor = declared(&fan, "fan-295");
+    let sensor = common::declared(&fan, "fan-295");
     let caps = trial_captures(&s, Kind::Disk, 1, 0).0.unwrap();
     // Noise-free: every chord end against the exact chord.
     let exact_caps = regenerate(&caps, &s, &fan, &solids, Noise::default(), 1);
@@ -270,7 +244,7 @@ fn disk_on_independent_profiles() {
 #[test]
 fn edge_on_independent_profiles() {
     let (s, fan, solids) = edge_case();
-    let sensor = declared(&fan, "fan-edge");
+    let sensor = common::declared(&fan, "fan-edge");
     let caps = trial_captures(&s, Kind::Edge, 1, 0).0.unwrap();
     let exact_caps = regenerate(&caps, &s, &fan, &solids, Noise::default(), 1);
     let plan = s.plan(Kind::Edge).unwrap();
@@ -317,7 +291,7 @@ fn edge_on_independent_profiles() {
 fn disk_with_dropout() {
     // Dropout used to break the disk's face into pieces (28 mm short chords, 2.7 deg at 0.2).
     let (s, fan, solids) = disk_case();
-    let sensor = declared(&fan, "fan-295");
+    let sensor = common::declared(&fan, "fan-295");
     let caps = trial_captures(&s, Kind::Disk, 1, 0).0.unwrap();
     let target = lasercal::sim::disk::DiskTarget::from_pose(&s.base_to_specimen, 0.050);
     let cfg = lasercal::features::SplitMerge::for_sensor(&sensor);
@@ -402,7 +376,7 @@ fn resampled_profiles_without_columns() {
     // 0.03 mm) and sends only the valid slots, without column indices, under the fan's declared
     // geometry: the grid is measured from the points and the ends placed between its slots.
     let (s, fan, solids) = disk_case();
-    let sensor = declared(&fan, "fan-295");
+    let sensor = common::declared(&fan, "fan-295");
     let caps = trial_captures(&s, Kind::Disk, 1, 0).0.unwrap();
     let (pitch, offset) = (0.1e-3, 0.03e-3);
     for sigma_mm in [0.0, 0.1] {
@@ -482,7 +456,7 @@ fn ball_case() -> (Setup, Fan, Vec<Solid>) {
 #[test]
 fn ball_on_independent_profiles() {
     let (s, fan, solids) = ball_case();
-    let sensor = declared(&fan, "fan-295");
+    let sensor = common::declared(&fan, "fan-295");
     let caps = trial_captures(&s, Kind::Ball, 1, 0).0.unwrap();
     for (sigma_mm, bound_deg, bound_mm) in [(0.0, 1e-9, 1e-6), (0.1, 0.3, 0.5)] {
         let profiles = regenerate(
@@ -674,7 +648,7 @@ fn raw_profiles_lose_nothing_to_segmentation() {
         (Kind::Ball, ball_case, 0.1, 0.2, 1.05),
     ] {
         let (s, fan, solids) = case();
-        let sensor = with_sigma(&declared(&fan, "fan"), sigma_mm);
+        let sensor = with_sigma(&common::declared(&fan, "fan"), sigma_mm);
         let caps = trial_captures(&s, kind, 1, 0).0.unwrap();
         let noise = Noise {
             sigma_z: sigma_mm * 1e-3,
@@ -718,7 +692,7 @@ fn raw_against_features() {
             (0.1, 0.05),
             (0.1, 0.2),
         ] {
-            let sensor = with_sigma(&declared(&fan, "fan"), sigma_mm);
+            let sensor = with_sigma(&common::declared(&fan, "fan"), sigma_mm);
             let (mut raw, mut feat, mut oracle, mut missed) =
                 (Vec::new(), Vec::new(), Vec::new(), 0);
             for t in 0..10u64 {
@@ -765,7 +739,7 @@ fn raw_against_features() {
 #[test]
 fn edge_over_a_tilted_table_and_with_noise() {
     let (s, fan, mut solids) = edge_case();
-    let sensor = declared(&fan, "fan-edge");
+    let sensor = common::declared(&fan, "fan-edge");
     let caps = trial_captures(&s, Kind::Edge, 1, 0).0.unwrap();
     let e = s.plan(Kind::Edge).unwrap();
     let e = e
@@ -881,7 +855,7 @@ fn extraction_over_sensor_geometry() {
         ),
     ] {
         let (s, f, solids) = disk_case_with(f);
-        let sensor = declared(&f, "fan");
+        let sensor = common::declared(&f, "fan");
         let caps = trial_captures(&s, Kind::Disk, 1, 0).0.unwrap();
         let target = lasercal::sim::disk::DiskTarget::from_pose(&s.base_to_specimen, 0.050);
         for (sigma_mm, dropout) in [(0.0, 0.0), (0.1, 0.0), (0.0, 0.2), (0.1, 0.2)] {
@@ -960,7 +934,7 @@ fn edge_over_sensor_geometry() {
         ),
     ] {
         let (s, f, solids) = edge_case_with(f);
-        let sensor = declared(&f, "fan");
+        let sensor = common::declared(&f, "fan");
         let caps = trial_captures(&s, Kind::Edge, 1, 0).0.unwrap();
         let plan = s.plan(Kind::Edge).unwrap();
         let e = plan
@@ -1056,7 +1030,7 @@ fn ball_over_sensor_geometry() {
         ),
     ] {
         for (sigma_mm, dropout) in [(0.0, 0.0), (0.1, 0.0), (0.0, 0.2), (0.1, 0.2)] {
-            let sensor = with_sigma(&declared(&f, "fan"), sigma_mm);
+            let sensor = with_sigma(&common::declared(&f, "fan"), sigma_mm);
             let cfg = lasercal::features::SplitMerge::for_sensor(&sensor);
             let noise = Noise {
                 sigma_z: sigma_mm * 1e-3,
@@ -1108,7 +1082,7 @@ fn ball_refinement_converges_on_independent_profiles() {
     // 1 deg / 2.3 mm start in tests/methods.rs) and ends ten times better than the closed form.
     let (s, fan, solids) = ball_case();
     for sigma_mm in [0.05, 0.1, 0.2] {
-        let sensor = with_sigma(&declared(&fan, "fan"), sigma_mm);
+        let sensor = with_sigma(&common::declared(&fan, "fan"), sigma_mm);
         let (mut stalled, mut closed, mut refined) = (0, 0.0, 0.0);
         let n = 30;
         for t in 0..n {

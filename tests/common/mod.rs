@@ -19,3 +19,47 @@ pub fn lasercal(args: &[&str]) -> (i32, String, String) {
 pub fn scen(name: &str) -> String {
     format!("{}/scenarios/{name}", env!("CARGO_MANIFEST_DIR"))
 }
+
+/// The sensor lasercal is told: the independent generator's fan as a geometry record.
+pub fn declared(fan: &lasercal::testkit::fan::Fan, name: &str) -> lasercal::sensor::SensorModel {
+    use lasercal::sensor::{RaySpacing, SensorGeometry, SensorModel};
+    let depth = |z: f64| fan.dir_z * (z - fan.apex_z);
+    let (a, b) = (depth(fan.z_range.0), depth(fan.z_range.1));
+    SensorModel::from_geometry(SensorGeometry {
+        name: name.into(),
+        frame: "independent fan".into(),
+        apex_z: fan.apex_z,
+        dir_z: fan.dir_z,
+        depth_near: a.min(b),
+        depth_far: a.max(b),
+        tan_half_fov: fan.half_angle.tan(),
+        columns: fan.columns,
+        spacing: if fan.equal_angle {
+            RaySpacing::EqualAngle
+        } else {
+            RaySpacing::EqualTan
+        },
+        x_reversed: fan.reversed,
+        z_quantum: None,
+        camera: fan.camera,
+        resample: None,
+    })
+    .unwrap()
+}
+
+/// A generator profile ((x, z) per column) as a raw capture.
+pub fn raw(points: Vec<Option<(f64, f64)>>) -> lasercal::captures::ProfileData {
+    use lasercal::sensor::{Profile, ProfilePoint};
+    lasercal::captures::ProfileData::Raw(Profile {
+        points: points
+            .into_iter()
+            .map(|q| {
+                q.map(|(x, z)| ProfilePoint {
+                    x,
+                    z,
+                    intensity: 1.0,
+                })
+            })
+            .collect(),
+    })
+}
