@@ -12,9 +12,9 @@ fn cli_fk_zero_pose_irb120() {
     let q: Vec<f64> = serde_json::from_value(v["quaternion_wxyz"].clone()).unwrap();
     assert_eq!(p, vec![374.0, 0.0, 630.0]);
     assert!(
-        (q[0] - 0.707107).abs() < 1e-6
+        (q[0] - std::f64::consts::FRAC_1_SQRT_2).abs() < 1e-6
             && q[1] == 0.0
-            && (q[2] - 0.707107).abs() < 1e-6
+            && (q[2] - std::f64::consts::FRAC_1_SQRT_2).abs() < 1e-6
             && q[3] == 0.0
     );
 }
