@@ -122,14 +122,37 @@ fn any_pose(c: &mut Criterion) {
     let dir = env!("CARGO_MANIFEST_DIR");
     let text = std::fs::read_to_string(format!("{dir}/scenarios/plane.toml"))
         .unwrap()
-        .replace("poses = 24", "poses = 48");
+        .replace("count = 24 ", "count = 48 ");
     let sf = ScenarioFile::parse(&text, "plane.toml").unwrap();
     let setup = sf.scenario.build(&sf.file).unwrap();
     let caps = lasercal::trial::trial_captures(&setup, lasercal::method::Kind::Plane, 1, 0)
         .0
         .unwrap();
+    assert_eq!(caps.profiles.len(), 48);
     let id: lasercal::method::MethodId = "plane-any-pose".parse().unwrap();
     c.bench_function("any_pose/plane_48_poses_1280_columns", |b| {
+        b.iter(|| {
+            black_box(lasercal::method::estimate(
+                id,
+                black_box(&caps),
+                &setup.rig.sensor,
+            ))
+        })
+    });
+
+    // A plate's face and edges from 30 free poses (edge-8-poses.toml with 30): face and edge
+    // extraction, the plane's start, the edge clustering and the joint refinement.
+    let text = std::fs::read_to_string(format!("{dir}/scenarios/edge-8-poses.toml"))
+        .unwrap()
+        .replace("count = 8 ", "count = 30 ");
+    let sf = ScenarioFile::parse(&text, "edge-8-poses.toml").unwrap();
+    let setup = sf.scenario.build(&sf.file).unwrap();
+    let caps = lasercal::trial::trial_captures(&setup, lasercal::method::Kind::Edge, 1, 0)
+        .0
+        .unwrap();
+    assert_eq!(caps.profiles.len(), 30);
+    let id: lasercal::method::MethodId = "edge-any-pose".parse().unwrap();
+    c.bench_function("any_pose/edge_30_poses_1280_columns", |b| {
         b.iter(|| {
             black_box(lasercal::method::estimate(
                 id,

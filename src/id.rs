@@ -33,7 +33,11 @@ impl Kind {
                 Estimator::Refined,
                 Estimator::FullProfile,
             ],
-            Kind::Edge => &[Estimator::ClosedForm, Estimator::Refined],
+            Kind::Edge => &[
+                Estimator::ClosedForm,
+                Estimator::Refined,
+                Estimator::AnyPose,
+            ],
             // No paper closed form: the any-pose estimator is the plane's method.
             Kind::Plane => &[Estimator::AnyPose],
         }

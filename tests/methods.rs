@@ -66,7 +66,11 @@ fn estimators(s: &Setup, kind: Kind) -> Vec<Estimator> {
     kind.estimators()
         .iter()
         .copied()
-        .filter(|&e| raw || e != Estimator::FullProfile)
+        // Full-profile refinement and the edge's any-pose estimator (which fits the bar's face)
+        // need raw profiles.
+        .filter(|&e| {
+            raw || !(e == Estimator::FullProfile || (e == Estimator::AnyPose && kind == Kind::Edge))
+        })
         .collect()
 }
 

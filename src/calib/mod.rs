@@ -3,6 +3,7 @@
 
 pub mod ball;
 pub mod ball_any;
+pub mod bar;
 pub mod disk;
 pub mod edge;
 pub mod ellipse;

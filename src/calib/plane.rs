@@ -51,73 +51,47 @@ pub struct PlaneSolution {
     pub problem: Problem<PlaneModel>,
 }
 
+/// A start of the plane's refinement: screened on a subsample of the points.
+#[derive(Debug, Clone)]
+pub struct Start {
+    pub flange_to_sensor: Isometry3<f64>,
+    pub plane: Plane,
+    pub cost: f64,
+    /// The sensor on the flange's side of the plane in every view.
+    pub physical: bool,
+}
+
 /// `apex`: the sensor's laser apex in its own frame (which side of the plane the sensor is on).
 pub fn solve(views: &[LineView], apex: &Vector3<f64>) -> Result<PlaneSolution, CalibError> {
-    // Each profile gives two equations for nine unknowns, but from six poses the equations can
-    // have a second exact solution (two random setups of six: both had one, 175 deg away): seven.
-    if views.len() < MIN_VIEWS {
-        return Err(CalibError::TooFewData {
-            method: METHOD,
-            what: "profiles of the plane (each at its own orientation)",
-            got: views.len(),
-            need: MIN_VIEWS,
-        });
-    }
-    let mut starts: Vec<(f64, Vector3<f64>)> = hemisphere(2000)
-        .map(|n| (rotation_cost(views, &n).0, n))
-        .collect();
-    starts.sort_by(|a, b| a.0.total_cmp(&b.0));
-    // The starts are told apart on at most 64 points per profile (their spread along the line is
-    // what fixes the tilts); the winner is then refined over every point.
-    let model_of = |stride: &dyn Fn(&LineView) -> usize| PlaneModel {
-        points: views
-            .iter()
-            .flat_map(|v| {
-                v.points
-                    .iter()
-                    .step_by(stride(v))
-                    .map(move |p| (v.base_to_flange, *p))
-            })
-            .collect(),
-    };
-    let screen = model_of(&|v| v.points.len().div_ceil(64).max(1));
-    let mut best: Option<(Refined, Plane, bool)> = None;
-    let mut tried: Vec<Vector3<f64>> = Vec::new();
-    for (_, n) in &starts {
-        if tried.len() == 3 {
-            break;
-        }
-        if tried
-            .iter()
-            .any(|m| m.dot(n).abs() > 10f64.to_radians().cos())
-        {
-            continue;
-        }
-        tried.push(*n);
-        let (x, plane) = start_from(views, n, apex);
-        let (refined, plane) =
-            refine(&screen, &x, &plane, &Options::default()).map_err(with_plane_advice)?;
-        let physical = behind(views, &refined.flange_to_sensor, &plane, apex) == 0;
-        // A physical solution beats one that puts the sensor behind the plane; among equals,
-        // starts that reach one minimum end equal to rounding: keep the first (see ball_any).
-        let better = |b: &(Refined, Plane, bool)| {
-            (physical && !b.2) || (physical == b.2 && refined.cost < b.0.cost * (1.0 - 1e-9))
+    let starts = starts(views, apex, 3)?;
+    // A physical solution beats one that puts the sensor behind the plane; among equals, starts
+    // that reach one minimum end equal to rounding: keep the first (see ball_any).
+    let mut best: Option<&Start> = None;
+    for s in &starts {
+        let better = |b: &&Start| {
+            (s.physical && !b.physical)
+                || (s.physical == b.physical && s.cost < b.cost * (1.0 - 1e-9))
         };
         if best.as_ref().is_none_or(better) {
-            best = Some((refined, plane, physical));
+            best = Some(s);
         }
     }
-    let (screened, plane, _) = best.ok_or(CalibError::TooFewData {
+    let best = best.ok_or(CalibError::TooFewData {
         method: METHOD,
         what: "starts",
         got: 0,
         need: 1,
     })?;
-    let model = model_of(&|_| 1);
+    refine_from(views, best)
+}
+
+/// Every profile's points against the plane from a screened start.
+pub fn refine_from(views: &[LineView], start: &Start) -> Result<PlaneSolution, CalibError> {
+    let model = model_of(views, &|_| 1);
     let (refined, plane) = refine(
         &model,
-        &screened.flange_to_sensor,
-        &plane,
+        &start.flange_to_sensor,
+        &start.plane,
         &Options::default(),
     )
     .map_err(with_plane_advice)?;
@@ -130,6 +104,69 @@ pub fn solve(views: &[LineView], apex: &Vector3<f64>) -> Result<PlaneSolution, C
             specimen: plane,
         },
     })
+}
+
+/// The points of every profile, every `stride`-th.
+fn model_of(views: &[LineView], stride: &dyn Fn(&LineView) -> usize) -> PlaneModel {
+    PlaneModel {
+        points: views
+            .iter()
+            .flat_map(|v| {
+                v.points
+                    .iter()
+                    .step_by(stride(v))
+                    .map(move |p| (v.base_to_flange, *p))
+            })
+            .collect(),
+    }
+}
+
+/// Steps 1-3 up to the screening: the best `count` distinct normals (10 deg apart or more), each
+/// refined on at most 64 points per profile (their spread along the line is what fixes the tilts).
+pub fn starts(
+    views: &[LineView],
+    apex: &Vector3<f64>,
+    count: usize,
+) -> Result<Vec<Start>, CalibError> {
+    // Each profile gives two equations for nine unknowns, but from six poses the equations can
+    // have a second exact solution (two random setups of six: both had one, 175 deg away): seven.
+    if views.len() < MIN_VIEWS {
+        return Err(CalibError::TooFewData {
+            method: METHOD,
+            what: "profiles of the plane (each at its own orientation)",
+            got: views.len(),
+            need: MIN_VIEWS,
+        });
+    }
+    let mut normals: Vec<(f64, Vector3<f64>)> = hemisphere(2000)
+        .map(|n| (rotation_cost(views, &n).0, n))
+        .collect();
+    normals.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let screen = model_of(views, &|v| v.points.len().div_ceil(64).max(1));
+    let mut out = Vec::new();
+    let mut tried: Vec<Vector3<f64>> = Vec::new();
+    for (_, n) in &normals {
+        if tried.len() == count {
+            break;
+        }
+        if tried
+            .iter()
+            .any(|m| m.dot(n).abs() > 10f64.to_radians().cos())
+        {
+            continue;
+        }
+        tried.push(*n);
+        let (x, plane) = start_from(views, n, apex);
+        let (refined, plane) =
+            refine(&screen, &x, &plane, &Options::default()).map_err(with_plane_advice)?;
+        out.push(Start {
+            physical: behind(views, &refined.flange_to_sensor, &plane, apex) == 0,
+            flange_to_sensor: refined.flange_to_sensor,
+            plane,
+            cost: refined.cost,
+        });
+    }
+    Ok(out)
 }
 
 /// What a plane cannot fix, and what adds it.

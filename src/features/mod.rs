@@ -156,7 +156,15 @@ fn tighten(
     sensor: &SensorModel,
 ) -> (usize, usize, Line2) {
     let n = s.last + 1 - s.first;
-    let trim = if n > 8 { 2 } else { 0 };
+    // A short segment (a wall seen in a few columns) may hold a neighbour's point at an end
+    // within the split tolerance: fit without its ends too.
+    let trim = if n > 8 {
+        2
+    } else if n >= 5 {
+        1
+    } else {
+        0
+    };
     let interior: Vec<Vector2<f64>> = pts[s.first + trim..=s.last - trim]
         .iter()
         .map(|p| p.1)
@@ -443,6 +451,25 @@ pub fn edge_point(
     sense: EdgeSense,
     cfg: &SplitMerge,
 ) -> Result<Vector2<f64>, FeatureError> {
+    let (pts, segs) = segments(profile, cfg)?;
+    let mut first_err = None;
+    for i in top_face_candidates(&pts, &segs, sensor, cfg) {
+        match walk_to_edge(&pts, &segs, i, sensor, sense, cfg) {
+            Ok(e) => return Ok(e.point),
+            Err(e) => {
+                first_err.get_or_insert(e);
+            }
+        }
+    }
+    Err(first_err.unwrap_or_else(|| FeatureError::NoEdge {
+        reason: format!("no face of {} points", cfg.min_points),
+    }))
+}
+
+/// A profile's valid points and their straight segments (of two points or more).
+type Segmented = (Vec<(usize, Vector2<f64>)>, Vec<Segment>);
+
+fn segments(profile: &Profile, cfg: &SplitMerge) -> Result<Segmented, FeatureError> {
     let pts = valid_points(profile);
     if pts.len() < cfg.min_points {
         return Err(FeatureError::TooFewPoints {
@@ -457,9 +484,19 @@ pub fn edge_point(
             ..*cfg
         },
     );
-    // The top face: among the substantial segments (a tenth of the largest one's points or more),
-    // leave out those lying wholly below the nearest one (a table under the specimen), then take the
-    // one with most points (not the nearest: under a tilt a side wall is as near as the face).
+    Ok((pts, segs))
+}
+
+/// The top face's candidates, best first: among the substantial segments (a tenth of the largest
+/// one's points or more), leave out those lying wholly below the nearest one (a table under the
+/// specimen), then order by points (not by nearness: under a tilt a side wall is as near as the
+/// face). A face whose walk finds no edge is not the top face: the caller tries the next.
+fn top_face_candidates(
+    pts: &[(usize, Vector2<f64>)],
+    segs: &[Segment],
+    sensor: &SensorModel,
+    cfg: &SplitMerge,
+) -> Vec<usize> {
     let largest = segs.iter().map(|s| s.last + 1 - s.first).max().unwrap_or(0);
     let min_pts = cfg.min_points.max(largest / 10);
     let depth = |s: &Segment| {
@@ -484,22 +521,83 @@ pub fn edge_point(
         let floor = ends(&segs[nearest]).1 + 2.0e-3;
         cands.retain(|&j| ends(&segs[j]).0 <= floor);
     }
-    // Largest first. A face whose walk finds no edge (it runs off the field of view, or meets a
-    // wall rising toward the sensor: a table seen beside the specimen) is not the top face: try
-    // the next one.
     cands.sort_by_key(|&j| std::cmp::Reverse(segs[j].last - segs[j].first));
+    cands
+}
+
+/// One end of a face that is an edge: its point, and where the edge can lie: at the corner
+/// (`from == to`, where a wall was seen) or between the face's last column and the next.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EdgeEnd {
+    pub point: Vector2<f64>,
+    pub from: Vector2<f64>,
+    pub to: Vector2<f64>,
+}
+
+/// A bar (or plate) seen from any pose: its top face's points and every end of the face that is an
+/// edge (one or both; which edge each is, the caller infers from where they lie).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BarProfile {
+    pub face: Vec<Vector2<f64>>,
+    pub edges: Vec<EdgeEnd>,
+}
+
+/// The top face and its edges, walked in both senses. From any pose the face may be a small part
+/// of the profile (a narrow bar on a table), a wall seen under a tilt can be as long as the face
+/// and also ends at a convex corner, and the table under the bar can end at an edge too. So: of
+/// the segments of 8 points or more with an edge, those parallel (within 15 deg) to the profile's
+/// largest segment (the face or the table it lies on), the one nearest the sensor; failing that,
+/// the one the laser meets most squarely (the poses look at the top face, its walls turned away).
+pub fn bar_profile(
+    profile: &Profile,
+    sensor: &SensorModel,
+    cfg: &SplitMerge,
+) -> Result<BarProfile, FeatureError> {
+    let (pts, segs) = segments(profile, cfg)?;
     let mut first_err = None;
-    for &i in &cands {
-        match walk_to_edge(&pts, &segs, i, sensor, sense, cfg) {
-            Ok(p) => return Ok(p),
-            Err(e) => {
-                first_err.get_or_insert(e);
+    let mut found: Vec<(Line2, BarProfile)> = Vec::new();
+    let size = |s: &Segment| s.last + 1 - s.first;
+    for i in (0..segs.len()).filter(|&i| size(&segs[i]) >= cfg.min_points.max(8)) {
+        let mut edges = Vec::new();
+        for sense in [EdgeSense::Falling, EdgeSense::Rising] {
+            match walk_to_edge(&pts, &segs, i, sensor, sense, cfg) {
+                Ok(e) => edges.push(e),
+                Err(e) => {
+                    first_err.get_or_insert(e);
+                }
             }
         }
+        if edges.is_empty() {
+            continue;
+        }
+        let (first, last, line) = tighten(&pts, &segs[i], cfg.split_tol, sensor);
+        let face: Vec<Vector2<f64>> = pts[first..=last].iter().map(|p| p.1).collect();
+        found.push((line, BarProfile { face, edges }));
     }
-    Err(first_err.unwrap_or_else(|| FeatureError::NoEdge {
-        reason: format!("no face of {} points", cfg.min_points),
-    }))
+    let apex = Vector2::new(0.0, sensor.apex_z);
+    let square = |l: &Line2| {
+        let ray = (l.point - apex).normalize();
+        (l.dir.x * ray.y - l.dir.y * ray.x).abs() / l.dir.norm()
+    };
+    let largest = segs.iter().max_by_key(|s| size(s)).map(|s| s.line);
+    let parallel =
+        |f: &(Line2, BarProfile)| largest.is_some_and(|l| f.0.angle_to(&l) < 15f64.to_radians());
+    let best = if found.iter().any(parallel) {
+        found.into_iter().filter(parallel).min_by(|a, b| {
+            a.0.distance(&apex)
+                .abs()
+                .total_cmp(&b.0.distance(&apex).abs())
+        })
+    } else {
+        found
+            .into_iter()
+            .max_by(|a, b| square(&a.0).total_cmp(&square(&b.0)))
+    };
+    best.map(|b| b.1).ok_or_else(|| {
+        first_err.unwrap_or_else(|| FeatureError::NoEdge {
+            reason: format!("no face of {} points", cfg.min_points),
+        })
+    })
 }
 
 /// From face `i`, walk toward the edge in `sense` over shallow bevels to the corner with a steep
@@ -512,7 +610,7 @@ fn walk_to_edge(
     sensor: &SensorModel,
     sense: EdgeSense,
     cfg: &SplitMerge,
-) -> Result<Vector2<f64>, FeatureError> {
+) -> Result<EdgeEnd, FeatureError> {
     // The sense is a direction in x; the walk goes by column, which runs the other way on a
     // sensor whose column 0 is at +x.
     let forward = (sense == EdgeSense::Falling) != sensor.x_reversed;
@@ -542,8 +640,13 @@ fn walk_to_edge(
                         reason: "the face meets a wall rising toward the sensor".into(),
                     });
                 }
-                return line.intersect(&line2).ok_or_else(|| FeatureError::NoEdge {
+                let corner = line.intersect(&line2).ok_or_else(|| FeatureError::NoEdge {
                     reason: "parallel faces".into(),
+                })?;
+                return Ok(EdgeEnd {
+                    point: corner,
+                    from: corner,
+                    to: corner,
                 });
             }
             if angle > 0.02 && angle <= std::f64::consts::FRAC_PI_4 {
@@ -564,8 +667,28 @@ fn walk_to_edge(
                 reason: "the profile rises toward the sensor beyond the face".into(),
             });
         }
-        return end_between(sensor, &line, k, k2).ok_or_else(|| FeatureError::NoEdge {
+        // Nothing measured at the next column, where the face continued would lie beyond the
+        // measuring range: the face may go on unseen.
+        let measured = pts.get(next).is_some_and(|p| p.0 == k2);
+        if !measured && let Some(q) = line.intersect(&column_line(sensor, k2 as f64)) {
+            let depth = sensor.dir_z * (q.y - sensor.apex_z);
+            if !(sensor.depth_near..=sensor.depth_far).contains(&depth) {
+                return Err(FeatureError::NoEdge {
+                    reason: "the face runs out of the measuring range".into(),
+                });
+            }
+        }
+        let parallel = || FeatureError::NoEdge {
             reason: "face parallel to the ray".into(),
+        };
+        let on = |u: usize| {
+            line.intersect(&column_line(sensor, u as f64))
+                .ok_or_else(parallel)
+        };
+        return Ok(EdgeEnd {
+            point: end_between(sensor, &line, k, k2).ok_or_else(parallel)?,
+            from: on(k)?,
+            to: on(k2)?,
         });
     }
 }

@@ -134,6 +134,7 @@ impl Method for Ball {
                     point: target.centre,
                     normal: Vector3::z(),
                     off_plane: 0.7 * radius,
+                    crossing: None,
                 };
                 let mut g = crate::rng::stream(sc.seed, &[crate::rng::tag::PLAN, 2]);
                 crate::sim::poses::poses(&common.rig, &aim, &source, &mut g)

@@ -2,9 +2,12 @@
 //! profile crossing the specimen's edge. Its `[edge]` scenario section, plan, simulation, edge-point
 //! features and solve (Eqs. 9-24), the Table 3 ball check, and the edge-point refinement model.
 
-use super::{Kind, Method, Plan, Sim};
+use super::{Estimator, Kind, Method, Plan, Sim};
+use crate::calib::bar::BarView;
 use crate::calib::edge::{EdgeCapture, EdgeProblem};
+use crate::calib::plane::LineView;
 use crate::calib::refine::Problem;
+use crate::calib::refine::Refined;
 use crate::calib::refine::edge::{EdgeLine, EdgeModel};
 use crate::captures::{CaptureError, Captures, Group, ProfileData, Role};
 use crate::error::Error;
@@ -16,6 +19,7 @@ use crate::schema::{Common, Scenario, ScenarioError, Source, Validator};
 use crate::sensor::SensorModel;
 use crate::sim::ball::BallTarget;
 use crate::sim::edge::{EdgeGroupPlan, EdgePlanSpec, EdgeTarget};
+use crate::sim::poses::Aim;
 use crate::sim::{Rig, flange_pose};
 use nalgebra::{Isometry3, Point3, Vector2, Vector3};
 
@@ -31,6 +35,36 @@ impl Method for Edge {
         let e = v.section(sc.edge.as_ref(), Kind::Edge)?;
         if let Some(sp) = &e.specimen {
             sp.kind_checked("edge.specimen", v)?;
+        }
+        if let Some(m) = sc
+            .methods
+            .iter()
+            .find(|m| m.kind == Kind::Edge && m.estimator == Estimator::AnyPose)
+            && e.source != Source::Raycast
+        {
+            return Err(v.bad(
+                "edge.source",
+                "\"analytic\"",
+                format!(
+                    "{m} fits the bar's face in the raw profiles: set edge.source = \"raycast\""
+                ),
+            ));
+        }
+        if let Some(ps) = &e.poses {
+            ps.source("edge.poses", crate::calib::plane::MIN_VIEWS, v)?;
+            if let Some(m) = sc
+                .methods
+                .iter()
+                .find(|m| m.kind == Kind::Edge && m.estimator != Estimator::AnyPose)
+            {
+                return Err(v.bad(
+                    "methods",
+                    format!("\"{m}\""),
+                    "the edge paper's method needs its protocol (edge.rotations, \
+                     edge.translations and the arc); with [edge.poses] use edge-any-pose",
+                ));
+            }
+            return Ok(());
         }
         v.at_least(
             "edge.rotations",
@@ -93,8 +127,28 @@ impl Method for Edge {
                 .map(|z| z * 1e-3)
                 .unwrap_or(rig.sensor.range_centre().z),
         };
-        let plans = crate::sim::edge::plan(rig, &target, &espec)
-            .map_err(|er| v.bad("edge", "..", er.to_string()))?;
+        let (plans, free) = match &e.poses {
+            None => (
+                crate::sim::edge::plan(rig, &target, &espec)
+                    .map_err(|er| v.bad("edge", "..", er.to_string()))?,
+                Vec::new(),
+            ),
+            Some(ps) => {
+                let source = ps.source("edge.poses", crate::calib::plane::MIN_VIEWS, v)?;
+                // Aimed at the edge; the laser plane moved up to 30 mm (or a third of the
+                // edge) across itself, so that the crossings spread along the edge.
+                let aim = Aim {
+                    point: target.point,
+                    normal: target.up.into_inner(),
+                    off_plane: (target.half_length / 1.5).min(0.03),
+                    crossing: Some(target.dir.into_inner()),
+                };
+                let mut g = rng::stream(sc.seed, &[tag::PLAN, 5]);
+                let poses = crate::sim::poses::poses(rig, &aim, &source, &mut g)
+                    .map_err(|er| v.bad("edge.poses", "..", er.to_string()))?;
+                (Vec::new(), poses)
+            }
+        };
         let validation = e.validation.as_ref().map(|val| BallCheck {
             ball: BallTarget {
                 centre: Point3::from(Vector3::from(val.position_mm) * 1e-3),
@@ -116,6 +170,7 @@ impl Method for Edge {
         Ok(Box::new(EdgePlan {
             target,
             plans,
+            free,
             scene,
             raycast: e.source == Source::Raycast,
             sigma: e.sigma_mm * 1e-3,
@@ -127,6 +182,14 @@ impl Method for Edge {
 
     fn calibrate(&self, c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
         calibrate(c, sensor)
+    }
+
+    fn calibrate_any_pose(
+        &self,
+        c: &Captures,
+        sensor: &SensorModel,
+    ) -> Result<(super::Calibration, Refined), Error> {
+        any_pose(c, sensor)
     }
 
     fn needs_radius(&self) -> bool {
@@ -152,7 +215,9 @@ pub struct BallCheck {
 #[derive(Debug)]
 pub struct EdgePlan {
     pub target: EdgeTarget,
+    /// The paper's protocol, or (when not empty) `free` flange poses, one profile each.
     pub plans: Vec<EdgeGroupPlan>,
+    pub free: Vec<Isometry3<f64>>,
     pub scene: Scene,
     pub raycast: bool,
     /// Noise on the edge point's x and z (analytic), metres.
@@ -173,6 +238,9 @@ impl Plan for EdgePlan {
     }
 
     fn first_flange_pose(&self) -> Isometry3<f64> {
+        if let Some(f) = self.free.first() {
+            return *f;
+        }
         let p = &self.plans[0];
         flange_pose(&p.r_tcp, &p.tcps[p.tcps.len() / 2])
     }
@@ -201,6 +269,23 @@ impl Plan for EdgePlan {
         let noisy = !rig.sensor.noise.is_off();
         let Sim { rng, mover, .. } = sim;
         let (mut groups, mut profiles) = (Vec::new(), Vec::new());
+        for (g, f) in self.free.iter().enumerate() {
+            let pose = rig.base_to_sensor(&mover.actual(&rig.robot, f));
+            groups.push(Group {
+                id: g,
+                role: Role::Pose,
+                sign: 0.0,
+            });
+            profiles.push(crate::captures::CaptureProfile {
+                group: g,
+                base_to_flange: *f,
+                data: ProfileData::Raw(rig.sensor.profile(
+                    &scene,
+                    &pose,
+                    noisy.then_some(&mut **rng),
+                )),
+            });
+        }
         for (g, p) in self.plans.iter().enumerate() {
             groups.push(Group {
                 id: g,
@@ -263,18 +348,99 @@ fn point_of(
     }
 }
 
+/// Edges are small features: a fine tolerance for an exact sensor, else the noise's.
+fn edge_config(sensor: &SensorModel) -> SplitMerge {
+    let tuned = SplitMerge::for_sensor(sensor);
+    let exact = sensor.noise.is_off() && sensor.z_quantum.is_none();
+    SplitMerge {
+        split_tol: if exact { 0.1e-3 } else { tuned.split_tol },
+        jump: tuned.jump.max(0.5e-3),
+        min_points: 4,
+    }
+}
+
+/// One raw profile of the bar from any pose: its face's line and the edges at the face's ends.
+fn bar_view(
+    g: &Group,
+    p: &crate::captures::CaptureProfile,
+    sensor: &SensorModel,
+    cfg: &SplitMerge,
+) -> Result<Result<BarView, CaptureError>, CaptureError> {
+    let ProfileData::Raw(prof) = &p.data else {
+        return Err(CaptureError::WrongData {
+            group: g.id,
+            method: Kind::Edge,
+            need: "raw points (points_mm): the any-pose estimator fits the bar's face",
+        });
+    };
+    let bar = match features::bar_profile(prof, sensor, cfg) {
+        Ok(b) => b,
+        Err(e) => return Ok(Err(e.into())),
+    };
+    let too_few = |n| {
+        CaptureError::from(features::FeatureError::TooFewPoints {
+            found: n,
+            need: FACE_POINTS,
+        })
+    };
+    if bar.face.len() < FACE_POINTS {
+        return Ok(Err(too_few(bar.face.len())));
+    }
+    let Some(line) = features::Line2::fit(&bar.face) else {
+        return Ok(Err(too_few(bar.face.len())));
+    };
+    let centroid = bar.face.iter().sum::<Vector2<f64>>() / bar.face.len() as f64;
+    Ok(Ok(BarView {
+        face: LineView {
+            base_to_flange: p.base_to_flange,
+            centroid,
+            direction: line.dir.normalize(),
+            points: bar.face,
+        },
+        edges: bar.edges.iter().map(|e| (e.from, e.to)).collect(),
+    }))
+}
+
+/// Fewest points on a profile's face for the any-pose estimator.
+const FACE_POINTS: usize = 10;
+
+/// The bar's face and edges from any poses, whatever the groups (`calib::bar`).
+fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, Refined), Error> {
+    let cfg = edge_config(sensor);
+    let (mut views, mut reports) = (Vec::new(), Vec::new());
+    for g in &c.groups {
+        let mut report = super::GroupReport::new(g.id);
+        for p in c.group_profiles(g.id) {
+            let view = bar_view(g, p, sensor, &cfg)?;
+            report.count(&view);
+            if let Ok(v) = view {
+                views.push(v);
+            }
+        }
+        report.left_out = report.used == 0;
+        reports.push(report);
+    }
+    super::leave_out_thin_groups(&mut reports, 1, 1, Kind::Edge)?;
+    let sol = crate::calib::bar::solve(&views, &sensor.apex().coords)?;
+    let missed = reports.iter().map(|r| r.profiles - r.used).sum();
+    let cal = super::Calibration {
+        flange_to_sensor: sol.flange_to_sensor,
+        centre_in_base: None,
+        figures: Metrics::default(),
+        status: sol.refined.status,
+        missed,
+        groups: reports,
+        refinable: Some(std::sync::Arc::new(sol.problem)),
+        full_profile: None,
+    };
+    Ok((cal, sol.refined))
+}
+
 /// Edge points per rotation group, the Kronecker solve, the paper's Tables 1-2 figures, and the
 /// refinement problem.
 fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
     let sense = c.edge_sense.unwrap_or(EdgeSense::Falling);
-    let tuned = SplitMerge::for_sensor(sensor);
-    let exact = sensor.noise.is_off() && sensor.z_quantum.is_none();
-    // Edges are small features: a fine tolerance for an exact sensor, else the noise's.
-    let cfg = SplitMerge {
-        split_tol: if exact { 0.1e-3 } else { tuned.split_tol },
-        jump: tuned.jump.max(0.5e-3),
-        min_points: 4,
-    };
+    let cfg = edge_config(sensor);
     let mut missed = 0;
     let (mut per_group, mut reports) = (Vec::new(), Vec::new());
     for g in &c.groups {

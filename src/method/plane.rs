@@ -61,6 +61,7 @@ impl Method for PlaneMethod {
             point: Point3::new(p.aim_mm[0] * 1e-3, p.aim_mm[1] * 1e-3, table.height_m),
             normal: Vector3::z(),
             off_plane: 0.0,
+            crossing: None,
         };
         let mut g = rng::stream(sc.seed, &[tag::PLAN, 4]);
         let poses = crate::sim::poses::poses(&common.rig, &aim, &source, &mut g)

@@ -14,10 +14,17 @@ pub struct Section {
     /// Gaussian noise on the edge point's x and z, mm (analytic).
     #[serde(default)]
     pub sigma_mm: f64,
+    /// The paper's protocol (left out with `[edge.poses]`): rotation groups, translations per
+    /// group along an arc, the groups' largest tilt.
+    #[serde(default)]
     pub rotations: usize,
+    #[serde(default)]
     pub translations: usize,
+    #[serde(default)]
     pub tilt_deg: f64,
+    #[serde(default)]
     pub arc_radius_mm: f64,
+    #[serde(default)]
     pub arc_span_deg: f64,
     /// Angle of the arc's chord from the edge toward the open side: 0 moves along the edge (the
     /// profile never changes), 90 straight across it (the points do not spread along the edge).
@@ -32,6 +39,10 @@ pub struct Section {
     /// The edge paper's Table 3 check with a precision ball.
     #[serde(default)]
     pub validation: Option<Validation>,
+    /// Free poses instead of the protocol (for edge-any-pose): each crosses the edge at 30 deg or
+    /// more, the crossings spread along it.
+    #[serde(default)]
+    pub poses: Option<super::poses::PoseSet>,
 }
 
 /// `[edge.validation]`: the edge paper's Table 3 check.

@@ -27,6 +27,18 @@ pub struct Aim {
     pub point: Point3<f64>,
     pub normal: Vector3<f64>,
     pub off_plane: f64,
+    /// An edge's direction the laser plane must cross at 30 deg or more.
+    pub crossing: Option<Vector3<f64>>,
+}
+
+impl Aim {
+    /// Whether a flange pose's laser plane crosses `crossing` steeply enough.
+    fn crosses(&self, rig: &Rig, base_to_flange: &Isometry3<f64>) -> bool {
+        self.crossing.is_none_or(|d| {
+            let y = (base_to_flange * rig.flange_to_sensor).rotation * Vector3::y();
+            y.dot(&d).abs() >= 0.5 * d.norm()
+        })
+    }
 }
 
 /// The flange poses of a pose set: generated (each drawn until the robot reaches it, at most a
@@ -44,20 +56,22 @@ pub fn poses(
             spread,
         } => (0..*count)
             .map(|i| {
-                let mut last = None;
+                let mut last = String::new();
                 for _ in 0..100 {
                     let f = draw(rig, aim, *tilt, *spread, rng);
+                    if !aim.crosses(rig, &f) {
+                        last = "the laser plane crossed the edge at under 30 deg".into();
+                        continue;
+                    }
                     match check_reachable(&rig.robot, i, &f) {
                         Ok(()) => return Ok(f),
-                        Err(e) => last = Some(e),
+                        Err(e) => last = e.to_string(),
                     }
                 }
                 Err(PlanError::BadScan {
                     scan: i,
                     reason: format!(
-                        "100 draws were out of the robot's reach (last: {}); aim nearer the \
-                         robot or narrow the tilts",
-                        last.map_or_else(String::new, |e| e.to_string())
+                        "100 draws failed (last: {last}); aim nearer the robot or narrow the tilts"
                     ),
                 })
             })

@@ -10,6 +10,7 @@
 //! q = F (R p_s + t) in the base frame.
 
 pub mod ball;
+pub mod bar;
 pub mod disk;
 pub mod edge;
 pub mod plane;
@@ -604,6 +605,12 @@ fn minimise<M: Model>(
 /// with the small-sample factor N / (N - p): consistent when residuals have unequal variances (a
 /// chord end's distance from the rim is noisier than its distance from the disk plane).
 fn covariance(r: &DVector<f64>, j: &DMatrix<f64>) -> Matrix6<f64> {
+    // A specimen parameter no residual depends on at the optimum (a bar's edge whose every
+    // crossing falls inside its censored gap) carries no information: left out.
+    let used: Vec<usize> = (0..j.ncols())
+        .filter(|&c| c < 6 || j.column(c).iter().any(|v| *v != 0.0))
+        .collect();
+    let j = &j.select_columns(&used);
     let (n, p) = (j.nrows(), j.ncols());
     let a = ata(j, j);
     let Some(inv) = a.clone().try_inverse() else {

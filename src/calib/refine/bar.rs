@@ -1,0 +1,121 @@
+//! A bar's or plate's refinement model (beyond both papers): every top-face point against the face,
+//! and every edge the profiles cross against one of the face's one or two parallel edges.
+//!
+//! Specimen parameters: the bar's frame Q (x along the edges, z the face's normal),
+//! Q <- Q exp([a, b, c]) (3); the face's offset d along Q z (1); each edge's offset o_k along Q y
+//! (1 or 2). Residuals along the surface normals: a face point q, n.q - d; an edge, (Q y).q - o_k
+//! at the corner where a wall was seen. Where the face ends without a wall the edge lies somewhere
+//! between the face's last column and the next: the residual is zero while the edge's line passes
+//! between the two, else the nearer one's offset (a censored measurement: no bias from guessing
+//! where in the gap the edge is, so exact data give the exact answer).
+
+use super::{Model, Transform, exp, transform_columns};
+use nalgebra::{DMatrix, DVector, Isometry3, Rotation3, Vector2, Vector3};
+
+/// One edge seen in one profile: the flange pose, the edge's interval on the face (sensor x, z;
+/// equal ends at a corner) and which of the bar's edges it is (0 or 1).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EdgeSeen {
+    pub base_to_flange: Isometry3<f64>,
+    pub from: Vector2<f64>,
+    pub to: Vector2<f64>,
+    pub edge: usize,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct BarModel {
+    /// Top-face points (sensor x, z) with the flange pose each was seen from.
+    pub face: Vec<(Isometry3<f64>, Vector2<f64>)>,
+    pub edges: Vec<EdgeSeen>,
+    /// How many distinct edges the profiles cross (1 or 2).
+    pub n_edges: usize,
+}
+
+/// The bar: its frame (x along the edges, z the face's normal), the face's offset and the edges'.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bar {
+    pub frame: Rotation3<f64>,
+    pub offset: f64,
+    pub edge_offsets: [f64; 2],
+}
+
+impl Model for BarModel {
+    type Specimen = Bar;
+
+    fn name(&self) -> &'static str {
+        "bar refinement"
+    }
+    fn n_specimen_params(&self) -> usize {
+        4 + self.n_edges
+    }
+    fn n_features(&self) -> usize {
+        self.face.len() + self.edges.len()
+    }
+    fn residuals_per_feature(&self) -> usize {
+        1
+    }
+
+    fn eval(
+        &self,
+        x: &Transform,
+        s: &Bar,
+        _labels: &[f64],
+        r: &mut DVector<f64>,
+        mut j: Option<&mut DMatrix<f64>>,
+    ) {
+        let (ex, ey, ez) = (
+            s.frame * Vector3::x(),
+            s.frame * Vector3::y(),
+            s.frame * Vector3::z(),
+        );
+        let jac = j.is_some();
+        for (i, (f, p)) in self.face.iter().enumerate() {
+            let (qb, dq_dw, dq_dt) = x.point_in_base(f, p, jac);
+            r[i] = ez.dot(&qb) - s.offset;
+            if let Some(j) = j.as_deref_mut() {
+                transform_columns(j, i, &ez, &dq_dw, &dq_dt);
+                // Q exp([w]) z: dn/da = -Q y, dn/db = Q x, dn/dc = 0.
+                j[(i, 6)] = -ey.dot(&qb);
+                j[(i, 7)] = ex.dot(&qb);
+                j[(i, 9)] = -1.0;
+            }
+        }
+        let n = self.face.len();
+        for (i, e) in self.edges.iter().enumerate() {
+            let row = n + i;
+            let o = s.edge_offsets[e.edge];
+            let across = |p: &Vector2<f64>| {
+                let (qb, _, _) = x.point_in_base(&e.base_to_flange, p, false);
+                ey.dot(&qb) - o
+            };
+            let (sa, sb) = (across(&e.from), across(&e.to));
+            // Within the gap: no residual (and no gradient).
+            if e.from != e.to && sa * sb <= 0.0 {
+                r[row] = 0.0;
+                continue;
+            }
+            let p = if sa.abs() <= sb.abs() { &e.from } else { &e.to };
+            let (qb, dq_dw, dq_dt) = x.point_in_base(&e.base_to_flange, p, jac);
+            r[row] = ey.dot(&qb) - o;
+            if let Some(j) = j.as_deref_mut() {
+                transform_columns(j, row, &ey, &dq_dw, &dq_dt);
+                // Q exp([w]) y: dy/da = Q z, dy/db = 0, dy/dc = -Q x.
+                j[(row, 6)] = ez.dot(&qb);
+                j[(row, 8)] = -ex.dot(&qb);
+                j[(row, 10 + e.edge)] = -1.0;
+            }
+        }
+    }
+
+    fn step(&self, s: &Bar, dx: &[f64]) -> Bar {
+        let mut edge_offsets = s.edge_offsets;
+        for (k, o) in edge_offsets.iter_mut().enumerate().take(self.n_edges) {
+            *o += dx[4 + k];
+        }
+        Bar {
+            frame: s.frame * exp(&Vector3::new(dx[0], dx[1], dx[2])),
+            offset: s.offset + dx[3],
+            edge_offsets,
+        }
+    }
+}
