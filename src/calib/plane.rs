@@ -63,7 +63,16 @@ pub struct Start {
 
 /// `apex`: the sensor's laser apex in its own frame (which side of the plane the sensor is on).
 pub fn solve(views: &[LineView], apex: &Vector3<f64>) -> Result<PlaneSolution, CalibError> {
-    let starts = starts(views, apex, 3)?;
+    solve_from_starts(views, apex, 3)
+}
+
+/// `solve` screening the best `count` normals.
+pub fn solve_from_starts(
+    views: &[LineView],
+    apex: &Vector3<f64>,
+    count: usize,
+) -> Result<PlaneSolution, CalibError> {
+    let starts = starts(views, apex, count)?;
     // A physical solution beats one that puts the sensor behind the plane; among equals, starts
     // that reach one minimum end equal to rounding: keep the first (see ball_any).
     let mut best: Option<&Start> = None;

@@ -232,6 +232,25 @@ pub fn disk_chord_and_face(
     disk_radius: f64,
     cfg: &SplitMerge,
 ) -> Result<(Chord, Vec<Vector2<f64>>), FeatureError> {
+    disk_profile(profile, sensor, disk_radius, cfg).map(|d| (d.chord, d.face))
+}
+
+/// A disk's chord, its face points, and where on the face's line the rim can lie at each end:
+/// between the face's last column and the next column with a point (what the any-pose
+/// estimator uses, without guessing where in the gap the rim is).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DiskProfile {
+    pub chord: Chord,
+    pub face: Vec<Vector2<f64>>,
+    pub rim: [(Vector2<f64>, Vector2<f64>); 2],
+}
+
+pub fn disk_profile(
+    profile: &Profile,
+    sensor: &SensorModel,
+    disk_radius: f64,
+    cfg: &SplitMerge,
+) -> Result<DiskProfile, FeatureError> {
     let pts = valid_points(profile);
     if pts.len() < cfg.min_points {
         return Err(FeatureError::TooFewPoints {
@@ -297,10 +316,24 @@ pub fn disk_chord_and_face(
         } else {
             0.0
         };
-        end_beyond(sensor, &s.line, k, k2, extra).ok_or(FeatureError::ChordTruncated { column: k })
+        let truncated = FeatureError::ChordTruncated { column: k };
+        let beyond = if forward {
+            pts.get(idx + 1)
+        } else {
+            idx.checked_sub(1).and_then(|i| pts.get(i))
+        }
+        .map_or(k2, |p| p.0);
+        let on = |u: usize| s.line.intersect(&column_line(sensor, u as f64));
+        let interval = on(k).zip(on(beyond)).ok_or(truncated.clone())?;
+        let point = end_beyond(sensor, &s.line, k, k2, extra).ok_or(truncated)?;
+        Ok((point, interval))
     };
-    let chord = Chord::by_x(end(first, false)?, end(last, true)?, sensor);
-    Ok((chord, pts[first..=last].iter().map(|p| p.1).collect()))
+    let (low, high) = (end(first, false)?, end(last, true)?);
+    Ok(DiskProfile {
+        chord: Chord::by_x(low.0, high.0, sensor),
+        face: pts[first..=last].iter().map(|p| p.1).collect(),
+        rim: [low.1, high.1],
+    })
 }
 
 /// Chord of a white disk on black paper: the longest run of bright points (intensity above the
