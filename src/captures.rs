@@ -131,8 +131,9 @@ pub enum CaptureError {
     )]
     NoFullProfile { method: Kind },
     #[error(
-        "group {group}: the {method} closed form needs the side of the laser plane (sign +1 or -1); \
-         give it, or use {method}-any-pose, which infers it"
+        "group {group}: the {method} closed form needs its sign s_i (+1 or -1: the ball's side of \
+         the laser plane, the disk scan's direction); give it, or use {method}-any-pose, which \
+         does without it"
     )]
     MissingSign { group: usize, method: Kind },
     #[error(transparent)]

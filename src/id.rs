@@ -32,6 +32,7 @@ impl Kind {
                 Estimator::ClosedForm,
                 Estimator::Refined,
                 Estimator::FullProfile,
+                Estimator::AnyPose,
             ],
             Kind::Edge => &[
                 Estimator::ClosedForm,

@@ -299,7 +299,7 @@ fn calibrate_a_capture_file_without_signs() {
 /// A random plane, rig and `n` free poses looking at it (tilt 5-40 deg from its normal, the line's
 /// middle at a random depth in the range); `same_orientation`: every pose at the first's.
 fn random_plane_setup(seed: u64, n: usize, same_orientation: bool, sigma: f64) -> Setup {
-    random_face_setup(seed, n, same_orientation, sigma, None)
+    random_face_setup(seed, n, same_orientation, sigma, Target::Plane)
 }
 
 /// A bar lying on a plane, its long edges along its frame's x, 10-60 mm wide: `n` free poses
@@ -309,17 +309,40 @@ fn random_bar_setup(seed: u64, n: usize, sigma: f64) -> Setup {
     let mut rng = lasercal::testkit::rng(seed ^ 0xba5);
     let width = uniform(&mut rng, 0.01, 0.06);
     let height = uniform(&mut rng, 0.005, 0.03);
-    random_face_setup(seed, n, false, sigma, Some((width, height)))
+    random_face_setup(seed, n, false, sigma, Target::Bar { width, height })
 }
 
-/// The plane, or with `bar` (width, height) a bar on it whose top face the poses look at.
+/// A disk on a cylinder (its radius 10-20 % of the fan's width at its near end, 5-30 mm high) on a
+/// plane: `n` free poses looking at its face as `random_plane_setup` does, the line's middle
+/// within 0.6 R of the centre.
+fn random_disk_setup(seed: u64, n: usize, sigma: f64) -> Setup {
+    let fan = random_fan(&mut lasercal::testkit::rng(seed));
+    let near_width = 2.0 * (fan.apex_z - fan.z_range.1) * fan.half_angle.tan();
+    let mut rng = lasercal::testkit::rng(seed ^ 0xd15c);
+    let radius = uniform(&mut rng, 0.1, 0.2) * near_width;
+    let height = uniform(&mut rng, 0.005, 0.03);
+    random_face_setup(seed, n, false, sigma, Target::Disk { radius, height })
+}
+
+/// What the poses look at: a plane, or a bar or a disk lying on it (its top face).
+#[derive(Clone, Copy, PartialEq)]
+enum Target {
+    Plane,
+    Bar { width: f64, height: f64 },
+    Disk { radius: f64, height: f64 },
+}
+
 fn random_face_setup(
     seed: u64,
     n: usize,
     same_orientation: bool,
     sigma: f64,
-    bar: Option<(f64, f64)>,
+    target: Target,
 ) -> Setup {
+    let bar = match target {
+        Target::Bar { width, height } => Some((width, height)),
+        _ => None,
+    };
     let mut rng = lasercal::testkit::rng(seed);
     let fan = random_fan(&mut rng);
     let sensor = common::declared(&fan, "random fan");
@@ -343,9 +366,20 @@ fn random_face_setup(
         Translation3::from(point.coords),
         UnitQuaternion::rotation_between(&Vector3::z(), &normal).unwrap(),
     );
-    let solids = match bar {
-        None => vec![Solid::Plane { point, normal }],
-        Some((width, height)) => vec![
+    let solids = match target {
+        Target::Plane => vec![Solid::Plane { point, normal }],
+        Target::Disk { radius, height } => vec![
+            Solid::DiskOnCylinder {
+                frame: face_frame,
+                radius,
+                height,
+            },
+            Solid::Plane {
+                point: point - normal * height,
+                normal,
+            },
+        ],
+        Target::Bar { width, height } => vec![
             Solid::Bar {
                 frame: face_frame,
                 lx: 0.4,
@@ -386,8 +420,8 @@ fn random_face_setup(
         first.get_or_insert(rot);
         // The line's middle on the plane at a random depth of the range.
         let z = uniform(&mut rng, 0.8 * fan.z_range.0, 0.8 * fan.z_range.1);
-        let aim = match bar {
-            None => {
+        let aim = match target {
+            Target::Plane => {
                 point
                     + nalgebra::Vector3::new(
                         uniform(&mut rng, -0.05, 0.05),
@@ -395,7 +429,14 @@ fn random_face_setup(
                         0.0,
                     )
             }
-            Some((width, _)) => {
+            Target::Disk { radius, .. } => {
+                let (r, a) = (
+                    0.6 * radius * uniform(&mut rng, 0.0, 1.0).sqrt(),
+                    uniform(&mut rng, 0.0, std::f64::consts::TAU),
+                );
+                face_frame * Point3::new(r * a.cos(), r * a.sin(), 0.0)
+            }
+            Target::Bar { width, .. } => {
                 face_frame
                     * Point3::new(
                         uniform(&mut rng, -0.1, 0.1),
@@ -427,18 +468,21 @@ fn random_face_setup(
     }
     Setup {
         caps: Captures {
-            method: if bar.is_some() {
-                Kind::Edge
-            } else {
-                Kind::Plane
+            method: match target {
+                Target::Plane => Kind::Plane,
+                Target::Bar { .. } => Kind::Edge,
+                Target::Disk { .. } => Kind::Disk,
             },
             sensor: sensor.name.clone(),
-            specimen_kind: if bar.is_some() {
-                SpecimenType::ParallelBar
-            } else {
-                SpecimenType::Plane
+            specimen_kind: match target {
+                Target::Plane => SpecimenType::Plane,
+                Target::Bar { .. } => SpecimenType::ParallelBar,
+                Target::Disk { .. } => SpecimenType::DiskCylinder,
             },
-            specimen_radius: None,
+            specimen_radius: match target {
+                Target::Disk { radius, .. } => Some(radius),
+                _ => None,
+            },
             edge_sense: None,
             truth: Some(truth),
             groups,
@@ -477,6 +521,42 @@ fn edge_exact_on_a_hundred_random_bars_rigs_and_pose_sets() {
         "edge, worst of 100: {:.1e} deg, {:.1e} mm",
         worst.0, worst.1
     );
+}
+
+const DISK: MethodId = MethodId::new(Kind::Disk, Estimator::AnyPose);
+
+#[test]
+fn disk_exact_on_a_hundred_random_disks_rigs_and_pose_sets() {
+    let mut worst = (0.0f64, 0.0f64);
+    for seed in 0..100u64 {
+        let n = 7 + (seed as usize * 7) % 44;
+        let s = random_disk_setup(10_000 + seed, n, 0.0);
+        let (cal, r) = lasercal::method::estimate(DISK, &s.caps, &s.sensor)
+            .unwrap_or_else(|e| panic!("setup {seed} ({n} poses): {e}"));
+        assert!(
+            matches!(r.unwrap().status, lasercal::calib::Status::Converged { .. }),
+            "setup {seed}"
+        );
+        let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
+        worst.0 = worst.0.max(e.rotation_error_deg);
+        worst.1 = worst.1.max(e.translation_error_mm);
+        assert!(
+            e.rotation_error_deg < 1e-9 && e.translation_error_mm < 1e-9,
+            "setup {seed} ({n} poses): {e:?}"
+        );
+    }
+    eprintln!(
+        "disk, worst of 100: {:.1e} deg, {:.1e} mm",
+        worst.0, worst.1
+    );
+}
+
+#[test]
+fn disk_with_noise() {
+    let (rot, tr) = noisy_errors(DISK, "16 free poses", |seed| {
+        random_disk_setup(11_000 + seed, 16, 0.1e-3)
+    });
+    assert!(rot[10] < 0.05 && tr[10] < 0.1, "{rot:?} {tr:?}");
 }
 
 #[test]

@@ -66,10 +66,11 @@ fn estimators(s: &Setup, kind: Kind) -> Vec<Estimator> {
     kind.estimators()
         .iter()
         .copied()
-        // Full-profile refinement and the edge's any-pose estimator (which fits the bar's face)
-        // need raw profiles.
+        // Full-profile refinement and the edge's and disk's any-pose estimators (which fit the
+        // face) need raw profiles.
         .filter(|&e| {
-            raw || !(e == Estimator::FullProfile || (e == Estimator::AnyPose && kind == Kind::Edge))
+            raw || !(e == Estimator::FullProfile
+                || (e == Estimator::AnyPose && matches!(kind, Kind::Edge | Kind::Disk)))
         })
         .collect()
 }

@@ -268,7 +268,7 @@ fn malformed_capture_files_name_record_and_field() {
             "profiles[3].group",
         ),
         (
-            Box::new(|v| v["groups"][1]["sign"] = serde_json::json!(0)),
+            Box::new(|v| v["groups"][1]["sign"] = serde_json::json!(2)),
             "groups[1].sign",
         ),
         (Box::new(|v| v["version"] = serde_json::json!(7)), "version"),
@@ -301,6 +301,17 @@ fn malformed_capture_files_name_record_and_field() {
             "{want}: {err}"
         );
     }
+    // A sign not recorded (0): the closed form says so and names the estimator that needs none.
+    let mut w = v.clone();
+    w["groups"][1]["sign"] = serde_json::json!(0);
+    let p = dir.path().join("unsigned.json");
+    std::fs::write(&p, serde_json::to_string(&w).unwrap()).unwrap();
+    let (code, _, err) = lasercal(&["calibrate", p.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("group 1") && err.contains("sign") && err.contains("disk-any-pose"),
+        "{err}"
+    );
     // A method mismatch is refused.
     let (code, _, err) = lasercal(&["calibrate", good.to_str().unwrap(), "--method", "edge"]);
     assert_eq!(code, 2);

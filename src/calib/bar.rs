@@ -40,7 +40,14 @@ pub struct BarSolution {
 }
 
 pub fn solve(views: &[BarView], apex: &Vector3<f64>) -> Result<BarSolution, CalibError> {
-    let (views, plane) = face_plane(views, apex)?;
+    let faces: Vec<LineView> = views.iter().map(|v| v.face.clone()).collect();
+    let (kept, plane) = super::plane::solve_leaving_out(&faces, apex, STARTS)?;
+    let views: Vec<BarView> = views
+        .iter()
+        .zip(&kept)
+        .filter(|(_, k)| **k)
+        .map(|(v, _)| v.clone())
+        .collect();
     with_edges(&views, &plane)
 }
 
@@ -130,53 +137,6 @@ fn with_edges(
             specimen: bar,
         },
     })
-}
-
-/// Step 1, robust to a profile whose face is not the top face (a wall or the table under the bar
-/// chosen in its place, which no single profile can always tell): solve the plane, leave out the
-/// profiles whose face points lie off it by more than five times the median profile's RMS (at
-/// least 1 um), and solve again, until none is left out (at most three rounds).
-fn face_plane(
-    views: &[BarView],
-    apex: &Vector3<f64>,
-) -> Result<(Vec<BarView>, super::plane::PlaneSolution), CalibError> {
-    let mut kept = views.to_vec();
-    for _ in 0..3 {
-        let faces: Vec<LineView> = kept.iter().map(|v| v.face.clone()).collect();
-        let sol = super::plane::solve_from_starts(&faces, apex, STARTS)?;
-        let n = sol.plane.normal();
-        let rms: Vec<f64> = kept
-            .iter()
-            .map(|v| {
-                let x = v.face.base_to_flange * sol.flange_to_sensor;
-                let sq: f64 = v
-                    .face
-                    .points
-                    .iter()
-                    .map(|p| {
-                        let q = x.transform_point(&nalgebra::Point3::new(p.x, 0.0, p.y));
-                        (n.dot(&q.coords) - sol.plane.offset).powi(2)
-                    })
-                    .sum();
-                (sq / v.face.points.len().max(1) as f64).sqrt()
-            })
-            .collect();
-        let mut sorted = rms.clone();
-        sorted.sort_by(f64::total_cmp);
-        let limit = (5.0 * sorted[sorted.len() / 2]).max(1e-6);
-        if rms.iter().all(|r| *r <= limit) {
-            return Ok((kept, sol));
-        }
-        kept = kept
-            .into_iter()
-            .zip(&rms)
-            .filter(|(_, r)| **r <= limit)
-            .map(|(v, _)| v)
-            .collect();
-    }
-    let faces: Vec<LineView> = kept.iter().map(|v| v.face.clone()).collect();
-    let sol = super::plane::solve_from_starts(&faces, apex, STARTS)?;
-    Ok((kept, sol))
 }
 
 /// The edges' direction in the plane (angle from its first axis) and which of one or two

@@ -5,6 +5,7 @@ pub mod ball;
 pub mod ball_any;
 pub mod bar;
 pub mod disk;
+pub mod disk_any;
 pub mod edge;
 pub mod ellipse;
 pub mod plane;

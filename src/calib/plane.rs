@@ -94,6 +94,62 @@ pub fn solve_from_starts(
     refine_from(views, best)
 }
 
+/// `solve_from_starts`, robust to a profile whose line is not on the plane (a bar's wall or the
+/// table under it taken for its face, which no single profile can always tell): solve, leave out
+/// the profiles whose points lie off the plane by more than five times the median profile's RMS
+/// (at least 1 um), and solve again, until none is left out (at most three rounds). Returns
+/// which views were kept.
+pub fn solve_leaving_out(
+    views: &[LineView],
+    apex: &Vector3<f64>,
+    count: usize,
+) -> Result<(Vec<bool>, PlaneSolution), CalibError> {
+    let mut kept = vec![true; views.len()];
+    for _ in 0..3 {
+        let used: Vec<LineView> = views
+            .iter()
+            .zip(&kept)
+            .filter(|(_, k)| **k)
+            .map(|(v, _)| v.clone())
+            .collect();
+        let sol = solve_from_starts(&used, apex, count)?;
+        let n = sol.plane.normal();
+        let rms = |v: &LineView| {
+            let x = v.base_to_flange * sol.flange_to_sensor;
+            let sq: f64 = v
+                .points
+                .iter()
+                .map(|p| {
+                    let q = x.transform_point(&nalgebra::Point3::new(p.x, 0.0, p.y));
+                    (n.dot(&q.coords) - sol.plane.offset).powi(2)
+                })
+                .sum();
+            (sq / v.points.len().max(1) as f64).sqrt()
+        };
+        let all: Vec<f64> = views.iter().map(rms).collect();
+        let mut sorted: Vec<f64> = all
+            .iter()
+            .zip(&kept)
+            .filter(|(_, k)| **k)
+            .map(|(r, _)| *r)
+            .collect();
+        sorted.sort_by(f64::total_cmp);
+        let limit = (5.0 * sorted[sorted.len() / 2]).max(1e-6);
+        let next: Vec<bool> = all.iter().map(|r| *r <= limit).collect();
+        if next == kept || next.iter().filter(|k| **k).count() < MIN_VIEWS {
+            return Ok((kept, sol));
+        }
+        kept = next;
+    }
+    let used: Vec<LineView> = views
+        .iter()
+        .zip(&kept)
+        .filter(|(_, k)| **k)
+        .map(|(v, _)| v.clone())
+        .collect();
+    Ok((kept, solve_from_starts(&used, apex, count)?))
+}
+
 /// Every profile's points against the plane from a screened start.
 pub fn refine_from(views: &[LineView], start: &Start) -> Result<PlaneSolution, CalibError> {
     let model = model_of(views, &|_| 1);
@@ -153,6 +209,7 @@ pub fn starts(
     normals.sort_by(|a, b| a.0.total_cmp(&b.0));
     let screen = model_of(views, &|v| v.points.len().div_ceil(64).max(1));
     let mut out = Vec::new();
+    let mut first_err = None;
     let mut tried: Vec<Vector3<f64>> = Vec::new();
     for (_, n) in &normals {
         if tried.len() == count {
@@ -166,8 +223,15 @@ pub fn starts(
         }
         tried.push(*n);
         let (x, plane) = start_from(views, n, apex);
-        let (refined, plane) =
-            refine(&screen, &x, &plane, &Options::default()).map_err(with_plane_advice)?;
+        // A start can sit where the pose set looks degenerate though the truth is not (a
+        // rank-deficient Jacobian at a wild start): skipped, unless every start is.
+        let (refined, plane) = match refine(&screen, &x, &plane, &Options::default()) {
+            Ok(r) => r,
+            Err(e) => {
+                first_err.get_or_insert(with_plane_advice(e));
+                continue;
+            }
+        };
         out.push(Start {
             physical: behind(views, &refined.flange_to_sensor, &plane, apex) == 0,
             flange_to_sensor: refined.flange_to_sensor,
@@ -175,7 +239,10 @@ pub fn starts(
             cost: refined.cost,
         });
     }
-    Ok(out)
+    match first_err {
+        Some(e) if out.is_empty() => Err(e),
+        _ => Ok(out),
+    }
 }
 
 /// What a plane cannot fix, and what adds it.

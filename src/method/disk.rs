@@ -2,16 +2,18 @@
 //! moves (Sec. III-A); its `[disk]` scenario section, plan, simulation, chord features and the
 //! transformation solution (Eqs. 14-19), with the chord-end refinement model.
 
-use super::{Kind, Method, Plan, Sim};
+use super::{Estimator, Kind, Method, Plan, Sim};
 use crate::calib::disk::{DiskChord, DiskProblem, DiskScan};
-use crate::calib::refine::Problem;
+use crate::calib::disk_any::DiskView;
+use crate::calib::plane::LineView;
 use crate::calib::refine::disk::{DiskModel, DiskPose};
+use crate::calib::refine::{Problem, Refined};
 use crate::captures::{CaptureError, CaptureProfile, Captures, Group, ProfileData, Role};
 use crate::error::Error;
 use crate::features::{self, SplitMerge};
 use crate::math::rot_zyx;
 use crate::metrics::{Metric, Metrics};
-use crate::scene::{FormError, FormTolerance, Scene, Specimen, SpecimenType};
+use crate::scene::{FormError, FormTolerance, Scene, Specimen, SpecimenKind, SpecimenType};
 use crate::schema::disk::CoverageKey;
 use crate::schema::{Common, Scenario, ScenarioError, Source, Validator};
 use crate::sensor::SensorModel;
@@ -35,6 +37,44 @@ impl Method for Disk {
                 format!("\"{}\"", sc.specimen.kind),
                 "the disk method needs disk-cylinder or disk-paper",
             ));
+        }
+        if let Some(m) = sc
+            .methods
+            .iter()
+            .find(|m| m.kind == Kind::Disk && m.estimator == Estimator::AnyPose)
+        {
+            if d.source != Source::Raycast {
+                return Err(v.bad(
+                    "disk.source",
+                    "\"analytic\"",
+                    format!("{m} fits the disk's face in the raw profiles: set disk.source = \"raycast\""),
+                ));
+            }
+            if !matches!(sc.specimen_kind(v)?, SpecimenKind::DiskOnCylinder { .. }) {
+                return Err(v.bad(
+                    "specimen.kind",
+                    format!("\"{}\"", sc.specimen.kind),
+                    format!(
+                        "{m} finds the rim by the step of a disk on a cylinder: use disk-cylinder"
+                    ),
+                ));
+            }
+        }
+        if let Some(ps) = &d.poses {
+            ps.source("disk.poses", crate::calib::plane::MIN_VIEWS, v)?;
+            if let Some(m) = sc
+                .methods
+                .iter()
+                .find(|m| m.kind == Kind::Disk && m.estimator != Estimator::AnyPose)
+            {
+                return Err(v.bad(
+                    "methods",
+                    format!("\"{m}\""),
+                    "the disk paper's method needs its protocol (disk.chords and the scans' \
+                     orientations); with [disk.poses] use disk-any-pose",
+                ));
+            }
+            return Ok(());
         }
         v.at_least(
             "disk.chords",
@@ -120,11 +160,32 @@ impl Method for Disk {
             m: d.chords,
             min_angle: d.min_angle_deg.to_radians(),
         };
-        let plans = crate::sim::disk::plan(&common.rig, &target, &spec)
-            .map_err(|e| v.bad("disk.orientations_rpy_rad", "..", e.to_string()))?;
+        let (plans, free) = match &d.poses {
+            None => (
+                crate::sim::disk::plan(&common.rig, &target, &spec)
+                    .map_err(|e| v.bad("disk.orientations_rpy_rad", "..", e.to_string()))?,
+                Vec::new(),
+            ),
+            Some(ps) => {
+                let source = ps.source("disk.poses", crate::calib::plane::MIN_VIEWS, v)?;
+                // The laser plane up to 0.6 R from the centre: chords of 80 % of the diameter
+                // or more.
+                let aim = crate::sim::poses::Aim {
+                    point: target.centre,
+                    normal: target.normal.into_inner(),
+                    off_plane: 0.6 * radius,
+                    crossing: None,
+                };
+                let mut g = crate::rng::stream(sc.seed, &[crate::rng::tag::PLAN, 6]);
+                let poses = crate::sim::poses::poses(&common.rig, &aim, &source, &mut g)
+                    .map_err(|e| v.bad("disk.poses", "..", e.to_string()))?;
+                (Vec::new(), poses)
+            }
+        };
         Ok(Box::new(DiskPlan {
             target,
             plans,
+            free,
             raycast: d.source == Source::Raycast,
             sigma: d.sigma_mm * 1e-3,
             radius_tolerance: sc.specimen.radius_tolerance_mm.unwrap_or(0.0) * 1e-3,
@@ -137,6 +198,14 @@ impl Method for Disk {
 
     fn calibrate(&self, c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
         calibrate(c, sensor)
+    }
+
+    fn calibrate_any_pose(
+        &self,
+        c: &Captures,
+        sensor: &SensorModel,
+    ) -> Result<(super::Calibration, Refined), Error> {
+        any_pose(c, sensor)
     }
 
     fn needs_radius(&self) -> bool {
@@ -152,7 +221,9 @@ impl Method for Disk {
 #[derive(Debug)]
 pub struct DiskPlan {
     pub target: DiskTarget,
+    /// The paper's scans, or (when not empty) `free` flange poses, one profile each.
     pub plans: Vec<DiskScanPlan>,
+    pub free: Vec<Isometry3<f64>>,
     pub raycast: bool,
     /// Eq. 52 sigma, metres.
     pub sigma: f64,
@@ -174,6 +245,9 @@ impl Plan for DiskPlan {
     }
 
     fn first_flange_pose(&self) -> Isometry3<f64> {
+        if let Some(f) = self.free.first() {
+            return *f;
+        }
         let p = &self.plans[0];
         flange_pose(&p.r_tcp, &p.tcp(p.m / 2))
     }
@@ -196,6 +270,23 @@ impl Plan for DiskPlan {
         let (mut groups, mut profiles) = (Vec::new(), Vec::new());
         let Sim { rng, mover, .. } = sim;
         let mut actual = |f: &Isometry3<f64>| mover.actual(&rig.robot, f);
+        for (i, f) in self.free.iter().enumerate() {
+            groups.push(Group {
+                id: i,
+                role: Role::Pose,
+                sign: 0.0,
+            });
+            let prof = rig.sensor.profile(
+                &scene,
+                &rig.base_to_sensor(&actual(f)),
+                noisy.then_some(&mut **rng),
+            );
+            profiles.push(CaptureProfile {
+                group: i,
+                base_to_flange: *f,
+                data: ProfileData::Raw(prof),
+            });
+        }
         for (i, p) in self.plans.iter().enumerate() {
             groups.push(Group {
                 id: i,
@@ -308,6 +399,96 @@ fn chord_of(
     })
 }
 
+/// Fewest points on a profile's face for the any-pose estimator.
+const ANY_FACE_POINTS: usize = 10;
+
+/// One raw profile of the disk from any pose: its face's line and the rim's intervals.
+fn disk_view(
+    c: &Captures,
+    g: &Group,
+    p: &CaptureProfile,
+    sensor: &SensorModel,
+    radius: f64,
+    cfg: &SplitMerge,
+) -> Result<Result<DiskView, CaptureError>, CaptureError> {
+    let ProfileData::Raw(prof) = &p.data else {
+        return Err(CaptureError::WrongData {
+            group: g.id,
+            method: Kind::Disk,
+            need: "raw points (points_mm): the any-pose estimator fits the disk's face",
+        });
+    };
+    if c.specimen_kind == SpecimenType::DiskPaper {
+        return Err(CaptureError::WrongData {
+            group: g.id,
+            method: Kind::Disk,
+            need: "a disk on a cylinder: on paper the rim is told by intensity, which the any-pose \
+                   estimator does not use",
+        });
+    }
+    let d = match features::disk_profile(prof, sensor, radius, cfg) {
+        Ok(d) => d,
+        Err(e) => return Ok(Err(e.into())),
+    };
+    let too_few = |n| {
+        CaptureError::from(features::FeatureError::TooFewPoints {
+            found: n,
+            need: ANY_FACE_POINTS,
+        })
+    };
+    if d.face.len() < ANY_FACE_POINTS {
+        return Ok(Err(too_few(d.face.len())));
+    }
+    let Some(line) = features::Line2::fit(&d.face) else {
+        return Ok(Err(too_few(d.face.len())));
+    };
+    let centroid = d.face.iter().sum::<Vector2<f64>>() / d.face.len() as f64;
+    Ok(Ok(DiskView {
+        face: LineView {
+            base_to_flange: p.base_to_flange,
+            centroid,
+            direction: line.dir.normalize(),
+            points: d.face,
+        },
+        rim: d.rim.to_vec(),
+    }))
+}
+
+/// The disk's face and rim from any poses, whatever the groups (`calib::disk_any`).
+fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, Refined), Error> {
+    let cfg = SplitMerge::for_sensor(sensor);
+    let radius = c
+        .specimen_radius
+        .ok_or(CaptureError::MissingRadius { method: Kind::Disk })?;
+    let (mut views, mut reports) = (Vec::new(), Vec::new());
+    for g in &c.groups {
+        let mut report = super::GroupReport::new(g.id);
+        for p in c.group_profiles(g.id) {
+            let view = disk_view(c, g, p, sensor, radius, &cfg)?;
+            report.count(&view);
+            if let Ok(v) = view {
+                views.push(v);
+            }
+        }
+        report.left_out = report.used == 0;
+        reports.push(report);
+    }
+    super::leave_out_thin_groups(&mut reports, 1, 1, Kind::Disk)?;
+    let sol = crate::calib::disk_any::solve(&views, radius, &sensor.apex().coords)?;
+    let missed = reports.iter().map(|r| r.profiles - r.used).sum();
+    let cal = super::Calibration {
+        flange_to_sensor: sol.flange_to_sensor,
+        centre_in_base: Some(sol.disk.centre),
+        figures: Metrics::default(),
+        status: sol.refined.status,
+        missed,
+        groups: reports,
+        refinable: Some(std::sync::Arc::new(sol.problem)),
+        full_profile: None,
+    };
+    Ok((cal, sol.refined))
+}
+
 /// Chords from every scan, the disk paper's transformation solution, and the refinement problem.
 fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
     let cfg = SplitMerge::for_sensor(sensor);
@@ -319,6 +500,14 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     let mut per_scan = Vec::new();
     let mut reports = Vec::new();
     for g in &c.groups {
+        // A scan's sign not recorded: the closed form needs it, the any-pose estimator does not.
+        if g.sign != 1.0 && g.sign != -1.0 {
+            return Err(CaptureError::MissingSign {
+                group: g.id,
+                method: Kind::Disk,
+            }
+            .into());
+        }
         let ps = c.group_profiles(g.id);
         let (Some(first), Some(last)) = (ps.first(), ps.last()) else {
             continue;
@@ -384,6 +573,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     let full_profile = (!face.is_empty()).then(|| {
         std::sync::Arc::new(Problem {
             model: DiskModel {
+                rims: Vec::new(),
                 radius,
                 ends: ends.clone(),
                 face,
@@ -394,6 +584,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     Ok(super::Calibration {
         refinable: Some(std::sync::Arc::new(Problem {
             model: DiskModel {
+                rims: Vec::new(),
                 radius,
                 ends,
                 face: Vec::new(),

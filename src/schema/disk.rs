@@ -8,7 +8,8 @@ use serde::Deserialize;
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Section {
-    /// m: profiles (chords) per scan.
+    /// m: profiles (chords) per scan (the paper's protocol; left out with `[disk.poses]`).
+    #[serde(default)]
     pub chords: usize,
     /// How much of the disk a scan sweeps (Fig. 4).
     #[serde(default)]
@@ -25,6 +26,7 @@ pub struct Section {
     #[serde(default = "d_min_angle")]
     pub min_angle_deg: f64,
     /// R_tcp,i as (rx, ry, rz) radians, R = Rz Ry Rx (the disk paper's tables).
+    #[serde(default)]
     pub orientations_rpy_rad: Vec<[f64; 3]>,
     /// Optional TCP positions where the laser plane crosses the disk centre (mm).
     #[serde(default)]
@@ -35,6 +37,10 @@ pub struct Section {
     /// ...or in the sensor frame (D_i^i); one list or the other, one entry per orientation.
     #[serde(default)]
     pub directions_in_sensor: Option<Vec<[f64; 3]>>,
+    /// Free poses instead of the protocol (for disk-any-pose): one profile each, aimed within the
+    /// disk.
+    #[serde(default)]
+    pub poses: Option<super::poses::PoseSet>,
 }
 
 fn d_span() -> f64 {

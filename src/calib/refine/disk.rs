@@ -15,6 +15,10 @@ pub struct DiskModel {
     pub ends: Vec<(Isometry3<f64>, Vector2<f64>)>,
     /// Points of the disk's face (full profile; empty for the chord-end refinement).
     pub face: Vec<(Isometry3<f64>, Vector2<f64>)>,
+    /// Where the rim lies on a face's line, between two points (any-pose; empty otherwise): no
+    /// residual while the rim passes between them, else the nearer one's distance from the rim
+    /// (censored, as `refine::bar`'s edges).
+    pub rims: Vec<(Isometry3<f64>, Vector2<f64>, Vector2<f64>)>,
 }
 
 /// The disk's centre and orientation (normal = q z).
@@ -53,7 +57,7 @@ impl Model for DiskModel {
         2
     }
     fn n_residuals(&self) -> usize {
-        2 * self.ends.len() + self.face.len()
+        2 * self.ends.len() + self.face.len() + self.rims.len()
     }
 
     fn eval(
@@ -102,6 +106,36 @@ impl Model for DiskModel {
                 }
                 j[(k, 9)] = v.dot(&dn1);
                 j[(k, 10)] = v.dot(&dn2);
+            }
+        }
+        let base = base + self.face.len();
+        let rim_of = |qb: &Vector3<f64>| {
+            let v = qb - s.centre;
+            let h = nrm.dot(&v);
+            let w = v - nrm * h;
+            (w.norm() - self.radius, h, w)
+        };
+        for (i, (f, a, b)) in self.rims.iter().enumerate() {
+            let k = base + i;
+            let ra = rim_of(&x.point_in_base(f, a, false).0).0;
+            let rb = rim_of(&x.point_in_base(f, b, false).0).0;
+            if ra * rb <= 0.0 {
+                r[k] = 0.0;
+                continue;
+            }
+            let p = if ra.abs() <= rb.abs() { a } else { b };
+            let (qb, dq_dw, dq_dt) = x.point_in_base(f, p, j.is_some());
+            let (res, h, w) = rim_of(&qb);
+            r[k] = res;
+            if let Some(j) = j.as_deref_mut() {
+                let wn = w.norm();
+                let wh = if wn > 0.0 { w / wn } else { Vector3::zeros() };
+                transform_columns(j, k, &wh, &dq_dw, &dq_dt);
+                for c in 0..3 {
+                    j[(k, 6 + c)] = -wh[c];
+                }
+                j[(k, 9)] = -h * wh.dot(&dn1);
+                j[(k, 10)] = -h * wh.dot(&dn2);
             }
         }
     }
