@@ -893,3 +893,27 @@ fn ball_convergence_over_a_thousand_trials() {
         }
     }
 }
+
+#[test]
+fn a_file_of_free_poses_calibrates_with_the_any_pose_estimator_by_default() {
+    let dir = tempfile::tempdir().unwrap();
+    for (scenario, method) in [
+        ("edge-8-poses.toml", "edge-any-pose"),
+        ("disk-free.toml", "disk-any-pose"),
+    ] {
+        let file = dir.path().join("caps.json");
+        let (code, _, err) = common::lasercal(&[
+            "simulate",
+            &common::scen(scenario),
+            "--out",
+            file.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let (code, out, err) = common::lasercal(&["calibrate", file.to_str().unwrap()]);
+        assert_eq!(code, 0, "{scenario}: {err}");
+        assert!(
+            err.contains(method) && out.contains(&format!("{method}: recovered")),
+            "{scenario}: {out} {err}"
+        );
+    }
+}

@@ -2,7 +2,7 @@ use super::common::{matrix_text, refinement};
 use anyhow::{Context, Result, bail};
 use lasercal::calib::PoseError;
 use lasercal::math::pose_to_rows_mm;
-use lasercal::method::MethodId;
+use lasercal::method::{Estimator, MethodId};
 use lasercal::metrics::Metric;
 use std::path::PathBuf;
 
@@ -25,9 +25,19 @@ pub fn run(a: Args) -> Result<()> {
     let name = a.file.display().to_string();
     let text = std::fs::read_to_string(&a.file).with_context(|| format!("{name}: cannot read"))?;
     let (caps, sensor) = lasercal::io::captures::from_json(&text, &name)?;
-    let method = a
-        .method
-        .unwrap_or(MethodId::new(caps.method, caps.method.estimators()[0]));
+    // Free poses (one profile each, no protocol groups): the any-pose estimator; else the paper's.
+    let free = caps
+        .groups
+        .iter()
+        .all(|g| g.role == lasercal::captures::Role::Pose);
+    let default = match caps.method.estimators() {
+        e if free && e.contains(&Estimator::AnyPose) => Estimator::AnyPose,
+        e => e[0],
+    };
+    let method = a.method.unwrap_or(MethodId::new(caps.method, default));
+    if a.method.is_none() && default == Estimator::AnyPose {
+        eprintln!("{name}: free poses, so {method} (give --method to choose another)");
+    }
     if method.kind != caps.method {
         let known: Vec<String> = caps
             .method
