@@ -495,15 +495,14 @@ fn random_face_setup(
 }
 
 const PLANE: MethodId = MethodId::new(Kind::Plane, Estimator::AnyPose);
-const EDGE: MethodId = MethodId::new(Kind::Edge, Estimator::AnyPose);
-
-#[test]
-fn edge_exact_on_a_hundred_random_bars_rigs_and_pose_sets() {
+/// `id` on 100 noise-free setups of 7-50 poses (`setup(seed, n)`): every one converged and exact
+/// to 1e-9; prints the worst.
+fn exact_on_a_hundred(id: MethodId, what: &str, setup: impl Fn(u64, usize) -> Setup) {
     let mut worst = (0.0f64, 0.0f64);
     for seed in 0..100u64 {
         let n = 7 + (seed as usize * 7) % 44;
-        let s = random_bar_setup(8000 + seed, n, 0.0);
-        let (cal, r) = lasercal::method::estimate(EDGE, &s.caps, &s.sensor)
+        let s = setup(seed, n);
+        let (cal, r) = lasercal::method::estimate(id, &s.caps, &s.sensor)
             .unwrap_or_else(|e| panic!("setup {seed} ({n} poses): {e}"));
         assert!(
             matches!(r.unwrap().status, lasercal::calib::Status::Converged { .. }),
@@ -518,37 +517,27 @@ fn edge_exact_on_a_hundred_random_bars_rigs_and_pose_sets() {
         );
     }
     eprintln!(
-        "edge, worst of 100: {:.1e} deg, {:.1e} mm",
+        "{what}, worst of 100: {:.1e} deg, {:.1e} mm",
         worst.0, worst.1
     );
+}
+
+const EDGE: MethodId = MethodId::new(Kind::Edge, Estimator::AnyPose);
+
+#[test]
+fn edge_exact_on_a_hundred_random_bars_rigs_and_pose_sets() {
+    exact_on_a_hundred(EDGE, "edge", |seed, n| {
+        random_bar_setup(8000 + seed, n, 0.0)
+    });
 }
 
 const DISK: MethodId = MethodId::new(Kind::Disk, Estimator::AnyPose);
 
 #[test]
 fn disk_exact_on_a_hundred_random_disks_rigs_and_pose_sets() {
-    let mut worst = (0.0f64, 0.0f64);
-    for seed in 0..100u64 {
-        let n = 7 + (seed as usize * 7) % 44;
-        let s = random_disk_setup(10_000 + seed, n, 0.0);
-        let (cal, r) = lasercal::method::estimate(DISK, &s.caps, &s.sensor)
-            .unwrap_or_else(|e| panic!("setup {seed} ({n} poses): {e}"));
-        assert!(
-            matches!(r.unwrap().status, lasercal::calib::Status::Converged { .. }),
-            "setup {seed}"
-        );
-        let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
-        worst.0 = worst.0.max(e.rotation_error_deg);
-        worst.1 = worst.1.max(e.translation_error_mm);
-        assert!(
-            e.rotation_error_deg < 1e-9 && e.translation_error_mm < 1e-9,
-            "setup {seed} ({n} poses): {e:?}"
-        );
-    }
-    eprintln!(
-        "disk, worst of 100: {:.1e} deg, {:.1e} mm",
-        worst.0, worst.1
-    );
+    exact_on_a_hundred(DISK, "disk", |seed, n| {
+        random_disk_setup(10_000 + seed, n, 0.0)
+    });
 }
 
 #[test]
@@ -570,28 +559,9 @@ fn edge_with_noise() {
 #[test]
 fn plane_exact_on_a_hundred_random_rigs_and_pose_sets() {
     // 7-50 poses (from 6, two random setups of two had a second exact solution: the plane needs 7).
-    let mut worst = (0.0f64, 0.0f64);
-    for seed in 0..100u64 {
-        let n = 7 + (seed as usize * 7) % 44;
-        let s = random_plane_setup(2000 + seed, n, false, 0.0);
-        let (cal, r) = lasercal::method::estimate(PLANE, &s.caps, &s.sensor)
-            .unwrap_or_else(|e| panic!("setup {seed} ({n} poses): {e}"));
-        assert!(
-            matches!(r.unwrap().status, lasercal::calib::Status::Converged { .. }),
-            "setup {seed}"
-        );
-        let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
-        worst.0 = worst.0.max(e.rotation_error_deg);
-        worst.1 = worst.1.max(e.translation_error_mm);
-        assert!(
-            e.rotation_error_deg < 1e-9 && e.translation_error_mm < 1e-9,
-            "setup {seed} ({n} poses): {e:?}"
-        );
-    }
-    eprintln!(
-        "plane, worst of 100: {:.1e} deg, {:.1e} mm",
-        worst.0, worst.1
-    );
+    exact_on_a_hundred(PLANE, "plane", |seed, n| {
+        random_plane_setup(2000 + seed, n, false, 0.0)
+    });
 }
 
 #[test]

@@ -5,7 +5,6 @@
 use super::{Estimator, Kind, Method, Plan, Sim};
 use crate::calib::disk::{DiskChord, DiskProblem, DiskScan};
 use crate::calib::disk_any::DiskView;
-use crate::calib::plane::LineView;
 use crate::calib::refine::disk::{DiskModel, DiskPose};
 use crate::calib::refine::{Problem, Refined};
 use crate::captures::{CaptureError, CaptureProfile, Captures, Group, ProfileData, Role};
@@ -399,9 +398,6 @@ fn chord_of(
     })
 }
 
-/// Fewest points on a profile's face for the any-pose estimator.
-const ANY_FACE_POINTS: usize = 10;
-
 /// One raw profile of the disk from any pose: its face's line and the rim's intervals.
 fn disk_view(
     c: &Captures,
@@ -426,32 +422,14 @@ fn disk_view(
                    estimator does not use",
         });
     }
-    let d = match features::disk_profile(prof, sensor, radius, cfg) {
-        Ok(d) => d,
-        Err(e) => return Ok(Err(e.into())),
-    };
-    let too_few = |n| {
-        CaptureError::from(features::FeatureError::TooFewPoints {
-            found: n,
-            need: ANY_FACE_POINTS,
-        })
-    };
-    if d.face.len() < ANY_FACE_POINTS {
-        return Ok(Err(too_few(d.face.len())));
-    }
-    let Some(line) = features::Line2::fit(&d.face) else {
-        return Ok(Err(too_few(d.face.len())));
-    };
-    let centroid = d.face.iter().sum::<Vector2<f64>>() / d.face.len() as f64;
-    Ok(Ok(DiskView {
-        face: LineView {
-            base_to_flange: p.base_to_flange,
-            centroid,
-            direction: line.dir.normalize(),
-            points: d.face,
-        },
-        rim: d.rim.to_vec(),
-    }))
+    Ok(features::disk_profile(prof, sensor, radius, cfg)
+        .map_err(CaptureError::from)
+        .and_then(|d| {
+            Ok(DiskView {
+                face: super::face_view(p.base_to_flange, d.face)?,
+                rim: d.rim.to_vec(),
+            })
+        }))
 }
 
 /// The disk's face and rim from any poses, whatever the groups (`calib::disk_any`).
@@ -460,32 +438,16 @@ fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, R
     let radius = c
         .specimen_radius
         .ok_or(CaptureError::MissingRadius { method: Kind::Disk })?;
-    let (mut views, mut reports) = (Vec::new(), Vec::new());
-    for g in &c.groups {
-        let mut report = super::GroupReport::new(g.id);
-        for p in c.group_profiles(g.id) {
-            let view = disk_view(c, g, p, sensor, radius, &cfg)?;
-            report.count(&view);
-            if let Ok(v) = view {
-                views.push(v);
-            }
-        }
-        report.left_out = report.used == 0;
-        reports.push(report);
-    }
-    super::leave_out_thin_groups(&mut reports, 1, 1, Kind::Disk)?;
+    let (views, reports) = super::free_views(c, Kind::Disk, |g, p| {
+        disk_view(c, g, p, sensor, radius, &cfg)
+    })?;
     let sol = crate::calib::disk_any::solve(&views, radius, &sensor.apex().coords)?;
-    let missed = reports.iter().map(|r| r.profiles - r.used).sum();
-    let cal = super::Calibration {
-        flange_to_sensor: sol.flange_to_sensor,
-        centre_in_base: Some(sol.disk.centre),
-        figures: Metrics::default(),
-        status: sol.refined.status,
-        missed,
-        groups: reports,
-        refinable: Some(std::sync::Arc::new(sol.problem)),
-        full_profile: None,
-    };
+    let cal = super::any_pose_calibration(
+        &sol.refined,
+        Some(sol.disk.centre),
+        reports,
+        std::sync::Arc::new(sol.problem),
+    );
     Ok((cal, sol.refined))
 }
 

@@ -5,7 +5,6 @@
 use super::{Estimator, Kind, Method, Plan, Sim};
 use crate::calib::bar::BarView;
 use crate::calib::edge::{EdgeCapture, EdgeProblem};
-use crate::calib::plane::LineView;
 use crate::calib::refine::Problem;
 use crate::calib::refine::Refined;
 use crate::calib::refine::edge::{EdgeLine, EdgeModel};
@@ -373,66 +372,27 @@ fn bar_view(
             need: "raw points (points_mm): the any-pose estimator fits the bar's face",
         });
     };
-    let bar = match features::bar_profile(prof, sensor, cfg) {
-        Ok(b) => b,
-        Err(e) => return Ok(Err(e.into())),
-    };
-    let too_few = |n| {
-        CaptureError::from(features::FeatureError::TooFewPoints {
-            found: n,
-            need: FACE_POINTS,
-        })
-    };
-    if bar.face.len() < FACE_POINTS {
-        return Ok(Err(too_few(bar.face.len())));
-    }
-    let Some(line) = features::Line2::fit(&bar.face) else {
-        return Ok(Err(too_few(bar.face.len())));
-    };
-    let centroid = bar.face.iter().sum::<Vector2<f64>>() / bar.face.len() as f64;
-    Ok(Ok(BarView {
-        face: LineView {
-            base_to_flange: p.base_to_flange,
-            centroid,
-            direction: line.dir.normalize(),
-            points: bar.face,
-        },
-        edges: bar.edges.iter().map(|e| (e.from, e.to)).collect(),
-    }))
+    Ok(features::bar_profile(prof, sensor, cfg)
+        .map_err(CaptureError::from)
+        .and_then(|bar| {
+            Ok(BarView {
+                face: super::face_view(p.base_to_flange, bar.face)?,
+                edges: bar.edges.iter().map(|e| (e.from, e.to)).collect(),
+            })
+        }))
 }
-
-/// Fewest points on a profile's face for the any-pose estimator.
-const FACE_POINTS: usize = 10;
 
 /// The bar's face and edges from any poses, whatever the groups (`calib::bar`).
 fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, Refined), Error> {
     let cfg = edge_config(sensor);
-    let (mut views, mut reports) = (Vec::new(), Vec::new());
-    for g in &c.groups {
-        let mut report = super::GroupReport::new(g.id);
-        for p in c.group_profiles(g.id) {
-            let view = bar_view(g, p, sensor, &cfg)?;
-            report.count(&view);
-            if let Ok(v) = view {
-                views.push(v);
-            }
-        }
-        report.left_out = report.used == 0;
-        reports.push(report);
-    }
-    super::leave_out_thin_groups(&mut reports, 1, 1, Kind::Edge)?;
+    let (views, reports) = super::free_views(c, Kind::Edge, |g, p| bar_view(g, p, sensor, &cfg))?;
     let sol = crate::calib::bar::solve(&views, &sensor.apex().coords)?;
-    let missed = reports.iter().map(|r| r.profiles - r.used).sum();
-    let cal = super::Calibration {
-        flange_to_sensor: sol.flange_to_sensor,
-        centre_in_base: None,
-        figures: Metrics::default(),
-        status: sol.refined.status,
-        missed,
-        groups: reports,
-        refinable: Some(std::sync::Arc::new(sol.problem)),
-        full_profile: None,
-    };
+    let cal = super::any_pose_calibration(
+        &sol.refined,
+        None,
+        reports,
+        std::sync::Arc::new(sol.problem),
+    );
     Ok((cal, sol.refined))
 }
 

@@ -240,6 +240,82 @@ fn without_numbers(s: &str) -> String {
     out
 }
 
+/// Fewest points on a profile's face for the edge's and disk's any-pose estimators.
+pub const ANY_POSE_FACE_POINTS: usize = 10;
+
+/// A profile's face as the plane's solver takes it (`calib::plane::LineView`): its points, their
+/// centroid and direction; too few points (`ANY_POSE_FACE_POINTS`) is the profile's rejection.
+pub fn face_view(
+    base_to_flange: Isometry3<f64>,
+    points: Vec<nalgebra::Vector2<f64>>,
+) -> Result<crate::calib::plane::LineView, CaptureError> {
+    let too_few = |n| {
+        CaptureError::from(crate::features::FeatureError::TooFewPoints {
+            found: n,
+            need: ANY_POSE_FACE_POINTS,
+        })
+    };
+    if points.len() < ANY_POSE_FACE_POINTS {
+        return Err(too_few(points.len()));
+    }
+    let line = crate::features::Line2::fit(&points).ok_or_else(|| too_few(points.len()))?;
+    let centroid = points.iter().sum::<nalgebra::Vector2<f64>>() / points.len() as f64;
+    Ok(crate::calib::plane::LineView {
+        base_to_flange,
+        centroid,
+        direction: line.dir.normalize(),
+        points,
+    })
+}
+
+/// Every profile's view for an any-pose estimator, whatever its group, with what became of each
+/// group's profiles. `view` gives a profile's view, its rejection (`Ok(Err)`), or an error that
+/// ends the calibration (`Err`: data of the wrong kind).
+pub fn free_views<V>(
+    c: &Captures,
+    method: Kind,
+    mut view: impl FnMut(
+        &crate::captures::Group,
+        &crate::captures::CaptureProfile,
+    ) -> Result<Result<V, CaptureError>, CaptureError>,
+) -> Result<(Vec<V>, Vec<GroupReport>), CaptureError> {
+    let (mut views, mut reports) = (Vec::new(), Vec::new());
+    for g in &c.groups {
+        let mut report = GroupReport::new(g.id);
+        for p in c.group_profiles(g.id) {
+            let v = view(g, p)?;
+            report.count(&v);
+            if let Ok(v) = v {
+                views.push(v);
+            }
+        }
+        report.left_out = report.used == 0;
+        reports.push(report);
+    }
+    leave_out_thin_groups(&mut reports, 1, 1, method)?;
+    Ok((views, reports))
+}
+
+/// An any-pose estimator's calibration: its refined transform, the groups' reports and its
+/// refinement problem (for the covariance and re-refinement).
+pub fn any_pose_calibration(
+    refined: &crate::calib::refine::Refined,
+    centre_in_base: Option<nalgebra::Vector3<f64>>,
+    reports: Vec<GroupReport>,
+    problem: std::sync::Arc<dyn crate::calib::refine::Refinable>,
+) -> Calibration {
+    Calibration {
+        flange_to_sensor: refined.flange_to_sensor,
+        centre_in_base,
+        figures: Metrics::default(),
+        status: refined.status,
+        missed: reports.iter().map(|r| r.profiles - r.used).sum(),
+        groups: reports,
+        refinable: Some(problem),
+        full_profile: None,
+    }
+}
+
 /// Groups with fewer than `need` features are left out; when fewer than `min_groups` remain, the
 /// error names every group and its counts.
 pub fn leave_out_thin_groups(
