@@ -642,8 +642,9 @@ fn plane_setup(text: &str) -> Result<lasercal::scenario::Setup, String> {
 
 #[test]
 fn pose_sets_listed_as_flange_poses_or_joints_give_the_generated_results() {
-    // The generated pose set of scenarios/plane.toml, written back as a list of flange poses and
-    // as joint angles: the same captures and the same calibration.
+    // The generated pose set of scenarios/plane.toml, written back as a list of flange poses (as a
+    // quaternion, FANUC's W, P, R, KUKA's A, B, C and UR's rotation vector) and as joint angles:
+    // the same captures and the same calibration.
     // Without the sweep (its grid sets the count).
     let full = std::fs::read_to_string(common::scen("plane.toml")).unwrap();
     let text = full[..full.find("[sweep]").unwrap()].to_string();
@@ -672,6 +673,32 @@ fn pose_sets_listed_as_flange_poses_or_joints_give_the_generated_results() {
             format!("{:?}", q.map(f64::to_degrees))
         })
         .collect();
+    // The controllers' conventions, from the rotation matrix: R = Rz(c) Ry(b) Rx(a) gives
+    // b = -asin(R20), a = atan2(R21, R22), c = atan2(R10, R00).
+    let euler = |kuka: bool| -> Vec<String> {
+        poses
+            .iter()
+            .map(|f| {
+                let (t, m) = (
+                    f.translation.vector * 1e3,
+                    f.rotation.to_rotation_matrix().into_inner(),
+                );
+                let b = (-m[(2, 0)]).asin().to_degrees();
+                let a = m[(2, 1)].atan2(m[(2, 2)]).to_degrees();
+                let c = m[(1, 0)].atan2(m[(0, 0)]).to_degrees();
+                let (r1, r3) = if kuka { (c, a) } else { (a, c) };
+                format!("[{}, {}, {}, {r1}, {b}, {r3}]", t.x, t.y, t.z)
+            })
+            .collect()
+    };
+    let (wpr, abc) = (euler(false), euler(true));
+    let rotvec: Vec<String> = poses
+        .iter()
+        .map(|f| {
+            let (t, v) = (f.translation.vector * 1e3, f.rotation.scaled_axis());
+            format!("[{}, {}, {}, {}, {}, {}]", t.x, t.y, t.z, v.x, v.y, v.z)
+        })
+        .collect();
     let as_list = |key: &str, items: &[String]| {
         text.replace("count = 24", &format!("{key} = [{}]", items.join(", ")))
     };
@@ -685,12 +712,60 @@ fn pose_sets_listed_as_flange_poses_or_joints_give_the_generated_results() {
             .flange_to_sensor
     };
     let reference = cal(&generated);
-    for (key, items) in [("tcp_mm_wxyz", &tcp), ("joints_deg", &joints)] {
+    for (key, items) in [
+        ("tcp_mm_wxyz", &tcp),
+        ("joints_deg", &joints),
+        ("tcp_mm_wpr_deg", &wpr),
+        ("tcp_mm_abc_deg", &abc),
+        ("tcp_mm_rotvec_rad", &rotvec),
+    ] {
         let s = plane_setup(&as_list(key, items)).unwrap_or_else(|e| panic!("{key}: {e}"));
         let d = PoseError::between(&cal(&s), &reference);
         assert!(
             d.rotation_error_deg < 1e-6 && d.translation_error_mm < 1e-6,
             "{key}: {d:?}"
+        );
+    }
+    // The same lists from CSV files beside the scenario (the header names the convention).
+    let dir = tempfile::tempdir().unwrap();
+    let strip = |v: &String| v.trim_matches(|c| c == '[' || c == ']').to_string();
+    for (header, items) in [
+        ("x_mm,y_mm,z_mm,qw,qx,qy,qz", &tcp),
+        ("X_mm, Y_mm, Z_mm, W_deg, P_deg, R_deg", &wpr),
+        ("j1_deg,j2_deg,j3_deg,j4_deg,j5_deg,j6_deg", &joints),
+    ] {
+        let rows: Vec<String> = items.iter().map(strip).collect();
+        std::fs::write(
+            dir.path().join("poses.csv"),
+            format!("{header}\n{}\n", rows.join("\n")),
+        )
+        .unwrap();
+        let path = dir.path().join("plane.toml");
+        std::fs::write(&path, text.replace("count = 24", "csv = \"poses.csv\"")).unwrap();
+        let sf = lasercal::scenario::ScenarioFile::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        let s = sf.scenario.build(&sf.file).unwrap();
+        let d = PoseError::between(&cal(&s), &reference);
+        assert!(
+            d.rotation_error_deg < 1e-6 && d.translation_error_mm < 1e-6,
+            "{header}: {d:?}"
+        );
+    }
+    // A bad header or value names the file, line and column.
+    for (content, want) in [
+        ("x,y,z\n1,2,3\n", "header"),
+        (
+            "x_mm,y_mm,z_mm,qw,qx,qy,qz\n1,2,3,1,0,0,nan\n",
+            "line 2, qz",
+        ),
+        ("x_mm,y_mm,z_mm,qw,qx,qy,qz\n1,2,3,1,0,0\n", "line 2"),
+    ] {
+        std::fs::write(dir.path().join("poses.csv"), content).unwrap();
+        let e = lasercal::scenario::ScenarioFile::load(&dir.path().join("plane.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("plane.poses.csv") && e.contains("poses.csv") && e.contains(want),
+            "{e}"
         );
     }
     // Two ways at once, a bad quaternion, the two-step method on free poses: errors that say so.

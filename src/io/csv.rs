@@ -245,3 +245,112 @@ pub fn read_trials<R: Read>(
         ))
     }))
 }
+
+/// The pose-list keys a CSV header can stand for (`[<section>.poses] csv = "..."`), by its
+/// columns (case and spaces ignored).
+const POSE_LISTS: [(&str, [&str; 7]); 5] = [
+    (
+        "tcp_mm_wxyz",
+        ["x_mm", "y_mm", "z_mm", "qw", "qx", "qy", "qz"],
+    ),
+    (
+        "tcp_mm_wpr_deg",
+        ["x_mm", "y_mm", "z_mm", "w_deg", "p_deg", "r_deg", ""],
+    ),
+    (
+        "tcp_mm_abc_deg",
+        ["x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg", ""],
+    ),
+    (
+        "tcp_mm_rotvec_rad",
+        ["x_mm", "y_mm", "z_mm", "rx_rad", "ry_rad", "rz_rad", ""],
+    ),
+    (
+        "joints_deg",
+        [
+            "j1_deg", "j2_deg", "j3_deg", "j4_deg", "j5_deg", "j6_deg", "",
+        ],
+    ),
+];
+
+/// Most rows a pose list may hold (as the scenario's own lists).
+const MAX_POSES: usize = 10_000;
+
+/// A pose list from CSV: its header names the convention (one of `POSE_LISTS`), each row one
+/// pose. Returns the scenario key it stands for and its rows.
+pub fn pose_list<R: Read>(
+    reader: R,
+    file: &str,
+) -> Result<(&'static str, Vec<Vec<f64>>), FormatError> {
+    let field = |at: String, message: String| FormatError::Field {
+        file: file.to_string(),
+        at,
+        message,
+    };
+    let mut r = ::csv::ReaderBuilder::new()
+        .trim(::csv::Trim::All)
+        .from_reader(reader);
+    let head: Vec<String> = r
+        .headers()
+        .map_err(|e| field("line 1".into(), e.to_string()))?
+        .iter()
+        .map(|h| h.to_lowercase())
+        .collect();
+    let (key, cols) = POSE_LISTS
+        .iter()
+        .find(|(_, cols)| {
+            let want: Vec<&str> = cols.iter().copied().filter(|c| !c.is_empty()).collect();
+            head.len() == want.len() && head.iter().zip(&want).all(|(h, w)| h == w)
+        })
+        .ok_or_else(|| {
+            field(
+                "line 1".into(),
+                format!(
+                    "header {:?} is no pose list; give one of: {}",
+                    head.join(","),
+                    POSE_LISTS
+                        .iter()
+                        .map(|(_, c)| c
+                            .iter()
+                            .filter(|c| !c.is_empty())
+                            .copied()
+                            .collect::<Vec<_>>()
+                            .join(","))
+                        .collect::<Vec<_>>()
+                        .join(" | ")
+                ),
+            )
+        })?;
+    let width = cols.iter().filter(|c| !c.is_empty()).count();
+    let mut rows = Vec::new();
+    for (i, rec) in r.records().enumerate() {
+        let line = format!("line {}", i + 2);
+        let rec = rec.map_err(|e| field(line.clone(), e.to_string()))?;
+        if rows.len() == MAX_POSES {
+            return Err(field(line, format!("more than {MAX_POSES} poses")));
+        }
+        if rec.len() != width {
+            return Err(field(
+                line,
+                format!("{} values; the header has {width}", rec.len()),
+            ));
+        }
+        let row = rec
+            .iter()
+            .enumerate()
+            .map(|(k, v)| {
+                v.parse::<f64>()
+                    .ok()
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| {
+                        field(
+                            format!("{line}, {}", head[k]),
+                            format!("{v:?} is not a finite number"),
+                        )
+                    })
+            })
+            .collect::<Result<Vec<f64>, _>>()?;
+        rows.push(row);
+    }
+    Ok((key, rows))
+}

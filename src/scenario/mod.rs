@@ -21,6 +21,60 @@ pub struct ScenarioFile {
     points: Vec<GridPoint>,
 }
 
+/// `[<section>.poses] csv = "file.csv"` (relative to the scenario's folder): the file's pose list
+/// put in the table under the key its header names (`io::csv::pose_list`). True if any was.
+fn pose_csvs(
+    raw: &mut toml::Table,
+    file: &str,
+    dir: Option<&std::path::Path>,
+) -> Result<bool, ScenarioError> {
+    let mut any = false;
+    for section in ["ball", "plane", "edge", "disk"] {
+        let Some(toml::Value::Table(poses)) = raw
+            .get_mut(section)
+            .and_then(|s| s.as_table_mut())
+            .and_then(|s| s.get_mut("poses"))
+        else {
+            continue;
+        };
+        let Some(csv) = poses.remove("csv") else {
+            continue;
+        };
+        let key = format!("{section}.poses.csv");
+        let bad = |value: String, reason: String| ScenarioError::BadValue {
+            file: file.to_string(),
+            key: key.clone(),
+            value,
+            reason,
+        };
+        let name = csv
+            .as_str()
+            .ok_or_else(|| bad(csv.to_string(), "give a file name".into()))?;
+        let path = dir.unwrap_or(std::path::Path::new(".")).join(name);
+        let f = std::fs::File::open(&path).map_err(|e| {
+            bad(
+                format!("\"{name}\""),
+                format!("cannot read {}: {e}", path.display()),
+            )
+        })?;
+        let (list, rows) = crate::io::csv::pose_list(f, &path.display().to_string())
+            .map_err(|e| bad(format!("\"{name}\""), e.to_string()))?;
+        if poses.contains_key(list) {
+            return Err(bad(
+                format!("\"{name}\""),
+                format!("[{section}.poses] also gives {list}: give the poses once"),
+            ));
+        }
+        let rows = rows
+            .into_iter()
+            .map(|r| toml::Value::Array(r.into_iter().map(toml::Value::Float).collect()))
+            .collect();
+        poses.insert(list.into(), toml::Value::Array(rows));
+        any = true;
+    }
+    Ok(any)
+}
+
 impl ScenarioFile {
     /// Read and validate a scenario file (every grid point too).
     pub fn load(path: &std::path::Path) -> Result<ScenarioFile, ScenarioError> {
@@ -48,13 +102,20 @@ impl ScenarioFile {
             message: e.to_string().trim().to_string(),
         };
         let mut raw: toml::Table = text.parse().map_err(syntax)?;
-        // The key path (`causes.only`) in front of the parser's line, column and expectation.
-        let de = toml::de::Deserializer::parse(text).map_err(syntax)?;
-        let mut scenario: Scenario =
-            serde_path_to_error::deserialize(de).map_err(|e| ScenarioError::Syntax {
-                file: file.to_string(),
-                message: format!("{}: {}", e.path(), e.inner().to_string().trim()),
-            })?;
+        let path_error = |path: String, message: String| ScenarioError::Syntax {
+            file: file.to_string(),
+            message: format!("{path}: {}", message.trim()),
+        };
+        // The key path (`causes.only`) in front of the parser's line, column and expectation;
+        // with a pose list read from CSV into the table, from the table (no line numbers then).
+        let mut scenario: Scenario = if pose_csvs(&mut raw, file, dir)? {
+            serde_path_to_error::deserialize(toml::Value::Table(raw.clone()))
+                .map_err(|e| path_error(e.path().to_string(), e.inner().to_string()))?
+        } else {
+            let de = toml::de::Deserializer::parse(text).map_err(syntax)?;
+            serde_path_to_error::deserialize(de)
+                .map_err(|e| path_error(e.path().to_string(), e.inner().to_string()))?
+        };
         let r = &scenario.robot.name;
         if r.ends_with(".urdf")
             && !std::path::Path::new(r).is_absolute()

@@ -4,6 +4,7 @@
 
 use super::{ScenarioError, Validator};
 use crate::sim::poses::PoseSource;
+use nalgebra::{UnitQuaternion, Vector3};
 use serde::Deserialize;
 
 #[derive(Debug, Clone, Deserialize, PartialEq)]
@@ -22,9 +23,44 @@ pub struct PoseSet {
     /// Or list the flange (tool0) poses: [x_mm, y_mm, z_mm, qw, qx, qy, qz] each (ABB order).
     #[serde(default)]
     pub tcp_mm_wxyz: Vec<[f64; 7]>,
+    /// Or in FANUC / Yaskawa terms: [x_mm, y_mm, z_mm, w_deg, p_deg, r_deg], rotations about the
+    /// fixed x, y, z axes in that order (R = Rz(r) Ry(p) Rx(w)).
+    #[serde(default)]
+    pub tcp_mm_wpr_deg: Vec<[f64; 6]>,
+    /// Or in KUKA terms: [x_mm, y_mm, z_mm, a_deg, b_deg, c_deg] (R = Rz(a) Ry(b) Rx(c)).
+    #[serde(default)]
+    pub tcp_mm_abc_deg: Vec<[f64; 6]>,
+    /// Or in Universal Robots terms: [x_mm, y_mm, z_mm, rx, ry, rz], a rotation vector in rad.
+    #[serde(default)]
+    pub tcp_mm_rotvec_rad: Vec<[f64; 6]>,
     /// Or list the joint angles (deg) of each pose.
     #[serde(default)]
     pub joints_deg: Vec<[f64; 6]>,
+}
+
+/// A controller convention's rotation as a unit quaternion (w, x, y, z).
+fn quaternion(convention: Convention, r: [f64; 3]) -> [f64; 4] {
+    let q = match convention {
+        Convention::Wpr => UnitQuaternion::from_euler_angles(
+            r[0].to_radians(),
+            r[1].to_radians(),
+            r[2].to_radians(),
+        ),
+        Convention::Abc => UnitQuaternion::from_euler_angles(
+            r[2].to_radians(),
+            r[1].to_radians(),
+            r[0].to_radians(),
+        ),
+        Convention::RotVec => UnitQuaternion::from_scaled_axis(Vector3::from(r)),
+    };
+    [q.w, q.i, q.j, q.k]
+}
+
+#[derive(Clone, Copy)]
+enum Convention {
+    Wpr,
+    Abc,
+    RotVec,
 }
 
 fn d_tilt() -> [f64; 2] {
@@ -43,21 +79,35 @@ impl PoseSet {
         min: usize,
         v: &Validator,
     ) -> Result<PoseSource, ScenarioError> {
+        let euler = [
+            ("tcp_mm_wpr_deg", &self.tcp_mm_wpr_deg, Convention::Wpr),
+            ("tcp_mm_abc_deg", &self.tcp_mm_abc_deg, Convention::Abc),
+            (
+                "tcp_mm_rotvec_rad",
+                &self.tcp_mm_rotvec_rad,
+                Convention::RotVec,
+            ),
+        ];
         let given = [
             self.count.is_some(),
             !self.tcp_mm_wxyz.is_empty(),
             !self.joints_deg.is_empty(),
-        ];
-        if given.iter().filter(|g| **g).count() != 1 {
+        ]
+        .into_iter()
+        .chain(euler.iter().map(|e| !e.1.is_empty()));
+        if given.filter(|g| *g).count() != 1 {
             return Err(v.bad(
                 key,
                 "..",
-                "give exactly one of count (generated poses), tcp_mm_wxyz or joints_deg",
+                "give exactly one of count (generated poses), tcp_mm_wxyz, tcp_mm_wpr_deg, \
+                 tcp_mm_abc_deg, tcp_mm_rotvec_rad or joints_deg",
             ));
         }
-        let n = self
-            .count
-            .unwrap_or(self.tcp_mm_wxyz.len() + self.joints_deg.len());
+        let n = self.count.unwrap_or(
+            self.tcp_mm_wxyz.len()
+                + self.joints_deg.len()
+                + euler.iter().map(|e| e.1.len()).sum::<usize>(),
+        );
         if n < min || n > 10_000 {
             return Err(v.bad(
                 &format!("{key}.count"),
@@ -80,6 +130,23 @@ impl PoseSet {
                 tilt: (lo.to_radians(), hi.to_radians()),
                 spread: self.spread_mm * 1e-3,
             });
+        }
+        if let Some((name, list, convention)) = euler.iter().find(|e| !e.1.is_empty()) {
+            let mut out = Vec::with_capacity(list.len());
+            for (i, p) in list.iter().enumerate() {
+                if p.iter().any(|x| !x.is_finite()) {
+                    return Err(v.bad(
+                        &format!("{key}.{name}[{i}]"),
+                        format!("{p:?}"),
+                        "every value must be finite",
+                    ));
+                }
+                out.push((
+                    [p[0] * 1e-3, p[1] * 1e-3, p[2] * 1e-3],
+                    quaternion(*convention, [p[3], p[4], p[5]]),
+                ));
+            }
+            return Ok(PoseSource::Tcp(out));
         }
         if !self.tcp_mm_wxyz.is_empty() {
             let mut out = Vec::with_capacity(self.tcp_mm_wxyz.len());
