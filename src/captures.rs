@@ -83,6 +83,9 @@ pub struct Captures {
     pub truth: Option<Isometry3<f64>>,
     pub groups: Vec<Group>,
     pub profiles: Vec<CaptureProfile>,
+    /// How far apart (deg) a protocol's "one orientation" captures may be (a controller's
+    /// jitter): `calib::ORIENTATION_TOLERANCE_DEG` unless the file or the user says otherwise.
+    pub orientation_tolerance_deg: f64,
 }
 
 impl Captures {

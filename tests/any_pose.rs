@@ -134,6 +134,7 @@ fn random_setup(seed: u64, n: usize, translations: usize, sigma: f64) -> Setup {
     }
     Setup {
         caps: Captures {
+            orientation_tolerance_deg: lasercal::calib::ORIENTATION_TOLERANCE_DEG,
             method: Kind::Ball,
             sensor: sensor.name.clone(),
             specimen_kind: SpecimenType::Ball,
@@ -468,6 +469,7 @@ fn random_face_setup(
     }
     Setup {
         caps: Captures {
+            orientation_tolerance_deg: lasercal::calib::ORIENTATION_TOLERANCE_DEG,
             method: match target {
                 Target::Plane => Kind::Plane,
                 Target::Bar { .. } => Kind::Edge,
@@ -629,9 +631,38 @@ fn protocols_accept_a_controllers_orientation_jitter() {
         .expect("0.5 deg is not one orientation")
         .to_string();
     assert!(
-        err.contains("deg from the set's mean orientation") && err.contains("tolerance 0.1"),
+        err.contains("deg from the set's mean orientation")
+            && err.contains("tolerance 0.1")
+            && err.contains("--orientation-tolerance-deg"),
         "{err}"
     );
+    // The user's tolerance: 0.5 deg of jitter passes at 1 deg, in the captures and from a file
+    // through `calibrate --orientation-tolerance-deg` (which refuses what is no tolerance).
+    let mut wide = jitter(&caps, 0.5);
+    wide.orientation_tolerance_deg = 1.0;
+    lasercal::method::estimate(closed, &wide, &setup.rig.sensor).expect("within 1 deg");
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("jitter.json");
+    std::fs::write(
+        &file,
+        lasercal::io::captures::to_json(&jitter(&caps, 0.5), &setup.rig.sensor),
+    )
+    .unwrap();
+    let f = file.to_str().unwrap();
+    let (code, _, err) = common::lasercal(&["calibrate", f]);
+    assert_ne!(code, 0, "{err}");
+    let (code, out, err) = common::lasercal(&["calibrate", f, "--orientation-tolerance-deg", "1"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("ball: recovered"), "{out}");
+    for bad in ["0", "NaN", "10"] {
+        let (code, _, err) =
+            common::lasercal(&["calibrate", f, "--orientation-tolerance-deg", bad]);
+        assert_eq!(code, 2, "{bad}: {err}");
+        assert!(
+            err.contains("--orientation-tolerance-deg") && err.contains("jitter.json"),
+            "{bad}: {err}"
+        );
+    }
 }
 
 fn plane_setup(text: &str) -> Result<lasercal::scenario::Setup, String> {

@@ -25,6 +25,7 @@ fn table3() -> Vec<BallCapture> {
 fn chen2018_table3_reproduces_eq53() {
     let caps = table3();
     let sol = ball::solve(&BallProblem {
+        orientation_tolerance_deg: lasercal::calib::ORIENTATION_TOLERANCE_DEG,
         rotation_set: caps[..4].to_vec(),
         translation_set: caps[4..].to_vec(),
     })
@@ -81,6 +82,7 @@ fn ball_degenerate_inputs_are_typed_errors() {
     let caps = table3();
     // Fewer than 4 rotation-set captures.
     let e = ball::solve(&BallProblem {
+        orientation_tolerance_deg: lasercal::calib::ORIENTATION_TOLERANCE_DEG,
         rotation_set: caps[..3].to_vec(),
         translation_set: caps[4..].to_vec(),
     })
@@ -98,6 +100,7 @@ fn ball_degenerate_inputs_are_typed_errors() {
     );
     // A rotation set whose orientations differ.
     let e = ball::solve(&BallProblem {
+        orientation_tolerance_deg: lasercal::calib::ORIENTATION_TOLERANCE_DEG,
         rotation_set: caps[3..7].to_vec(),
         translation_set: caps[4..].to_vec(),
     })
@@ -120,6 +123,7 @@ fn ball_degenerate_inputs_are_typed_errors() {
             - caps[0].r_tcp.inverse() * Vector3::new(0.01, 0.02, 0.0) * k as f64;
     }
     let e = ball::solve(&BallProblem {
+        orientation_tolerance_deg: lasercal::calib::ORIENTATION_TOLERANCE_DEG,
         rotation_set: col,
         translation_set: caps[4..].to_vec(),
     })
@@ -136,6 +140,7 @@ fn ball_degenerate_inputs_are_typed_errors() {
     );
     // A translation set with one orientation only.
     let e = ball::solve(&BallProblem {
+        orientation_tolerance_deg: lasercal::calib::ORIENTATION_TOLERANCE_DEG,
         rotation_set: caps[..4].to_vec(),
         translation_set: caps[..4].to_vec(),
     })

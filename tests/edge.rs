@@ -40,6 +40,7 @@ fn edge_degenerate_inputs_are_typed_errors() {
     let p = analytic_problem(&rig, &target, &plans, 0.0, &mut g).unwrap();
     // A single group.
     let e = edge::solve(&EdgeProblem {
+        orientation_tolerance_deg: lasercal::calib::ORIENTATION_TOLERANCE_DEG,
         groups: p.groups[..1].to_vec(),
     })
     .unwrap_err();

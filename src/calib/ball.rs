@@ -29,6 +29,9 @@ pub struct BallProblem {
     pub rotation_set: Vec<BallCapture>,
     /// Captures at different orientations (at least 3): they give T_sensor.
     pub translation_set: Vec<BallCapture>,
+    /// How far apart (deg) the rotation set's orientations may be: `ORIENTATION_TOLERANCE_DEG`
+    /// unless the user says otherwise.
+    pub orientation_tolerance_deg: f64,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -43,7 +46,10 @@ pub struct BallSolution {
 
 /// R_sensor from captures at one orientation: R_sensor (q^i - q-bar) = -R^-1 (T_i - T-bar), solved
 /// by SVD with the reflection guard.
-pub fn rotation_from_translations(set: &[BallCapture]) -> Result<Rotation3<f64>, CalibError> {
+pub fn rotation_from_translations(
+    set: &[BallCapture],
+    tolerance_deg: f64,
+) -> Result<Rotation3<f64>, CalibError> {
     if set.len() < 4 {
         return Err(CalibError::TooFewData {
             method: METHOD,
@@ -53,17 +59,19 @@ pub fn rotation_from_translations(set: &[BallCapture]) -> Result<Rotation3<f64>,
         });
     }
     let rotations: Vec<Rotation3<f64>> = set.iter().map(|c| c.r_tcp).collect();
-    let r0 =
-        super::shared_orientation(&rotations).map_err(|(i, angle)| CalibError::Degenerate {
+    let r0 = super::shared_orientation(&rotations, tolerance_deg).map_err(|(i, angle)| {
+        CalibError::Degenerate {
             method: METHOD,
             what: format!(
                 "rotation-set capture {i} is {angle:.3} deg from the set's mean orientation \
                  (tolerance {} deg)",
-                super::ORIENTATION_TOLERANCE_DEG
+                tolerance_deg
             ),
             part: "rotation",
-            fix: "take the rotation set by translating the flange only, or use ball-any-pose",
-        })?;
+            fix: "take the rotation set by translating the flange only, allow the controller's \
+                  jitter (calibrate --orientation-tolerance-deg), or use ball-any-pose",
+        }
+    })?;
     let n = set.len() as f64;
     let qm = set.iter().map(|c| c.q_in_sensor).sum::<Vector3<f64>>() / n;
     let tm = set.iter().map(|c| c.t_tcp).sum::<Vector3<f64>>() / n;
@@ -108,7 +116,7 @@ pub fn translation_given_rotation(
 }
 
 pub fn solve(p: &BallProblem) -> Result<BallSolution, CalibError> {
-    let r = rotation_from_translations(&p.rotation_set)?;
+    let r = rotation_from_translations(&p.rotation_set, p.orientation_tolerance_deg)?;
     let t = translation_given_rotation(&p.translation_set, &r)?;
     let flange_to_sensor = Isometry3::from_parts(
         Translation3::from(t),

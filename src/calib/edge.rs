@@ -23,6 +23,9 @@ pub struct EdgeCapture {
 #[derive(Debug, Clone, PartialEq)]
 pub struct EdgeProblem {
     pub groups: Vec<Vec<EdgeCapture>>,
+    /// How far apart (deg) a group's orientations may be: `ORIENTATION_TOLERANCE_DEG` unless the
+    /// user says otherwise.
+    pub orientation_tolerance_deg: f64,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -85,7 +88,10 @@ fn qr_solve(a: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
 }
 
 /// Eqs. 3-27: R_s from all groups.
-pub fn rotation(groups: &[Vec<EdgeCapture>]) -> Result<Rotation3<f64>, CalibError> {
+pub fn rotation(
+    groups: &[Vec<EdgeCapture>],
+    tolerance_deg: f64,
+) -> Result<Rotation3<f64>, CalibError> {
     if groups.len() < 2 {
         return Err(CalibError::TooFewData {
             method: METHOD,
@@ -106,17 +112,19 @@ pub fn rotation(groups: &[Vec<EdgeCapture>]) -> Result<Rotation3<f64>, CalibErro
             });
         }
         let rotations: Vec<Rotation3<f64>> = caps.iter().map(|c| c.r_tcp).collect();
-        let r0 =
-            super::shared_orientation(&rotations).map_err(|(i, angle)| CalibError::Degenerate {
+        let r0 = super::shared_orientation(&rotations, tolerance_deg).map_err(|(i, angle)| {
+            CalibError::Degenerate {
                 method: METHOD,
                 what: format!(
                     "group {g}: capture {i} is {angle:.3} deg from the group's mean orientation \
                      (tolerance {} deg)",
-                    super::ORIENTATION_TOLERANCE_DEG
+                    tolerance_deg
                 ),
                 part: "rotation",
-                fix: "keep the rotation fixed within a group",
-            })?;
+                fix: "keep the rotation fixed within a group, allow the controller's jitter \
+                      (calibrate --orientation-tolerance-deg), or use edge-any-pose",
+            }
+        })?;
         let rb = *r0.matrix();
         let us: Vec<Vector3<f64>> = caps[1..]
             .iter()
@@ -191,7 +199,7 @@ pub fn rotation(groups: &[Vec<EdgeCapture>]) -> Result<Rotation3<f64>, CalibErro
 
 /// The whole method.
 pub fn solve(p: &EdgeProblem) -> Result<EdgeSolution, CalibError> {
-    let r_s = rotation(&p.groups)?;
+    let r_s = rotation(&p.groups, p.orientation_tolerance_deg)?;
     // Edge direction: PCA of each group's points (translation-free within a group), then of the
     // sign-aligned group directions.
     let dirs: Vec<Vector3<f64>> = p

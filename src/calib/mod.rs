@@ -19,8 +19,12 @@ use thiserror::Error;
 pub const ORIENTATION_TOLERANCE_DEG: f64 = 0.1;
 
 /// The orientation a protocol's "one orientation" captures share: their chordal mean, or, when
-/// one lies more than `ORIENTATION_TOLERANCE_DEG` from it, (its index, its angle in deg).
-pub fn shared_orientation(rotations: &[Rotation3<f64>]) -> Result<Rotation3<f64>, (usize, f64)> {
+/// one lies more than `tolerance_deg` from it (`ORIENTATION_TOLERANCE_DEG` unless the user says
+/// otherwise), (its index, its angle in deg).
+pub fn shared_orientation(
+    rotations: &[Rotation3<f64>],
+    tolerance_deg: f64,
+) -> Result<Rotation3<f64>, (usize, f64)> {
     let first = rotations
         .first()
         .copied()
@@ -36,7 +40,7 @@ pub fn shared_orientation(rotations: &[Rotation3<f64>]) -> Result<Rotation3<f64>
     let mean = crate::math::nearest_rotation(&sum);
     for (i, r) in rotations.iter().enumerate() {
         let angle = mean.angle_to(r).to_degrees();
-        if angle > ORIENTATION_TOLERANCE_DEG {
+        if angle > tolerance_deg {
             return Err((i, angle));
         }
     }

@@ -28,6 +28,9 @@ struct FileV1 {
     edge_sense: Option<EdgeSense>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     truth_flange_to_sensor_mm: Option<[[f64; 4]; 4]>,
+    /// How far apart (deg) a protocol's "one orientation" captures may be (default 0.1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    orientation_tolerance_deg: Option<f64>,
     groups: Vec<GroupV1>,
     profiles: Vec<ProfileV1>,
 }
@@ -107,6 +110,9 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
         format: FORMAT.into(),
         version: VERSION,
         method: c.method.to_string(),
+        orientation_tolerance_deg: (c.orientation_tolerance_deg
+            != crate::calib::ORIENTATION_TOLERANCE_DEG)
+            .then_some(c.orientation_tolerance_deg),
         sensor: if sensor.is_preset() {
             SensorV1::Preset(sensor.name.clone())
         } else {
@@ -225,6 +231,10 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
             UnitQuaternion::from_rotation_matrix(&crate::math::nearest_rotation(&r)),
         )
     });
+    let tolerance = match f.orientation_tolerance_deg {
+        None => crate::calib::ORIENTATION_TOLERANCE_DEG,
+        Some(t) => orientation_tolerance(t, file, "orientation_tolerance_deg")?,
+    };
     let groups = groups_of(&f, kind, file)?;
     let profiles = f
         .profiles
@@ -234,6 +244,7 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
         .collect::<Result<Vec<_>, _>>()?;
     Ok((
         Captures {
+            orientation_tolerance_deg: tolerance,
             method: kind,
             sensor: sensor.name.clone(),
             specimen_kind: f.specimen.kind,
@@ -604,4 +615,21 @@ fn columns_on_rays(
             }
         })
         .collect()
+}
+
+/// A user's orientation tolerance (deg), checked: finite, above 0 and at most 5 (beyond, "one
+/// orientation" means nothing the protocols rely on).
+pub fn orientation_tolerance(deg: f64, file: &str, at: &str) -> Result<f64, FormatError> {
+    if deg.is_finite() && deg > 0.0 && deg <= 5.0 {
+        Ok(deg)
+    } else {
+        Err(err(
+            file,
+            at,
+            format!(
+                "{deg}: give the tolerance in deg, above 0 and at most 5 (a controller's jitter is \
+             0.003-0.055 deg; the default is 0.1)"
+            ),
+        ))
+    }
 }

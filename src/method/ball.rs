@@ -310,6 +310,7 @@ impl Plan for BallPlanned {
             }
         }
         Ok(Captures {
+            orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
             method: Kind::Ball,
             sensor: rig.sensor.name.clone(),
             specimen_kind: SpecimenType::Ball,
@@ -404,6 +405,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         }
     }
     let sol = crate::calib::ball::solve(&BallProblem {
+        orientation_tolerance_deg: c.orientation_tolerance_deg,
         rotation_set,
         translation_set,
     })?;

@@ -327,6 +327,7 @@ impl Plan for DiskPlan {
             }
         }
         Ok(Captures {
+            orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
             method: Kind::Disk,
             sensor: rig.sensor.name.clone(),
             specimen_kind: self.specimen.kind.specimen_type(),

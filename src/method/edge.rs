@@ -316,6 +316,7 @@ impl Plan for EdgePlan {
             }
         }
         Ok(Captures {
+            orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
             method: Kind::Edge,
             sensor: rig.sensor.name.clone(),
             specimen_kind: spec.kind.specimen_type(),
@@ -433,7 +434,10 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             points.extend(pts);
         }
     }
-    let sol = crate::calib::edge::solve(&EdgeProblem { groups })?;
+    let sol = crate::calib::edge::solve(&EdgeProblem {
+        groups,
+        orientation_tolerance_deg: c.orientation_tolerance_deg,
+    })?;
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
     Ok(super::Calibration {
         full_profile: None,

@@ -139,6 +139,7 @@ impl Plan for PlanePlan {
             });
         }
         Ok(Captures {
+            orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
             method: Kind::Plane,
             sensor: rig.sensor.name.clone(),
             specimen_kind: SpecimenType::Plane,

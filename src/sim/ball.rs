@@ -178,6 +178,7 @@ pub fn analytic_problem(
         .map(|p| one(p, plan.arcs.max(1)))
         .collect::<Result<_, _>>()?;
     Ok(BallProblem {
+        orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
         rotation_set,
         translation_set,
     })

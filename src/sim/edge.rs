@@ -254,7 +254,10 @@ pub fn analytic_problem(
         }
         groups.push(caps);
     }
-    Ok(EdgeProblem { groups })
+    Ok(EdgeProblem {
+        groups,
+        orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
+    })
 }
 
 /// The edge paper's Table 3 check: scan a precision ball with `groups` rotations x `translations`

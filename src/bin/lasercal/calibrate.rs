@@ -10,12 +10,16 @@ use std::path::PathBuf;
 pub struct Args {
     /// Capture file (JSON, docs/captures.md), from a real rig or `lasercal simulate`
     file: PathBuf,
-    /// Method: the file's specimen method (disk, ball or edge), closed form by default; its
-    /// refined variant (disk-refined, ball-refined, edge-refined); or ball-any-pose (any poses,
-    /// no groups or signs needed); disk-full (every face point too; raw profiles);
-    /// plane-any-pose for plane files
+    /// Method: the file's specimen method (disk, ball or edge), closed form by default (any-pose
+    /// for a file of free poses); its refined variant (disk-refined, ball-refined, edge-refined);
+    /// its any-pose estimator (ball-, disk-, edge-any-pose: any poses, no groups or signs);
+    /// disk-full (every face point too; raw profiles); plane-any-pose for plane files
     #[arg(long)]
     method: Option<MethodId>,
+    /// How far apart (deg) the captures a protocol wants at one orientation may be (a
+    /// controller's jitter); overrides the file's orientation_tolerance_deg [default: 0.1]
+    #[arg(long)]
+    orientation_tolerance_deg: Option<f64>,
     /// Write the result as JSON
     #[arg(long)]
     json: Option<PathBuf>,
@@ -24,7 +28,11 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let name = a.file.display().to_string();
     let text = std::fs::read_to_string(&a.file).with_context(|| format!("{name}: cannot read"))?;
-    let (caps, sensor) = lasercal::io::captures::from_json(&text, &name)?;
+    let (mut caps, sensor) = lasercal::io::captures::from_json(&text, &name)?;
+    if let Some(t) = a.orientation_tolerance_deg {
+        caps.orientation_tolerance_deg =
+            lasercal::io::captures::orientation_tolerance(t, &name, "--orientation-tolerance-deg")?;
+    }
     // Free poses (one profile each, no protocol groups): the any-pose estimator; else the paper's.
     let free = caps
         .groups
