@@ -4,6 +4,8 @@
 //!
 //! - disk flatness: the face is warped into a saddle (the commonest warp of a machined plate),
 //!   w = a ((x^2 - y^2) cos 2phi + 2xy sin 2phi) / R^2 along the normal, peak-to-valley on the rim;
+//!   a plate's (a scale's or parallel bar's) flatness: the same saddle about its top face's
+//!   centre, peak-to-valley on the circle through its corners;
 //! - ball sphericity: a radial deviation pv ((u . a)^2 - 1/2) about a random axis a (an ellipsoid);
 //! - edge straightness: the edge bowed by pv (1/2 - 4 x^2 / L^2) toward a random direction across
 //!   it.
@@ -28,8 +30,14 @@ pub struct FormTolerance {
 pub enum FormError {
     #[default]
     None,
-    /// Disk face: a saddle of peak-to-valley `pv` on the rim of radius `radius`, axes at `phi`.
-    Saddle { pv: f64, radius: f64, phi: f64 },
+    /// A face: a saddle of peak-to-valley `pv` on the circle of radius `radius` about `centre`
+    /// (x, y; the disk's centre, a plate's face's middle), axes at `phi`.
+    Saddle {
+        pv: f64,
+        radius: f64,
+        centre: [f64; 2],
+        phi: f64,
+    },
     /// Ball: radial deviation `pv ((u . axis)^2 - 1/2)`.
     Ellipsoid { pv: f64, axis: Vector3<f64> },
     /// Edge: bowed by `pv (1/2 - 4 x^2 / length^2)` along `toward` (a unit vector across the edge).
@@ -52,6 +60,19 @@ impl FormError {
                 FormError::Saddle {
                     pv: tol.flatness,
                     radius,
+                    centre: [0.0, 0.0],
+                    phi: rng.random_range(0.0..std::f64::consts::PI),
+                }
+            }
+            SpecimenKind::ParallelBar { length, width, .. }
+            | SpecimenKind::Scale { length, width, .. }
+                if tol.flatness > 0.0 =>
+            {
+                // The body lies at y < 0 from the edge: the face's middle is at y = -width / 2.
+                FormError::Saddle {
+                    pv: tol.flatness,
+                    radius: 0.5 * length.hypot(width),
+                    centre: [0.0, -0.5 * width],
                     phi: rng.random_range(0.0..std::f64::consts::PI),
                 }
             }
@@ -91,10 +112,15 @@ impl FormError {
     pub fn displacement(&self, p: &Point3<f64>) -> Vector3<f64> {
         match *self {
             FormError::None => Vector3::zeros(),
-            FormError::Saddle { pv, radius, phi } => {
+            FormError::Saddle {
+                pv,
+                radius,
+                centre,
+                phi,
+            } => {
                 let (c, s) = ((2.0 * phi).cos(), (2.0 * phi).sin());
-                let w = 0.5 * pv * ((p.x * p.x - p.y * p.y) * c + 2.0 * p.x * p.y * s)
-                    / (radius * radius);
+                let (x, y) = (p.x - centre[0], p.y - centre[1]);
+                let w = 0.5 * pv * ((x * x - y * y) * c + 2.0 * x * y * s) / (radius * radius);
                 Vector3::new(0.0, 0.0, w)
             }
             FormError::Ellipsoid { pv, axis } => match p.coords.try_normalize(1e-12) {

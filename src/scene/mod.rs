@@ -108,6 +108,10 @@ pub struct Hit {
     /// Distance along the (unit) ray, metres.
     pub toi: f64,
     pub p_in_base: Point3<f64>,
+    /// Where the nominal surface was hit (`p_in_base` before the specimen's form error moved it):
+    /// a ray leaving the surface starts here, outside the nominal solid even where the form
+    /// error sinks the real surface into it.
+    pub nominal_in_base: Point3<f64>,
     /// Outward unit normal at the hit, base frame.
     pub normal_in_base: Vector3<f64>,
     pub reflectance: f64,
@@ -189,6 +193,7 @@ impl Scene {
                 best = Some(Hit {
                     toi,
                     p_in_base: origin + dir * toi,
+                    nominal_in_base: origin + dir * toi,
                     normal_in_base: n,
                     reflectance: t.reflectance,
                     specular: false,
@@ -211,6 +216,7 @@ impl Scene {
                     .cast_ray_and_get_normal(&pl.base_to_part, &ray, limit, true)
             {
                 let mut toi = hit.time_of_impact;
+                let nominal = origin + dir * toi;
                 let form = &self.forms[pl.specimen];
                 if form.applies_to_part(pl.part_index) {
                     // The surface moved by the displacement's normal component: the ray meets it
@@ -232,6 +238,7 @@ impl Scene {
                 best = Some(Hit {
                     toi,
                     p_in_base: p,
+                    nominal_in_base: nominal,
                     normal_in_base: hit.normal,
                     reflectance,
                     specular,

@@ -199,7 +199,12 @@ impl SpecimenSection {
             SpecimenKind::ParallelBar { .. } | SpecimenKind::Scale { .. }
         );
         for (field, value, allowed, applies) in [
-            ("flatness_mm", self.flatness_mm, kind.is_disk(), "a disk"),
+            (
+                "flatness_mm",
+                self.flatness_mm,
+                kind.is_disk() || rounded,
+                "a disk or a plate (parallel-bar, scale)",
+            ),
             (
                 "sphericity_mm",
                 self.sphericity_mm,
@@ -228,6 +233,16 @@ impl SpecimenSection {
                     format!("applies to {applies}, not to {}", self.kind),
                 ));
             }
+        }
+        if let (Some(f), Some(s)) = (self.flatness_mm, self.straightness_mm)
+            && f > 0.0
+            && s > 0.0
+        {
+            return Err(v.bad(
+                &k("flatness_mm"),
+                f,
+                "a plate takes one form error at a time: give flatness_mm or straightness_mm",
+            ));
         }
         if let Some(r) = self.reflectance {
             v.probability_like(&k("reflectance"), r, "must be in 0..1")?;

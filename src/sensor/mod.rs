@@ -515,7 +515,7 @@ impl SensorModel {
                 if hit.normal_in_base.dot(&to_cam) <= 0.0 {
                     return None;
                 }
-                let start = hit.p_in_base + hit.normal_in_base * 1e-9;
+                let start = hit.nominal_in_base + hit.normal_in_base * 1e-9;
                 if scene.blocked(&start, &camera) {
                     return None;
                 }
