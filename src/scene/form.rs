@@ -64,18 +64,6 @@ impl FormError {
                     phi: rng.random_range(0.0..std::f64::consts::PI),
                 }
             }
-            SpecimenKind::ParallelBar { length, width, .. }
-            | SpecimenKind::Scale { length, width, .. }
-                if tol.flatness > 0.0 =>
-            {
-                // The body lies at y < 0 from the edge: the face's middle is at y = -width / 2.
-                FormError::Saddle {
-                    pv: tol.flatness,
-                    radius: 0.5 * length.hypot(width),
-                    centre: [0.0, -0.5 * width],
-                    phi: rng.random_range(0.0..std::f64::consts::PI),
-                }
-            }
             SpecimenKind::BallOnPost { .. } if tol.sphericity > 0.0 => {
                 let a = Vector3::new(gauss(rng), gauss(rng), gauss(rng));
                 FormError::Ellipsoid {
@@ -89,6 +77,18 @@ impl FormError {
                     pv: tol.straightness,
                     length: specimen.edge_length().unwrap_or(1.0),
                     toward: Vector3::new(0.0, psi.cos(), psi.sin()),
+                }
+            }
+            SpecimenKind::ParallelBar { length, width, .. }
+            | SpecimenKind::Scale { length, width, .. }
+                if tol.flatness > 0.0 =>
+            {
+                // The body lies at y < 0 from the edge: the face's middle is at y = -width / 2.
+                FormError::Saddle {
+                    pv: tol.flatness,
+                    radius: 0.5 * length.hypot(width),
+                    centre: [0.0, -0.5 * width],
+                    phi: rng.random_range(0.0..std::f64::consts::PI),
                 }
             }
             _ => FormError::None,
