@@ -37,6 +37,7 @@ impl Kind {
             Kind::Edge => &[
                 Estimator::ClosedForm,
                 Estimator::Refined,
+                Estimator::FullProfile,
                 Estimator::AnyPose,
             ],
             // No paper closed form: the any-pose estimator is the plane's method.

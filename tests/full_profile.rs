@@ -1,5 +1,6 @@
-//! Issue 14, item 2 for the disk: `disk-full` refines over the disk's face points (up to 64 per
-//! profile, their distance from the plane) besides the chord ends.
+//! Issue 14, item 2: `disk-full` refines over the disk's face points (up to 64 per profile, their
+//! distance from the plane) besides the chord ends; `edge-full` over the bar's face points besides
+//! the edge points.
 
 mod common;
 
@@ -19,39 +20,51 @@ fn comparison() -> Setup {
 
 #[test]
 fn the_full_profile_jacobian_matches_finite_differences() {
+    // disk-full (chord ends and face points) and edge-full (edge points and the bar's face) on
+    // the comparison rig's ray-cast captures, away from the optimum.
     let s = comparison();
-    let caps = lasercal::trial::trial_captures(&s, Kind::Disk, 1, 0)
-        .0
-        .unwrap();
-    let cal = calibrate(&caps, &s.rig.sensor).unwrap();
-    let p = cal
-        .full_profile
-        .clone()
-        .expect("ray-cast captures have face points");
-    assert!(p.n_params() == 11);
-    let p = p.with_specimen_step(&[1e-3, 2e-3, -1e-3, 0.02, -0.01]);
-    let x = cal.flange_to_sensor
-        * Isometry3::from_parts(
-            Vector3::new(1e-3, -2e-3, 1.5e-3).into(),
-            UnitQuaternion::from_scaled_axis(Vector3::new(0.01, -0.02, 0.015)),
+    for (kind, min_rows_per_profile, step) in [
+        (Kind::Disk, 4, [1e-3, 2e-3, -1e-3, 0.02, -0.01]),
+        (Kind::Edge, 1, [0.01, -0.02, 0.015, 1e-3, -2e-3]),
+    ] {
+        let caps = lasercal::trial::trial_captures(&s, kind, 1, 0).0.unwrap();
+        let cal = calibrate(&caps, &s.rig.sensor).unwrap();
+        let p = cal
+            .full_profile
+            .clone()
+            .expect("ray-cast captures have face points");
+        assert!(p.n_params() == 11, "{kind}");
+        let p = p.with_specimen_step(&step);
+        let x = cal.flange_to_sensor
+            * Isometry3::from_parts(
+                Vector3::new(1e-3, -2e-3, 1.5e-3).into(),
+                UnitQuaternion::from_scaled_axis(Vector3::new(0.01, -0.02, 0.015)),
+            );
+        let (r0, j) = p.residuals_and_jacobian(&x);
+        // Features (chord ends: two residuals each; edge points: one) and face points (one each).
+        let feature_rows = min_rows_per_profile * caps.profiles.len();
+        assert!(
+            r0.len() > feature_rows + 1000,
+            "{kind}: {} residuals",
+            r0.len()
         );
-    let (r0, j) = p.residuals_and_jacobian(&x);
-    // Chord ends (two residuals each) and face points (one each).
-    let chord_rows = 2 * 2 * caps.profiles.len();
-    assert!(r0.len() > chord_rows + 1000, "{} residuals", r0.len());
-    let h = 1e-6;
-    let mut worst: f64 = 0.0;
-    for c in 0..j.ncols() {
-        let mut dx = DVector::zeros(j.ncols());
-        dx[c] = h;
-        let rp = p.residuals_after_step(&x, &dx);
-        dx[c] = -h;
-        let rm = p.residuals_after_step(&x, &dx);
-        let fd = (rp - rm) / (2.0 * h);
-        let scale = j.column(c).amax().max(1e-3);
-        worst = worst.max((fd - j.column(c)).amax() / scale);
+        let h = 1e-6;
+        let mut worst: f64 = 0.0;
+        for c in 0..j.ncols() {
+            let mut dx = DVector::zeros(j.ncols());
+            dx[c] = h;
+            let rp = p.residuals_after_step(&x, &dx);
+            dx[c] = -h;
+            let rm = p.residuals_after_step(&x, &dx);
+            let fd = (rp - rm) / (2.0 * h);
+            let scale = j.column(c).amax().max(1e-3);
+            worst = worst.max((fd - j.column(c)).amax() / scale);
+        }
+        assert!(
+            worst < 1e-6,
+            "{kind}: Jacobian off by {worst:.2e} (relative)"
+        );
     }
-    assert!(worst < 1e-6, "Jacobian off by {worst:.2e} (relative)");
 }
 
 #[test]

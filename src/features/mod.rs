@@ -484,11 +484,24 @@ pub fn edge_point(
     sense: EdgeSense,
     cfg: &SplitMerge,
 ) -> Result<Vector2<f64>, FeatureError> {
+    edge_point_and_face(profile, sensor, sense, cfg).map(|(p, _)| p)
+}
+
+/// `edge_point` with the points of the top face it walked from (what `edge-full` fits too).
+pub fn edge_point_and_face(
+    profile: &Profile,
+    sensor: &SensorModel,
+    sense: EdgeSense,
+    cfg: &SplitMerge,
+) -> Result<(Vector2<f64>, Vec<Vector2<f64>>), FeatureError> {
     let (pts, segs) = segments(profile, cfg)?;
     let mut first_err = None;
     for i in top_face_candidates(&pts, &segs, sensor, cfg) {
         match walk_to_edge(&pts, &segs, i, sensor, sense, cfg) {
-            Ok(e) => return Ok(e.point),
+            Ok(e) => {
+                let (first, last, _) = tighten(&pts, &segs[i], cfg.split_tol, sensor);
+                return Ok((e.point, pts[first..=last].iter().map(|p| p.1).collect()));
+            }
             Err(e) => {
                 first_err.get_or_insert(e);
             }

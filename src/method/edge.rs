@@ -330,16 +330,19 @@ impl Plan for EdgePlan {
 }
 
 /// The edge point of one capture: given, or extracted from the raw profile.
+/// With a raw profile, also the top face's points (for `edge-full`).
+type EdgeFeature = (Vector2<f64>, Vec<Vector2<f64>>);
+
 fn point_of(
     g: &Group,
     data: &ProfileData,
     sensor: &SensorModel,
     sense: EdgeSense,
     cfg: &SplitMerge,
-) -> Result<Result<Vector2<f64>, features::FeatureError>, CaptureError> {
+) -> Result<Result<EdgeFeature, features::FeatureError>, CaptureError> {
     match data {
-        ProfileData::EdgePoint(q) => Ok(Ok(*q)),
-        ProfileData::Raw(prof) => Ok(features::edge_point(prof, sensor, sense, cfg)),
+        ProfileData::EdgePoint(q) => Ok(Ok((*q, Vec::new()))),
+        ProfileData::Raw(prof) => Ok(features::edge_point_and_face(prof, sensor, sense, cfg)),
         _ => Err(CaptureError::WrongData {
             group: g.id,
             method: Kind::Edge,
@@ -397,6 +400,64 @@ fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, R
     Ok((cal, sol.refined))
 }
 
+/// `edge-full`: the edge points and the top face's points against the bar (`refine::bar`, one
+/// edge), from the closed form: the face's plane fitted to its points mapped with the closed
+/// form's transform, the edge's line the closed form's. None without face points (a file of
+/// edge points).
+fn full_profile(
+    sol: &crate::calib::edge::EdgeSolution,
+    points: &[(Isometry3<f64>, Vector2<f64>)],
+    face: Vec<(Isometry3<f64>, Vector2<f64>)>,
+) -> Option<std::sync::Arc<dyn crate::calib::refine::Refinable>> {
+    use crate::calib::refine::bar::{Bar, BarModel, EdgeSeen};
+    if face.len() < 3 {
+        return None;
+    }
+    let in_base: Vec<Vector3<f64>> = face
+        .iter()
+        .map(|(f, p)| {
+            (f * sol.flange_to_sensor)
+                .transform_point(&Point3::new(p.x, 0.0, p.y))
+                .coords
+        })
+        .collect();
+    let centroid = in_base.iter().sum::<Vector3<f64>>() / in_base.len() as f64;
+    let scatter: nalgebra::Matrix3<f64> = in_base
+        .iter()
+        .map(|q| (q - centroid) * (q - centroid).transpose())
+        .sum();
+    let eig = scatter.symmetric_eigen();
+    let mut n: Vector3<f64> = eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned();
+    // The edge's direction made exactly perpendicular to the normal.
+    let dir = (sol.edge_direction - n * n.dot(&sol.edge_direction)).try_normalize(1e-9)?;
+    n = (n - dir * n.dot(&dir)).normalize();
+    let frame = nalgebra::Rotation3::from_matrix_unchecked(nalgebra::Matrix3::from_columns(&[
+        dir,
+        n.cross(&dir),
+        n,
+    ]));
+    let across = n.cross(&dir);
+    let model = BarModel {
+        face,
+        edges: points
+            .iter()
+            .map(|(f, q)| EdgeSeen {
+                base_to_flange: *f,
+                from: *q,
+                to: *q,
+                edge: 0,
+            })
+            .collect(),
+        n_edges: 1,
+    };
+    let specimen = Bar {
+        frame,
+        offset: n.dot(&centroid),
+        edge_offsets: [across.dot(&sol.edge_point); 2],
+    };
+    Some(std::sync::Arc::new(Problem { model, specimen }))
+}
+
 /// Edge points per rotation group, the Kronecker solve, the paper's Tables 1-2 figures, and the
 /// refinement problem.
 fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
@@ -405,13 +466,21 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     let mut missed = 0;
     let (mut per_group, mut reports) = (Vec::new(), Vec::new());
     for g in &c.groups {
-        let (mut caps, mut pts) = (Vec::new(), Vec::new());
+        let (mut caps, mut pts, mut face) = (Vec::new(), Vec::new(), Vec::new());
         let mut report = super::GroupReport::new(g.id);
         for p in c.group_profiles(g.id) {
             let point = point_of(g, &p.data, sensor, sense, &cfg)?;
             report.count(&point);
             match point {
-                Ok(q) => {
+                Ok((q, points)) => {
+                    // Up to 64 face points per profile for edge-full, as disk-full keeps.
+                    let stride = points.len().div_ceil(64).max(1);
+                    face.extend(
+                        points
+                            .into_iter()
+                            .step_by(stride)
+                            .map(|f| (p.base_to_flange, f)),
+                    );
                     pts.push((p.base_to_flange, q));
                     caps.push(EdgeCapture {
                         r_tcp: p.base_to_flange.rotation.to_rotation_matrix(),
@@ -422,16 +491,17 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                 Err(_) => missed += 1,
             }
         }
-        per_group.push((caps, pts));
+        per_group.push((caps, pts, face));
         reports.push(report);
     }
     // A group with fewer than 3 edge points gives no rotation equations: left out, if 2 remain.
     super::leave_out_thin_groups(&mut reports, 3, 2, Kind::Edge)?;
-    let (mut groups, mut points) = (Vec::new(), Vec::new());
-    for ((caps, pts), r) in per_group.into_iter().zip(&reports) {
+    let (mut groups, mut points, mut face) = (Vec::new(), Vec::new(), Vec::new());
+    for ((caps, pts, f), r) in per_group.into_iter().zip(&reports) {
         if !r.left_out {
             groups.push(caps);
             points.extend(pts);
+            face.extend(f);
         }
     }
     let sol = crate::calib::edge::solve(&EdgeProblem {
@@ -439,8 +509,9 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         orientation_tolerance_deg: c.orientation_tolerance_deg,
     })?;
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let full_profile = full_profile(&sol, &points, face);
     Ok(super::Calibration {
-        full_profile: None,
+        full_profile,
         refinable: Some(std::sync::Arc::new(Problem {
             model: EdgeModel { points },
             specimen: EdgeLine::new(sol.edge_point.into(), &sol.edge_direction),
