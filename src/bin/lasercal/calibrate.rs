@@ -13,7 +13,7 @@ pub struct Args {
     /// Method: the file's specimen method (disk, ball or edge), closed form by default (any-pose
     /// for a file of free poses); its refined variant (disk-refined, ball-refined, edge-refined);
     /// its any-pose estimator (ball-, disk-, edge-any-pose: any poses, no groups or signs);
-    /// disk-full (every face point too; raw profiles); plane-any-pose for plane files
+    /// disk-full, edge-full (every face point too; raw profiles); plane-any-pose for plane files
     #[arg(long)]
     method: Option<MethodId>,
     /// How far apart (deg) the captures a protocol wants at one orientation may be (a
