@@ -1067,3 +1067,31 @@ fn a_file_of_free_poses_calibrates_with_the_any_pose_estimator_by_default() {
         );
     }
 }
+
+#[test]
+fn free_poses_take_only_the_any_pose_estimator_on_raycast_profiles() {
+    for (scenario, kind) in [("edge-8-poses.toml", "edge"), ("disk-free.toml", "disk")] {
+        let text = std::fs::read_to_string(common::scen(scenario)).unwrap();
+        let both = text.replace(
+            &format!("methods = [\"{kind}-any-pose\"]"),
+            &format!("methods = [\"{kind}\", \"{kind}-any-pose\"]"),
+        );
+        let e = lasercal::scenario::ScenarioFile::parse(&both, scenario)
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("methods") && e.contains(&format!("use {kind}-any-pose")),
+            "{e}"
+        );
+        let analytic = text.replace("source = \"raycast\"", "source = \"analytic\"");
+        let e = lasercal::scenario::ScenarioFile::parse(&analytic, scenario)
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(&format!("{kind}.source")) && e.contains("raycast"),
+            "{e}"
+        );
+    }
+}

@@ -2,7 +2,7 @@
 //! orientation fixes R_sensor, a translation set fixes T_sensor. Its `[ball]` scenario section,
 //! plan, simulation, arc features and solve, with the arc-point refinement model.
 
-use super::{Estimator, Kind, Method, Plan, Sim};
+use super::{Kind, Method, Plan, Sim};
 use crate::calib::ball::{BallCapture, BallProblem, centre_from_arc};
 use crate::calib::refine::Problem;
 use crate::calib::refine::ball::BallModel;
@@ -39,21 +39,15 @@ impl Method for Ball {
                 "the ball method needs a ball (here or in [ball.specimen])",
             ));
         }
-        if let Some(ps) = &b.poses {
-            ps.source("ball.poses", 6, v)?;
-            if let Some(m) = sc
-                .methods
-                .iter()
-                .find(|m| m.kind == Kind::Ball && m.estimator != Estimator::AnyPose)
-            {
-                return Err(v.bad(
-                    "methods",
-                    format!("\"{m}\""),
-                    "the two-step method needs its protocol (ball.rotation_tcp_mm and the \
-                     translation set); with [ball.poses] use ball-any-pose",
-                ));
-            }
-        } else if b.rotation_tcp_mm.len() < 4 {
+        if !super::check_free_poses(
+            sc,
+            Kind::Ball,
+            b.poses.as_ref(),
+            6,
+            "ball.rotation_tcp_mm and the translation set",
+            v,
+        )? && b.rotation_tcp_mm.len() < 4
+        {
             return Err(v.bad(
                 "ball.rotation_tcp_mm",
                 format!("{} positions", b.rotation_tcp_mm.len()),

@@ -42,13 +42,7 @@ impl Method for Disk {
             .iter()
             .find(|m| m.kind == Kind::Disk && m.estimator == Estimator::AnyPose)
         {
-            if d.source != Source::Raycast {
-                return Err(v.bad(
-                    "disk.source",
-                    "\"analytic\"",
-                    format!("{m} fits the disk's face in the raw profiles: set disk.source = \"raycast\""),
-                ));
-            }
+            super::check_any_pose_source(sc, Kind::Disk, d.source, v)?;
             if !matches!(sc.specimen_kind(v)?, SpecimenKind::DiskOnCylinder { .. }) {
                 return Err(v.bad(
                     "specimen.kind",
@@ -59,20 +53,14 @@ impl Method for Disk {
                 ));
             }
         }
-        if let Some(ps) = &d.poses {
-            ps.source("disk.poses", crate::calib::plane::MIN_VIEWS, v)?;
-            if let Some(m) = sc
-                .methods
-                .iter()
-                .find(|m| m.kind == Kind::Disk && m.estimator != Estimator::AnyPose)
-            {
-                return Err(v.bad(
-                    "methods",
-                    format!("\"{m}\""),
-                    "the disk paper's method needs its protocol (disk.chords and the scans' \
-                     orientations); with [disk.poses] use disk-any-pose",
-                ));
-            }
+        if super::check_free_poses(
+            sc,
+            Kind::Disk,
+            d.poses.as_ref(),
+            crate::calib::plane::MIN_VIEWS,
+            "disk.chords and the scans' orientations",
+            v,
+        )? {
             return Ok(());
         }
         v.at_least(

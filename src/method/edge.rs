@@ -2,7 +2,7 @@
 //! profile crossing the specimen's edge. Its `[edge]` scenario section, plan, simulation, edge-point
 //! features and solve (Eqs. 9-24), the Table 3 ball check, and the edge-point refinement model.
 
-use super::{Estimator, Kind, Method, Plan, Sim};
+use super::{Kind, Method, Plan, Sim};
 use crate::calib::bar::BarView;
 use crate::calib::edge::{EdgeCapture, EdgeProblem};
 use crate::calib::refine::Problem;
@@ -35,34 +35,15 @@ impl Method for Edge {
         if let Some(sp) = &e.specimen {
             sp.kind_checked("edge.specimen", v)?;
         }
-        if let Some(m) = sc
-            .methods
-            .iter()
-            .find(|m| m.kind == Kind::Edge && m.estimator == Estimator::AnyPose)
-            && e.source != Source::Raycast
-        {
-            return Err(v.bad(
-                "edge.source",
-                "\"analytic\"",
-                format!(
-                    "{m} fits the bar's face in the raw profiles: set edge.source = \"raycast\""
-                ),
-            ));
-        }
-        if let Some(ps) = &e.poses {
-            ps.source("edge.poses", crate::calib::plane::MIN_VIEWS, v)?;
-            if let Some(m) = sc
-                .methods
-                .iter()
-                .find(|m| m.kind == Kind::Edge && m.estimator != Estimator::AnyPose)
-            {
-                return Err(v.bad(
-                    "methods",
-                    format!("\"{m}\""),
-                    "the edge paper's method needs its protocol (edge.rotations, \
-                     edge.translations and the arc); with [edge.poses] use edge-any-pose",
-                ));
-            }
+        super::check_any_pose_source(sc, Kind::Edge, e.source, v)?;
+        if super::check_free_poses(
+            sc,
+            Kind::Edge,
+            e.poses.as_ref(),
+            crate::calib::plane::MIN_VIEWS,
+            "edge.rotations, edge.translations and the arc",
+            v,
+        )? {
             return Ok(());
         }
         v.at_least(

@@ -240,6 +240,60 @@ fn without_numbers(s: &str) -> String {
     out
 }
 
+/// `[<kind>.poses]`, when given: checked (`min` poses or more), and only the any-pose estimator
+/// may run on free poses (the refusal names the paper's `protocol` keys). True when given.
+pub fn check_free_poses(
+    sc: &Scenario,
+    kind: Kind,
+    poses: Option<&crate::schema::poses::PoseSet>,
+    min: usize,
+    protocol: &str,
+    v: &Validator,
+) -> Result<bool, ScenarioError> {
+    let Some(ps) = poses else {
+        return Ok(false);
+    };
+    ps.source(&format!("{kind}.poses"), min, v)?;
+    if let Some(m) = sc
+        .methods
+        .iter()
+        .find(|m| m.kind == kind && m.estimator != Estimator::AnyPose)
+    {
+        return Err(v.bad(
+            "methods",
+            format!("\"{m}\""),
+            format!(
+                "{m} needs its paper's protocol ({protocol}); with [{kind}.poses] use \
+                 {kind}-any-pose"
+            ),
+        ));
+    }
+    Ok(true)
+}
+
+/// An estimator that fits a face in the raw profiles needs ray-cast ones: `source` is the
+/// section's (`<kind>.source`), refused otherwise when the scenario runs `kind`'s any-pose one.
+pub fn check_any_pose_source(
+    sc: &Scenario,
+    kind: Kind,
+    source: crate::schema::Source,
+    v: &Validator,
+) -> Result<(), ScenarioError> {
+    if let Some(m) = sc
+        .methods
+        .iter()
+        .find(|m| m.kind == kind && m.estimator == Estimator::AnyPose)
+        && source != crate::schema::Source::Raycast
+    {
+        return Err(v.bad(
+            &format!("{kind}.source"),
+            "\"analytic\"",
+            format!("{m} fits the face in the raw profiles: set {kind}.source = \"raycast\""),
+        ));
+    }
+    Ok(())
+}
+
 /// Fewest points on a profile's face for the edge's and disk's any-pose estimators.
 pub const ANY_POSE_FACE_POINTS: usize = 10;
 
