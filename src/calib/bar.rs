@@ -18,11 +18,6 @@ use nalgebra::{Isometry3, Rotation3, Vector2, Vector3};
 
 const METHOD: &str = "edge any-pose";
 
-/// Starts of the plane screened: a plate's face is narrower than a table's, its lines'
-/// directions noisier, and from seven poses the best three normals all missed the truth's basin
-/// in one of 200 trials (scenarios/edge-8-poses.toml, z noise 0.1 mm); eight found it.
-const STARTS: usize = 8;
-
 /// One profile of the bar: its face's line and the edges at the face's ends (from, to: where each
 /// can lie, sensor x, z; equal at a corner).
 #[derive(Debug, Clone, PartialEq)]
@@ -40,20 +35,13 @@ pub struct BarSolution {
 }
 
 pub fn solve(views: &[BarView], apex: &Vector3<f64>) -> Result<BarSolution, CalibError> {
-    let faces: Vec<LineView> = views.iter().map(|v| v.face.clone()).collect();
-    let (kept, plane) = super::plane::solve_leaving_out(&faces, apex, STARTS)?;
-    let views: Vec<BarView> = views
-        .iter()
-        .zip(&kept)
-        .filter(|(_, k)| **k)
-        .map(|(v, _)| v.clone())
-        .collect();
+    let (views, plane) = super::plane::solve_faces(views, |v| &v.face, apex)?;
     with_edges(&views, &plane)
 }
 
 /// Steps 2-3 from the plane's solution.
 fn with_edges(
-    views: &[BarView],
+    views: &[&BarView],
     plane: &super::plane::PlaneSolution,
 ) -> Result<BarSolution, CalibError> {
     let x = plane.flange_to_sensor;

@@ -18,9 +18,6 @@ use nalgebra::{Isometry3, Matrix3, Point3, Vector2, Vector3};
 
 const METHOD: &str = "disk any-pose";
 
-/// Starts of the plane screened (as `calib::bar`: a disk's face is short).
-const STARTS: usize = 8;
-
 /// One profile of the disk: its face's line and, at each end, where the rim can lie (two points
 /// on the line, sensor x, z).
 #[derive(Debug, Clone, PartialEq)]
@@ -42,14 +39,7 @@ pub fn solve(
     radius: f64,
     apex: &Vector3<f64>,
 ) -> Result<DiskAnySolution, CalibError> {
-    let faces: Vec<LineView> = views.iter().map(|v| v.face.clone()).collect();
-    let (kept, plane) = super::plane::solve_leaving_out(&faces, apex, STARTS)?;
-    let views: Vec<&DiskView> = views
-        .iter()
-        .zip(&kept)
-        .filter(|(_, k)| **k)
-        .map(|(v, _)| v)
-        .collect();
+    let (views, plane) = super::plane::solve_faces(views, |v| &v.face, apex)?;
     let x = plane.flange_to_sensor;
     let n = plane.plane.normal();
     let (e1, e2) = (

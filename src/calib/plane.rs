@@ -150,6 +150,29 @@ pub fn solve_leaving_out(
     Ok((kept, solve_from_starts(&used, apex, count)?))
 }
 
+/// Starts screened when the plane is a specimen's face (a plate's or a disk's: shorter lines than
+/// a table's, noisier directions): from seven poses of a 60 mm plate the best three missed the
+/// truth's basin once in 200 trials (z noise 0.1 mm); eight found it.
+pub const FACE_STARTS: usize = 8;
+
+/// The plane of a specimen's face from views that each carry one (`face`): `solve_leaving_out`
+/// with `FACE_STARTS`, returning the views kept.
+pub fn solve_faces<'a, V>(
+    views: &'a [V],
+    face: impl Fn(&V) -> &LineView,
+    apex: &Vector3<f64>,
+) -> Result<(Vec<&'a V>, PlaneSolution), CalibError> {
+    let faces: Vec<LineView> = views.iter().map(|v| face(v).clone()).collect();
+    let (kept, plane) = solve_leaving_out(&faces, apex, FACE_STARTS)?;
+    let views = views
+        .iter()
+        .zip(&kept)
+        .filter(|(_, k)| **k)
+        .map(|(v, _)| v)
+        .collect();
+    Ok((views, plane))
+}
+
 /// Every profile's points against the plane from a screened start.
 pub fn refine_from(views: &[LineView], start: &Start) -> Result<PlaneSolution, CalibError> {
     let model = model_of(views, &|_| 1);
