@@ -86,6 +86,10 @@ pub struct Captures {
     /// How far apart (deg) a protocol's "one orientation" captures may be (a controller's
     /// jitter): `calib::ORIENTATION_TOLERANCE_DEG` unless the file or the user says otherwise.
     pub orientation_tolerance_deg: f64,
+    /// The stated noise (metres, one standard deviation) of features given as such (chord ends,
+    /// arc points, edge points of an analytic source or a file): what the verdict's residual
+    /// test compares with. None for raw profiles, whose noise the sensor's model states.
+    pub feature_sigma: Option<f64>,
 }
 
 impl Captures {

@@ -21,11 +21,18 @@ pub enum Metric {
     EdgeDistance,
     /// Edge method: radius of the precision ball reconstructed with the estimate (Xu Table 3).
     SphereRadius,
+    /// The verdict's residual test: residual RMS over the stated noise; truth-free.
+    NoiseRatio,
+    /// The largest predicted standard deviation of the rotation and of the translation.
+    PredictedSdRotation,
+    PredictedSdTranslation,
+    /// The verdict: 1 suspect, 0 ok (its mean over trials is the share called suspect).
+    Suspect,
 }
 
 impl Metric {
     /// Every metric, in the order of trials.csv's columns.
-    pub const ALL: [Metric; 8] = [
+    pub const ALL: [Metric; 12] = [
         Metric::RotationError,
         Metric::TranslationError,
         Metric::FrobeniusRotation,
@@ -34,16 +41,22 @@ impl Metric {
         Metric::EdgeAngleDev,
         Metric::EdgeDistance,
         Metric::SphereRadius,
+        Metric::NoiseRatio,
+        Metric::PredictedSdRotation,
+        Metric::PredictedSdTranslation,
+        Metric::Suspect,
     ];
 
     /// The metrics summarised per grid point and method, in summary.csv's order.
-    pub const SUMMARISED: [Metric; 6] = [
+    pub const SUMMARISED: [Metric; 8] = [
         Metric::CentreError,
         Metric::RotationError,
         Metric::TranslationError,
         Metric::EdgeAngleDev,
         Metric::EdgeDistance,
         Metric::SphereRadius,
+        Metric::NoiseRatio,
+        Metric::Suspect,
     ];
 
     /// Column name (with its unit).
@@ -57,6 +70,10 @@ impl Metric {
             Metric::EdgeAngleDev => "edge_angle_dev_deg",
             Metric::EdgeDistance => "edge_distance_mm",
             Metric::SphereRadius => "sphere_radius_mm",
+            Metric::NoiseRatio => "noise_ratio",
+            Metric::PredictedSdRotation => "predicted_sd_rotation_deg",
+            Metric::PredictedSdTranslation => "predicted_sd_translation_mm",
+            Metric::Suspect => "suspect",
         }
     }
 
@@ -71,14 +88,18 @@ impl Metric {
             Metric::EdgeAngleDev => "mean edge-direction deviation",
             Metric::EdgeDistance => "mean point-to-edge distance",
             Metric::SphereRadius => "reconstructed ball radius",
+            Metric::NoiseRatio => "residual RMS / stated noise",
+            Metric::PredictedSdRotation => "predicted rotation sd (largest axis)",
+            Metric::PredictedSdTranslation => "predicted translation sd (largest axis)",
+            Metric::Suspect => "share judged suspect",
         }
     }
 
     /// Unit for printing ("" when dimensionless).
     pub fn unit(self) -> &'static str {
         match self {
-            Metric::RotationError | Metric::EdgeAngleDev => "deg",
-            Metric::FrobeniusRotation => "",
+            Metric::RotationError | Metric::EdgeAngleDev | Metric::PredictedSdRotation => "deg",
+            Metric::FrobeniusRotation | Metric::NoiseRatio | Metric::Suspect => "",
             _ => "mm",
         }
     }
@@ -95,7 +116,7 @@ impl Metric {
 
 /// A value per metric (absent where the method does not report it).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Metrics([Option<f64>; 8]);
+pub struct Metrics([Option<f64>; 12]);
 
 impl Metrics {
     pub fn get(&self, m: Metric) -> Option<f64> {

@@ -22,6 +22,8 @@ pub struct Score {
     pub status: Status,
     /// Refined methods: the refinement (uncertainty, observability, costs).
     pub refined: Option<Refined>,
+    /// The truth-free verdict on the result (its figures are in `metrics` too).
+    pub judged: crate::method::verdict::Judged,
 }
 
 impl Score {
@@ -50,11 +52,19 @@ pub struct TrialOutcome {
 /// the estimator (the code a capture file from a real rig goes through), score.
 pub fn run_trial(setup: &Setup, method: MethodId, seed: u64, trial: u64) -> TrialOutcome {
     let (caps, validation_seed) = trial_captures(setup, method.kind, seed, trial);
-    let estimate = caps.and_then(|caps| crate::method::estimate(method, &caps, &setup.rig.sensor));
+    let estimate = caps.and_then(|caps| {
+        crate::method::estimate(method, &caps, &setup.rig.sensor).map(|(c, r)| (c, r, caps))
+    });
     let (result, missed) = match estimate {
         Err(e) => (Err(e), 0),
-        Ok((cal, refined)) => {
-            let mut s = score(setup, method.kind, &cal, validation_seed);
+        Ok((cal, refined, caps)) => {
+            let judged = crate::method::verdict::judge(crate::method::verdict::quality(
+                &cal,
+                refined.as_ref(),
+                &caps,
+                &setup.rig.sensor,
+            ));
+            let mut s = score(setup, method.kind, &cal, validation_seed, judged);
             s.refined = refined;
             (Ok(s), cal.missed)
         }
@@ -123,8 +133,29 @@ fn simulate(
     )
 }
 
+/// The verdict's figures as metrics (trials.csv's columns).
+fn with_verdict(m: Metrics, j: &crate::method::verdict::Judged) -> Metrics {
+    let (sr, st) = j.quality.worst_sd();
+    let finite = |v: f64| v.is_finite().then_some(v);
+    m.with(Metric::NoiseRatio, j.quality.noise_ratio.and_then(finite))
+        .with(Metric::PredictedSdRotation, finite(sr))
+        .with(Metric::PredictedSdTranslation, finite(st))
+        .with(
+            Metric::Suspect,
+            Some(f64::from(
+                j.verdict == crate::method::verdict::Verdict::Suspect,
+            )),
+        )
+}
+
 /// Score a calibration of a specimen method against the scenario's truth.
-pub fn score(setup: &Setup, kind: Kind, cal: &Calibration, validation_seed: u64) -> Score {
+pub fn score(
+    setup: &Setup,
+    kind: Kind,
+    cal: &Calibration,
+    validation_seed: u64,
+    judged: crate::method::verdict::Judged,
+) -> Score {
     let e = PoseError::between(&cal.flange_to_sensor, &setup.rig.flange_to_sensor);
     let plan = setup.plan(kind).ok();
     let mut metrics = cal.figures;
@@ -147,8 +178,9 @@ pub fn score(setup: &Setup, kind: Kind, cal: &Calibration, validation_seed: u64)
     }
     Score {
         estimate: cal.flange_to_sensor,
-        metrics,
         status: cal.status,
         refined: None,
+        metrics: with_verdict(metrics, &judged),
+        judged,
     }
 }

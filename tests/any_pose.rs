@@ -134,6 +134,7 @@ fn random_setup(seed: u64, n: usize, translations: usize, sigma: f64) -> Setup {
     }
     Setup {
         caps: Captures {
+            feature_sigma: None,
             orientation_tolerance_deg: lasercal::calib::ORIENTATION_TOLERANCE_DEG,
             method: Kind::Ball,
             sensor: sensor.name.clone(),
@@ -469,6 +470,7 @@ fn random_face_setup(
     }
     Setup {
         caps: Captures {
+            feature_sigma: None,
             orientation_tolerance_deg: lasercal::calib::ORIENTATION_TOLERANCE_DEG,
             method: match target {
                 Target::Plane => Kind::Plane,

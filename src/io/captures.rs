@@ -31,6 +31,10 @@ struct FileV1 {
     /// How far apart (deg) a protocol's "one orientation" captures may be (default 0.1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     orientation_tolerance_deg: Option<f64>,
+    /// The noise (mm, one standard deviation) of the features a file gives as such (chords,
+    /// circles' arc points, edge points); the verdict's residual test needs it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    feature_sigma_mm: Option<f64>,
     groups: Vec<GroupV1>,
     profiles: Vec<ProfileV1>,
 }
@@ -113,6 +117,7 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
         orientation_tolerance_deg: (c.orientation_tolerance_deg
             != crate::calib::ORIENTATION_TOLERANCE_DEG)
             .then_some(c.orientation_tolerance_deg),
+        feature_sigma_mm: c.feature_sigma.map(|s| s * 1e3),
         sensor: if sensor.is_preset() {
             SensorV1::Preset(sensor.name.clone())
         } else {
@@ -235,6 +240,17 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
         None => crate::calib::ORIENTATION_TOLERANCE_DEG,
         Some(t) => orientation_tolerance(t, file, "orientation_tolerance_deg")?,
     };
+    let feature_sigma = match f.feature_sigma_mm {
+        None => None,
+        Some(s) if s.is_finite() && s >= 0.0 && s <= 1000.0 => Some(s * 1e-3),
+        Some(s) => {
+            return Err(err(
+                file,
+                "feature_sigma_mm",
+                format!("{s}: the features' noise must be a number of mm from 0 to 1000"),
+            ));
+        }
+    };
     let groups = groups_of(&f, kind, file)?;
     let profiles = f
         .profiles
@@ -245,6 +261,7 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
     Ok((
         Captures {
             orientation_tolerance_deg: tolerance,
+            feature_sigma,
             method: kind,
             sensor: sensor.name.clone(),
             specimen_kind: f.specimen.kind,

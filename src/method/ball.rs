@@ -305,6 +305,7 @@ impl Plan for BallPlanned {
         }
         Ok(Captures {
             orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
+            feature_sigma: (!self.raycast).then_some(self.sigma),
             method: Kind::Ball,
             sensor: rig.sensor.name.clone(),
             specimen_kind: SpecimenType::Ball,

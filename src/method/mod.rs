@@ -9,6 +9,7 @@ pub mod ball;
 pub mod disk;
 pub mod edge;
 pub mod plane;
+pub mod verdict;
 
 use crate::calib::Status;
 use crate::calib::refine::{Options, Refinable, Refined};

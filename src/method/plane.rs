@@ -140,6 +140,7 @@ impl Plan for PlanePlan {
         }
         Ok(Captures {
             orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
+            feature_sigma: None,
             method: Kind::Plane,
             sensor: rig.sensor.name.clone(),
             specimen_kind: SpecimenType::Plane,

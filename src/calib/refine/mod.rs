@@ -163,6 +163,9 @@ pub struct Refined {
     pub initial_cost: f64,
     pub cost: f64,
     pub residual_rms: f64,
+    /// Residuals and parameters (transform and specimen): the residual test's degrees of freedom.
+    pub n_residuals: usize,
+    pub n_params: usize,
     /// Covariance of (rotation increment rad in the sensor frame, translation m in the flange
     /// frame) at the optimum: the residual-scaled (sandwich) estimate, valid for unequal noise.
     pub covariance: Matrix6<f64>,
@@ -491,6 +494,8 @@ pub fn refine<M: Model>(
             initial_cost: cost_of(&r0, opts.loss, scale),
             cost,
             residual_rms: (r.norm_squared() / n as f64).sqrt(),
+            n_residuals: n,
+            n_params: p,
             covariance: cov,
             sd_rotation_deg: Vector3::new(sd(0), sd(1), sd(2)).map(f64::to_degrees),
             sd_translation_mm: Vector3::new(sd(3), sd(4), sd(5)) * 1e3,
@@ -498,6 +503,61 @@ pub fn refine<M: Model>(
         },
         s,
     ))
+}
+
+/// The figures of a transform under a problem's residual model without moving it (a closed
+/// form's result judged by the same figures as a refinement's): residuals at `x` with the
+/// problem's specimen estimate, the covariance and observability there; and the Gauss-Newton
+/// step towards the least-squares fit (rotation rad in the sensor frame, translation m): how far
+/// the transform is from the best fit of its own data.
+pub fn assess(p: &dyn Refinable, x: &Isometry3<f64>, status: Status) -> (Refined, Vector6<f64>) {
+    let (r, j) = p.residuals_and_jacobian(x);
+    (figures_of(&r, &j, x, status), gauss_newton_step(&r, &j))
+}
+
+fn gauss_newton_step(r: &DVector<f64>, j: &DMatrix<f64>) -> Vector6<f64> {
+    let used: Vec<usize> = (0..j.ncols())
+        .filter(|&c| c < 6 || j.column(c).iter().any(|v| *v != 0.0))
+        .collect();
+    let j = j.select_columns(&used);
+    let a = ata(&j, &j);
+    let g = atb(&j, r);
+    // Scaled so that one ill-scaled parameter does not spoil the solve; a singular system has
+    // no step to speak of (the observability figures say why).
+    let d: Vec<f64> = (0..a.nrows())
+        .map(|i| a[(i, i)].max(1e-300).sqrt())
+        .collect();
+    let scaled = DMatrix::from_fn(a.nrows(), a.ncols(), |r, c| a[(r, c)] / (d[r] * d[c]));
+    let gs = DVector::from_fn(g.len(), |i, _| g[i] / d[i]);
+    match scaled.svd(true, true).solve(&gs, 1e-12) {
+        Ok(s) => Vector6::from_fn(|i, _| -s[i] / d[i]),
+        Err(_) => Vector6::from_element(f64::NAN),
+    }
+}
+
+fn figures_of(r: &DVector<f64>, j: &DMatrix<f64>, x: &Isometry3<f64>, status: Status) -> Refined {
+    let n = r.len();
+    let cov = if n > j.ncols() {
+        covariance(r, j)
+    } else {
+        Matrix6::from_element(f64::INFINITY)
+    };
+    let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
+    let cost = r.norm_squared() / 2.0;
+    Refined {
+        flange_to_sensor: *x,
+        centre: None,
+        status,
+        initial_cost: cost,
+        cost,
+        residual_rms: (r.norm_squared() / n.max(1) as f64).sqrt(),
+        n_residuals: n,
+        n_params: j.ncols(),
+        covariance: cov,
+        sd_rotation_deg: Vector3::new(sd(0), sd(1), sd(2)).map(f64::to_degrees),
+        sd_translation_mm: Vector3::new(sd(3), sd(4), sd(5)) * 1e3,
+        observability: observability_of(j),
+    }
 }
 
 /// 1.4826 times the median absolute residual: a robust standard deviation.

@@ -1,0 +1,300 @@
+//! The verdict (issue 15): on wrong inputs (a flipped group sign, a specimen radius 5 % off, the
+//! wrong edge sense, three edge groups) and on correct captures at the papers' noise levels, the
+//! verdict must flag the results that are off by more than 1 deg or 1 mm and pass the correct ones.
+//! `LASERCAL_VERDICT_TRIALS` sets the trials per case (default 12); `--nocapture` prints the
+//! table the README quotes.
+
+use lasercal::calib::PoseError;
+use lasercal::captures::{Captures, Role};
+use lasercal::features::EdgeSense;
+use lasercal::method::verdict::{Verdict, judge, quality};
+use lasercal::method::{Estimator, Kind, MethodId, estimate};
+use lasercal::scenario::{ScenarioFile, Setup};
+use lasercal::trial::trial_captures;
+
+fn setup(name: &str, edit: &dyn Fn(&str) -> String) -> Setup {
+    let path = format!("{}/scenarios/{name}.toml", env!("CARGO_MANIFEST_DIR"));
+    let text = edit(&std::fs::read_to_string(&path).unwrap());
+    let sf = ScenarioFile::parse(&text, &path).unwrap();
+    sf.scenario.build(&sf.file).unwrap()
+}
+
+fn trials() -> u64 {
+    std::env::var("LASERCAL_VERDICT_TRIALS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(12)
+}
+
+/// Counts of one case: results off by more than 1 deg or 1 mm (bad) or not, flagged or not, and
+/// refusals (an error is no confident answer).
+#[derive(Default, Debug, Clone, Copy)]
+struct Tally {
+    bad_flagged: usize,
+    bad_passed: usize,
+    good_flagged: usize,
+    good_passed: usize,
+    refused: usize,
+}
+
+fn run_case(
+    s: &Setup,
+    method: MethodId,
+    mutate: &dyn Fn(&mut Captures),
+    tally: &mut Tally,
+) -> Vec<String> {
+    let mut missed = Vec::new();
+    for t in 0..trials() {
+        let mut caps = trial_captures(s, method.kind, 11, t).0.unwrap();
+        mutate(&mut caps);
+        let truth = caps.truth.unwrap();
+        let Ok((cal, refined)) = estimate(method, &caps, &s.rig.sensor) else {
+            tally.refused += 1;
+            continue;
+        };
+        let j = judge(quality(&cal, refined.as_ref(), &caps, &s.rig.sensor));
+        let e = PoseError::between(&cal.flange_to_sensor, &truth);
+        let bad = !(e.rotation_error_deg <= 1.0 && e.translation_error_mm <= 1.0);
+        let flagged = j.verdict == Verdict::Suspect;
+        match (bad, flagged) {
+            (true, true) => tally.bad_flagged += 1,
+            (true, false) => {
+                tally.bad_passed += 1;
+                missed.push(format!(
+                    "{method} trial {t}: {:.3} deg / {:.3} mm off, judged ok ({:?})",
+                    e.rotation_error_deg, e.translation_error_mm, j.quality
+                ));
+            }
+            (false, true) => {
+                tally.good_flagged += 1;
+                missed.push(format!(
+                    "{method} trial {t}: {:.4} deg / {:.4} mm off, judged suspect: {}",
+                    e.rotation_error_deg,
+                    e.translation_error_mm,
+                    j.reasons.join(" | ")
+                ));
+            }
+            (false, false) => tally.good_passed += 1,
+        }
+    }
+    missed
+}
+
+fn flip_first_sign(c: &mut Captures) {
+    if let Some(g) = c.groups.iter_mut().find(|g| g.sign != 0.0) {
+        g.sign = -g.sign;
+    }
+}
+
+fn radius_off(c: &mut Captures) {
+    c.specimen_radius = c.specimen_radius.map(|r| r * 1.05);
+}
+
+fn wrong_sense(c: &mut Captures) {
+    c.edge_sense = c.edge_sense.map(|s| match s {
+        EdgeSense::Falling => EdgeSense::Rising,
+        EdgeSense::Rising => EdgeSense::Falling,
+    });
+}
+
+fn three_groups(c: &mut Captures) {
+    let keep: Vec<usize> = c
+        .groups
+        .iter()
+        .filter(|g| g.role == Role::RotationGroup)
+        .map(|g| g.id)
+        .take(3)
+        .collect();
+    c.groups.retain(|g| keep.contains(&g.id));
+    c.profiles.retain(|p| keep.contains(&p.group));
+}
+
+fn unchanged(_: &mut Captures) {}
+
+/// (what, scenario, a line added to its `[sensor.noise]`, method, capture mutation).
+type Case = (
+    &'static str,
+    &'static str,
+    &'static str,
+    MethodId,
+    fn(&mut Captures),
+);
+
+const CF: Estimator = Estimator::ClosedForm;
+
+fn wrong_cases() -> Vec<Case> {
+    vec![
+        (
+            "flipped sign",
+            "comparison",
+            "",
+            MethodId::new(Kind::Disk, CF),
+            flip_first_sign,
+        ),
+        (
+            "flipped sign",
+            "comparison",
+            "",
+            MethodId::new(Kind::Ball, CF),
+            flip_first_sign,
+        ),
+        (
+            "radius +5 %",
+            "comparison",
+            "",
+            MethodId::new(Kind::Disk, CF),
+            radius_off,
+        ),
+        (
+            "radius +5 %",
+            "comparison",
+            "",
+            MethodId::new(Kind::Ball, CF),
+            radius_off,
+        ),
+        (
+            "radius +5 %",
+            "comparison",
+            "",
+            MethodId::new(Kind::Ball, Estimator::AnyPose),
+            radius_off,
+        ),
+        (
+            "wrong edge sense",
+            "comparison",
+            "",
+            MethodId::new(Kind::Edge, CF),
+            wrong_sense,
+        ),
+        (
+            "three edge groups",
+            "xu2021-edge",
+            "",
+            MethodId::new(Kind::Edge, CF),
+            three_groups,
+        ),
+        (
+            "dropout 0.05",
+            "comparison",
+            "dropout = 0.05",
+            MethodId::new(Kind::Disk, CF),
+            unchanged,
+        ),
+        (
+            "dropout 0.2",
+            "comparison",
+            "dropout = 0.2",
+            MethodId::new(Kind::Disk, CF),
+            unchanged,
+        ),
+        (
+            "dropout 0.5",
+            "comparison",
+            "dropout = 0.5",
+            MethodId::new(Kind::Disk, CF),
+            unchanged,
+        ),
+        (
+            "dropout 0.2",
+            "comparison",
+            "dropout = 0.2",
+            MethodId::new(Kind::Ball, CF),
+            unchanged,
+        ),
+        (
+            "dropout 0.5",
+            "comparison",
+            "dropout = 0.5",
+            MethodId::new(Kind::Ball, CF),
+            unchanged,
+        ),
+        (
+            "dropout 0.2",
+            "comparison",
+            "dropout = 0.2",
+            MethodId::new(Kind::Edge, CF),
+            unchanged,
+        ),
+        (
+            "dropout 0.5",
+            "comparison",
+            "dropout = 0.5",
+            MethodId::new(Kind::Edge, CF),
+            unchanged,
+        ),
+    ]
+}
+
+fn correct_cases() -> Vec<Case> {
+    let mut v: Vec<Case> = Vec::new();
+    for k in [Kind::Disk, Kind::Ball, Kind::Edge] {
+        for &e in k.estimators() {
+            v.push(("correct", "comparison", "", MethodId::new(k, e), unchanged));
+        }
+    }
+    v.push((
+        "correct",
+        "xu2021-edge",
+        "",
+        MethodId::new(Kind::Edge, CF),
+        unchanged,
+    ));
+    let refined = MethodId::new(Kind::Edge, Estimator::Refined);
+    v.push(("correct", "xu2021-edge", "", refined, unchanged));
+    v
+}
+
+fn table(cases: &[Case]) -> (Tally, Vec<String>) {
+    let mut total = Tally::default();
+    let mut notes = Vec::new();
+    for (what, scenario, noise, method, mutate) in cases {
+        let s = setup(scenario, &|t| {
+            t.replace("[sensor.noise]", &format!("[sensor.noise]\n{noise}"))
+        });
+        let mut t = Tally::default();
+        notes.extend(run_case(&s, *method, mutate, &mut t));
+        println!(
+            "| {what} | {scenario} | {method} | {} | {} | {} | {} | {} |",
+            t.bad_flagged, t.bad_passed, t.good_flagged, t.good_passed, t.refused
+        );
+        total.bad_flagged += t.bad_flagged;
+        total.bad_passed += t.bad_passed;
+        total.good_flagged += t.good_flagged;
+        total.good_passed += t.good_passed;
+        total.refused += t.refused;
+    }
+    (total, notes)
+}
+
+#[test]
+fn the_verdict_flags_wrong_inputs_that_give_wrong_answers() {
+    println!(
+        "| input | scenario | method | off, flagged | off, passed | right, flagged | right, passed | refused |"
+    );
+    let (t, notes) = table(&wrong_cases());
+    let bad = t.bad_flagged + t.bad_passed;
+    assert!(
+        bad > 0,
+        "no wrong input gave a wrong answer: the cases test nothing"
+    );
+    assert!(
+        t.bad_passed as f64 <= 0.01 * bad as f64,
+        "{} of {bad} wrong answers judged ok:\n{}",
+        t.bad_passed,
+        notes.join("\n")
+    );
+}
+
+#[test]
+fn the_verdict_passes_correct_captures() {
+    let (t, notes) = table(&correct_cases());
+    let good = t.good_flagged + t.good_passed;
+    assert!(good > 0);
+    assert_eq!(t.bad_flagged + t.bad_passed, 0, "{}", notes.join("\n"));
+    assert!(
+        t.good_flagged as f64 <= 0.01 * good as f64,
+        "{} of {good} correct results judged suspect:\n{}",
+        t.good_flagged,
+        notes.join("\n")
+    );
+}
