@@ -298,3 +298,95 @@ fn the_verdict_passes_correct_captures() {
         notes.join("\n")
     );
 }
+
+mod common;
+
+/// A simulated capture file of `scenario`'s `method`, edited by `edit`.
+fn capture_file(
+    dir: &std::path::Path,
+    scenario: &str,
+    method: &str,
+    edit: impl Fn(&mut serde_json::Value),
+) -> String {
+    let file = dir.join(format!("{scenario}-{method}.json"));
+    let f = file.to_str().unwrap().to_string();
+    let (code, _, err) = common::lasercal(&[
+        "simulate",
+        &common::scen(&format!("{scenario}.toml")),
+        "--method",
+        method,
+        "--out",
+        &f,
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    edit(&mut doc);
+    std::fs::write(&file, doc.to_string()).unwrap();
+    f
+}
+
+#[test]
+fn calibrate_runs_every_variant_prints_the_verdict_and_exits_3_when_suspect() {
+    let dir = tempfile::tempdir().unwrap();
+    // Correct captures: every variant in a table, the best kept, its figures and verdict printed
+    // and in the JSON; exit 0.
+    let good = capture_file(dir.path(), "comparison", "disk", |_| {});
+    let json = dir.path().join("out.json");
+    let (code, out, err) =
+        common::lasercal(&["calibrate", &good, "--json", json.to_str().unwrap()]);
+    assert_eq!(code, 0, "{out} {err}");
+    for v in [
+        "disk ",
+        "disk-refined",
+        "disk-full",
+        "disk-any-pose",
+        "chosen: ",
+        "verdict ok",
+    ] {
+        assert!(out.contains(v), "{v}: {out}");
+    }
+    assert!(
+        out.contains("x the stated noise") && out.contains("predicted sd"),
+        "{out}"
+    );
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let q = &doc["quality"];
+    assert_eq!(q["verdict"], "ok", "{q}");
+    assert_eq!(q["covariance_rad_m"].as_array().unwrap().len(), 6, "{q}");
+    assert_eq!(q["correlations"][2][2].as_f64(), Some(1.0), "{q}");
+    assert!(q["leave_one_out"]["runs"].as_u64() == Some(4), "{q}");
+    assert_eq!(doc["variants"].as_array().unwrap().len(), 4, "{doc}");
+
+    // A flipped group sign: the label-free variants still find the transform, and the verdict
+    // names the contradicted sign (exit 3), with the closed form alone or with every variant.
+    let flipped = capture_file(dir.path(), "comparison", "disk", |d| {
+        let s = d["groups"][0]["sign"].as_f64().unwrap();
+        d["groups"][0]["sign"] = serde_json::json!(-s);
+    });
+    for args in [
+        vec!["calibrate", &flipped],
+        vec!["calibrate", &flipped, "--method", "disk"],
+    ] {
+        let (code, out, err) = common::lasercal(&args);
+        assert_eq!(code, 3, "{args:?}: {out} {err}");
+        assert!(out.contains("verdict suspect"), "{out}");
+    }
+    let (_, out, _) = common::lasercal(&["calibrate", &flipped]);
+    assert!(out.contains("sign of group 0 flipped"), "{out}");
+    let (_, out, _) = common::lasercal(&["calibrate", &flipped, "--method", "disk"]);
+    assert!(
+        out.contains("the residuals do not fit the noise model"),
+        "{out}"
+    );
+
+    // A ball 5 % smaller than the file says: every variant's residuals say so.
+    let radius = capture_file(dir.path(), "comparison", "ball", |d| {
+        let r = d["specimen"]["radius_mm"].as_f64().unwrap();
+        d["specimen"]["radius_mm"] = serde_json::json!(r * 1.05);
+    });
+    let (code, out, err) = common::lasercal(&["calibrate", &radius]);
+    assert_eq!(code, 3, "{out} {err}");
+    assert!(out.contains("specimen's size"), "{out}");
+}

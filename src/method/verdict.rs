@@ -250,3 +250,253 @@ pub fn judge(q: Quality) -> Judged {
         quality: q,
     }
 }
+
+/// One variant's result on a capture set, judged.
+#[derive(Debug, Clone)]
+pub struct Assessed {
+    pub method: super::MethodId,
+    pub calibration: Calibration,
+    pub refined: Option<Refined>,
+    pub judged: Judged,
+}
+
+impl Assessed {
+    /// The error bound in units of the suspect limits (below 1: within them).
+    fn score(&self) -> f64 {
+        let (r, t) = self.judged.quality.error_bound();
+        let s = (r / MAX_ERROR_DEG).max(t / MAX_ERROR_MM);
+        if s.is_nan() { f64::INFINITY } else { s }
+    }
+}
+
+/// Calibrate with one variant and judge the result.
+pub fn assess(
+    method: super::MethodId,
+    caps: &Captures,
+    sensor: &SensorModel,
+) -> Result<Assessed, crate::error::Error> {
+    let (calibration, refined) = super::estimate(method, caps, sensor)?;
+    let judged = judge(quality(&calibration, refined.as_ref(), caps, sensor));
+    Ok(Assessed {
+        method,
+        calibration,
+        refined,
+        judged,
+    })
+}
+
+/// Every variant of the captures' specimen method, each judged or with why it could not run.
+pub fn assess_every(
+    caps: &Captures,
+    sensor: &SensorModel,
+) -> Vec<(super::MethodId, Result<Assessed, crate::error::Error>)> {
+    caps.method
+        .estimators()
+        .iter()
+        .map(|&e| {
+            let id = super::MethodId::new(caps.method, e);
+            (id, assess(id, caps, sensor))
+        })
+        .collect()
+}
+
+/// The best result: the smallest error bound among those judged ok, else among all (first in
+/// the estimators' order on a tie). None when no variant ran.
+pub fn best(results: &[(super::MethodId, Result<Assessed, crate::error::Error>)]) -> Option<usize> {
+    let ran = || {
+        results
+            .iter()
+            .enumerate()
+            .filter_map(|(i, (_, r))| r.as_ref().ok().map(|a| (i, a)))
+    };
+    let pick = |ok_only: bool| {
+        ran()
+            .filter(|(_, a)| !ok_only || a.judged.verdict == Verdict::Ok)
+            .min_by(|x, y| x.1.score().total_cmp(&y.1.score()))
+            .map(|(i, _)| i)
+    };
+    pick(true).or_else(|| pick(false))
+}
+
+/// Variants judged ok that disagree beyond both of their error bounds: one of their model
+/// assumptions (a label, the radius) is wrong. A reason per disagreeing variant.
+pub fn disagreements(
+    results: &[(super::MethodId, Result<Assessed, crate::error::Error>)],
+    chosen: usize,
+) -> Vec<String> {
+    let Some(Ok(c)) = results.get(chosen).map(|r| &r.1) else {
+        return Vec::new();
+    };
+    let (cr, ct) = c.judged.quality.error_bound();
+    results
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != chosen)
+        .filter_map(|(_, (_, r))| r.as_ref().ok())
+        .filter(|o| o.judged.verdict == Verdict::Ok)
+        .filter_map(|o| {
+            let e = crate::calib::PoseError::between(
+                &c.calibration.flange_to_sensor,
+                &o.calibration.flange_to_sensor,
+            );
+            let (or, ot) = o.judged.quality.error_bound();
+            (e.rotation_error_deg > cr + or || e.translation_error_mm > ct + ot).then(|| {
+                format!(
+                    "{} and {} disagree by {:.3} deg / {:.3} mm, more than their error bounds \
+                     allow: a label (sign, edge sense) or the specimen's size fits one model \
+                     and not the other",
+                    c.method, o.method, e.rotation_error_deg, e.translation_error_mm
+                )
+            })
+        })
+        .collect()
+}
+
+/// How much one group moves the result: the variant re-run without each group in turn.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LeaveOneOut {
+    /// Groups left out in turn, and the runs that could not calibrate without them.
+    pub runs: usize,
+    pub failed: usize,
+    /// The largest change of the result (deg, mm) and the group that made it.
+    pub rotation_deg: f64,
+    pub translation_mm: f64,
+    pub group: usize,
+}
+
+/// Groups of more than this many are not left out one by one (the figure would cost as many
+/// calibrations).
+pub const MAX_LEAVE_ONE_OUT: usize = 64;
+
+/// Leave each group out in turn and re-run `a`'s variant. None when there are fewer than two
+/// groups or more than `MAX_LEAVE_ONE_OUT`.
+pub fn leave_one_out(a: &Assessed, caps: &Captures, sensor: &SensorModel) -> Option<LeaveOneOut> {
+    let n = caps.groups.len();
+    if !(2..=MAX_LEAVE_ONE_OUT).contains(&n) {
+        return None;
+    }
+    let mut out = LeaveOneOut {
+        runs: n,
+        failed: 0,
+        rotation_deg: 0.0,
+        translation_mm: 0.0,
+        group: caps.groups[0].id,
+    };
+    let mut worst = -1.0;
+    for g in &caps.groups {
+        let mut c = caps.clone();
+        c.groups.retain(|h| h.id != g.id);
+        c.profiles.retain(|p| p.group != g.id);
+        match super::estimate(a.method, &c, sensor) {
+            Err(_) => out.failed += 1,
+            Ok((cal, _)) => {
+                let e = crate::calib::PoseError::between(
+                    &cal.flange_to_sensor,
+                    &a.calibration.flange_to_sensor,
+                );
+                let s = (e.rotation_error_deg / MAX_ERROR_DEG)
+                    .max(e.translation_error_mm / MAX_ERROR_MM);
+                if s > worst {
+                    worst = s;
+                    out.rotation_deg = e.rotation_error_deg;
+                    out.translation_mm = e.translation_error_mm;
+                    out.group = g.id;
+                }
+            }
+        }
+    }
+    Some(out)
+}
+
+/// The leave-one-out figure's reason, when one group moves the result beyond the limits.
+pub fn leave_one_out_reason(l: &LeaveOneOut) -> Option<String> {
+    (l.rotation_deg > MAX_ERROR_DEG || l.translation_mm > MAX_ERROR_MM).then(|| {
+        format!(
+            "leaving out group {} moves the result by {:.3} deg / {:.3} mm: the result hangs on \
+             one group; check that group's captures",
+            l.group, l.rotation_deg, l.translation_mm
+        )
+    })
+}
+
+impl Judged {
+    /// Add reasons found beyond the result's own figures (other variants, leave-one-out).
+    pub fn add_reasons(&mut self, more: impl IntoIterator<Item = String>) {
+        self.reasons.extend(more);
+        if !self.reasons.is_empty() {
+            self.verdict = Verdict::Suspect;
+        }
+    }
+}
+
+/// The hand-given group signs the data contradict: when the closed form (the one variant that
+/// uses them) is judged suspect or disagrees with `chosen`, each group's sign is flipped in turn;
+/// a flip that makes the closed form ok and agree with `chosen` names a wrong sign. A reason
+/// naming them, or None.
+pub fn contradicted_signs(
+    caps: &Captures,
+    sensor: &SensorModel,
+    chosen: &Assessed,
+    closed_form: Option<&Assessed>,
+) -> Option<String> {
+    let m = super::method(caps.method);
+    if !m.uses_group_signs() || chosen.judged.verdict != Verdict::Ok {
+        return None;
+    }
+    let id = super::MethodId::new(caps.method, super::Estimator::ClosedForm);
+    let agrees = |a: &Assessed| {
+        let e = crate::calib::PoseError::between(
+            &a.calibration.flange_to_sensor,
+            &chosen.calibration.flange_to_sensor,
+        );
+        let (ar, at) = a.judged.quality.error_bound();
+        let (cr, ct) = chosen.judged.quality.error_bound();
+        a.judged.verdict == Verdict::Ok
+            && e.rotation_error_deg <= ar + cr
+            && e.translation_error_mm <= at + ct
+    };
+    let own;
+    let closed_form = match closed_form {
+        Some(a) => a,
+        None => match assess(id, caps, sensor) {
+            Ok(a) => {
+                own = a;
+                &own
+            }
+            // Without the closed form nothing tests the signs.
+            Err(_) => return None,
+        },
+    };
+    if agrees(closed_form) {
+        return None;
+    }
+    let flipped: Vec<usize> = caps
+        .groups
+        .iter()
+        .enumerate()
+        .filter(|(_, g)| g.sign != 0.0)
+        .filter(|&(i, _)| {
+            let mut c = caps.clone();
+            c.groups[i].sign = -c.groups[i].sign;
+            assess(id, &c, sensor).is_ok_and(|a| agrees(&a))
+        })
+        .map(|(_, g)| g.id)
+        .collect();
+    let named = if flipped.is_empty() {
+        "no single flip makes it agree".to_string()
+    } else {
+        format!(
+            "with the sign of group {} flipped it agrees",
+            flipped
+                .iter()
+                .map(|g| g.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    };
+    Some(format!(
+        "the file's group signs (s_i) contradict the data: the closed form, which uses them, \
+         does not agree with {} ({named}); correct the signs or leave them out",
+        chosen.method
+    ))
+}

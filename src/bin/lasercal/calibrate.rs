@@ -1,8 +1,8 @@
-use super::common::{matrix_text, refinement};
+use super::common::{matrix_text, refinement, verdict_text};
 use anyhow::{Context, Result, bail};
 use lasercal::calib::PoseError;
 use lasercal::math::pose_to_rows_mm;
-use lasercal::method::{Estimator, MethodId};
+use lasercal::method::{MethodId, verdict};
 use lasercal::metrics::Metric;
 use std::path::PathBuf;
 
@@ -10,10 +10,10 @@ use std::path::PathBuf;
 pub struct Args {
     /// Capture file (JSON, docs/captures.md), from a real rig or `lasercal simulate`
     file: PathBuf,
-    /// Method: the file's specimen method (disk, ball or edge), closed form by default (any-pose
-    /// for a file of free poses); its refined variant (disk-refined, ball-refined, edge-refined);
-    /// its any-pose estimator (ball-, disk-, edge-any-pose: any poses, no groups or signs);
-    /// disk-full, edge-full (every face point too; raw profiles); plane-any-pose for plane files
+    /// Method: by default every variant the file supports is run and judged, and the best kept;
+    /// or one of them: the closed form (disk, ball, edge), its refinement (disk-refined,
+    /// ball-refined, edge-refined), the any-pose estimator (ball-, disk-, edge-, plane-any-pose:
+    /// any poses, no groups or signs), disk-full, edge-full (every face point too; raw profiles)
     #[arg(long)]
     method: Option<MethodId>,
     /// How far apart (deg) the captures a protocol wants at one orientation may be (a
@@ -25,7 +25,10 @@ pub struct Args {
     json: Option<PathBuf>,
 }
 
-pub fn run(a: Args) -> Result<()> {
+/// Exit status of a calibration judged suspect (docs: README, "Exit codes").
+pub const SUSPECT: i32 = 3;
+
+pub fn run(a: Args) -> Result<i32> {
     let name = a.file.display().to_string();
     let text = std::fs::read_to_string(&a.file).with_context(|| format!("{name}: cannot read"))?;
     let (mut caps, sensor) = lasercal::io::captures::from_json(&text, &name)?;
@@ -33,46 +36,108 @@ pub fn run(a: Args) -> Result<()> {
         caps.orientation_tolerance_deg =
             lasercal::io::captures::orientation_tolerance(t, &name, "--orientation-tolerance-deg")?;
     }
-    // Free poses (one profile each, no protocol groups): the any-pose estimator; else the paper's.
-    let free = caps
-        .groups
+    let known: Vec<String> = caps
+        .method
+        .estimators()
         .iter()
-        .all(|g| g.role == lasercal::captures::Role::Pose);
-    let default = match caps.method.estimators() {
-        e if free && e.contains(&Estimator::AnyPose) => Estimator::AnyPose,
-        e => e[0],
-    };
-    let method = a.method.unwrap_or(MethodId::new(caps.method, default));
-    if a.method.is_none() && default == Estimator::AnyPose {
-        eprintln!("{name}: free poses, so {method} (give --method to choose another)");
-    }
-    if method.kind != caps.method {
-        let known: Vec<String> = caps
-            .method
-            .estimators()
-            .iter()
-            .map(|&e| MethodId::new(caps.method, e).to_string())
-            .collect();
+        .map(|&e| MethodId::new(caps.method, e).to_string())
+        .collect();
+    if let Some(m) = a.method
+        && m.kind != caps.method
+    {
         bail!(
-            "--method {method}: {name} holds {} captures; use {}",
+            "--method {m}: {name} holds {} captures; use {}",
             caps.method,
             known.join(", ")
         );
     }
-    let (cal, refined) = lasercal::method::estimate(method, &caps, &sensor)
-        .with_context(|| format!("{name}: {method} calibration failed"))?;
+    // Every variant the file supports, unless one is asked for; the best judged result is kept.
+    let mut results = match a.method {
+        Some(m) => vec![(m, verdict::assess(m, &caps, &sensor))],
+        None => verdict::assess_every(&caps, &sensor),
+    };
+    let mut variants = Vec::new();
+    if a.method.is_none() {
+        println!(
+            "{name}: {} captures, {} groups, {} profiles; every variant:",
+            caps.method,
+            caps.groups.len(),
+            caps.profiles.len()
+        );
+        println!(
+            "  {:<15} {:<8} {:>12} {:>12} {:>13}",
+            "variant", "verdict", "bound deg", "bound mm", "noise ratio"
+        );
+    }
+    for (id, r) in &results {
+        let row = match r {
+            Ok(x) => {
+                let (br, bt) = x.judged.quality.error_bound();
+                let nr = x.judged.quality.noise_ratio;
+                if a.method.is_none() {
+                    println!(
+                        "  {:<15} {:<8} {br:>12.4} {bt:>12.4} {:>13}",
+                        id.to_string(),
+                        x.judged.verdict.to_string(),
+                        nr.map_or("-".to_string(), |v| format!("{v:.2}"))
+                    );
+                }
+                serde_json::json!({ "method": id, "verdict": x.judged.verdict,
+                    "error_bound_deg": br, "error_bound_mm": bt, "noise_ratio": nr,
+                    "flange_to_sensor": pose_to_rows_mm(&x.calibration.flange_to_sensor) })
+            }
+            Err(e) => {
+                if a.method.is_none() {
+                    // The first clause: the whole (per-group counts) is in --json.
+                    let e = e.to_string();
+                    let short = e.split(" | ").next().unwrap_or(&e);
+                    let more = if short.len() < e.len() { " ..." } else { "" };
+                    println!("  {:<15} cannot run: {short}{more}", id.to_string());
+                }
+                serde_json::json!({ "method": id, "error": e.to_string() })
+            }
+        };
+        variants.push(row);
+    }
+    let Some(best) = verdict::best(&results) else {
+        let why: Vec<String> = results
+            .iter()
+            .filter_map(|(id, r)| r.as_ref().err().map(|e| format!("{id}: {e}")))
+            .collect();
+        bail!(
+            "{name}: no variant could calibrate:\n  {}",
+            why.join("\n  ")
+        );
+    };
+    let mut others = verdict::disagreements(&results, best);
+    let closed_form = results
+        .iter()
+        .find(|(id, _)| id.estimator == lasercal::method::Estimator::ClosedForm)
+        .and_then(|(_, r)| r.as_ref().ok());
+    if let Ok(b) = &results[best].1 {
+        others.extend(verdict::contradicted_signs(&caps, &sensor, b, closed_form));
+    }
+    let (method, chosen) = {
+        let (id, r) = results.swap_remove(best);
+        (id, r.map_err(anyhow::Error::from)?)
+    };
+    if a.method.is_none() {
+        println!(
+            "chosen: {method} (the smallest error bound among the variants judged ok; --method \
+             to choose another)"
+        );
+    }
+    let mut judged = chosen.judged.clone();
+    judged.add_reasons(others);
+    let loo = verdict::leave_one_out(&chosen, &caps, &sensor);
+    judged.add_reasons(loo.as_ref().and_then(verdict::leave_one_out_reason));
+    let cal = &chosen.calibration;
     let est = pose_to_rows_mm(&cal.flange_to_sensor);
     println!(
         "{method}: recovered flange_to_sensor (mm) from {} profiles:\n{}",
         caps.profiles.len(),
         matrix_text(&est)
     );
-    if cal.missed > 0 {
-        println!(
-            "{} profiles did not show the feature and were left out",
-            cal.missed
-        );
-    }
     for g in cal
         .groups
         .iter()
@@ -87,13 +152,15 @@ pub fn run(a: Args) -> Result<()> {
         "missed_profiles": cal.missed,
         "groups_left_out": cal.groups.iter().filter(|g| g.left_out).map(|g| g.group).collect::<Vec<_>>(),
         "status": cal.status,
+        "variants": variants,
     });
     for m in [Metric::Accuracy, Metric::EdgeAngleDev, Metric::EdgeDistance] {
         doc[m.name()] = serde_json::json!(cal.figures.get(m));
     }
-    if let Some(r) = &refined {
-        doc["refinement"] = refinement(method, r);
+    if let Some(r) = &chosen.refined {
+        doc["refinement"] = refinement(r);
     }
+    doc["quality"] = verdict_text(method, &judged, loo.as_ref());
     if let Some(t) = &caps.truth {
         let e = PoseError::between(&cal.flange_to_sensor, t);
         println!(
@@ -107,5 +174,9 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(p) = &a.json {
         lasercal::io::write(p, serde_json::to_string_pretty(&doc)?.as_bytes())?;
     }
-    Ok(())
+    Ok(if judged.verdict == verdict::Verdict::Suspect {
+        SUSPECT
+    } else {
+        0
+    })
 }

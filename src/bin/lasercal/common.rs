@@ -41,31 +41,10 @@ pub fn matrix_text(rows: &[[f64; 4]; 4]) -> String {
         .join("\n")
 }
 
-/// Print a refinement's predicted uncertainty and observability; the same as JSON.
-pub fn refinement(
-    method: lasercal::method::MethodId,
-    r: &lasercal::calib::refine::Refined,
-) -> serde_json::Value {
+/// A refinement's figures as JSON (printed by `verdict_text`).
+pub fn refinement(r: &lasercal::calib::refine::Refined) -> serde_json::Value {
     let o = &r.observability;
     let (sr, st) = (r.sd_rotation_deg, r.sd_translation_mm);
-    println!(
-        "{method}: predicted sd: rotation about sensor x/y/z {:.4} / {:.4} / {:.4} deg, \
-         translation along flange x/y/z {:.4} / {:.4} / {:.4} mm; cost {:.3e} -> {:.3e}, \
-         residual RMS {:.4} mm",
-        sr.x,
-        sr.y,
-        sr.z,
-        st.x,
-        st.y,
-        st.z,
-        r.initial_cost,
-        r.cost,
-        r.residual_rms * 1e3
-    );
-    println!(
-        "{method}: observability: singular values {:.3?} (condition {:.1}); weakest: {}",
-        o.singular_values, o.condition, o.weakest
-    );
     serde_json::json!({
         "sd_rotation_deg": [sr.x, sr.y, sr.z],
         "sd_translation_mm": [st.x, st.y, st.z],
@@ -75,5 +54,120 @@ pub fn refinement(
         "singular_values": o.singular_values,
         "condition": o.condition,
         "weakest": o.weakest,
+        "status": r.status,
+    })
+}
+
+/// Print a result's quality figures and verdict (one block) and return them as JSON.
+pub fn verdict_text(
+    method: lasercal::method::MethodId,
+    j: &lasercal::method::verdict::Judged,
+    loo: Option<&lasercal::method::verdict::LeaveOneOut>,
+) -> serde_json::Value {
+    let q = &j.quality;
+    let f3 = |v: &[f64; 3], d: usize| {
+        v.iter()
+            .map(|x| format!("{x:.d$}"))
+            .collect::<Vec<_>>()
+            .join(" / ")
+    };
+    match (q.residual_rms_mm, q.stated_noise_mm, q.noise_ratio_bound) {
+        (Some(rms), Some(noise), Some(bound)) => println!(
+            "{method}: residual RMS {rms:.4} mm over {} residuals = {:.2} x the stated noise \
+             {noise:.4} mm (passes up to {bound:.2})",
+            q.n_residuals,
+            rms / noise
+        ),
+        (Some(rms), _, _) => println!(
+            "{method}: residual RMS {rms:.4} mm over {} residuals (no noise stated: give the \
+             sensor's noise or feature_sigma_mm to test it)",
+            q.n_residuals
+        ),
+        _ => println!("{method}: no residuals (the captures hold fitted features only)"),
+    }
+    if q.covariance.is_some() {
+        println!(
+            "{method}: predicted sd: rotation about sensor x/y/z {} deg, translation along \
+             flange x/y/z {} mm",
+            f3(&q.sd_rotation_deg, 4),
+            f3(&q.sd_translation_mm, 4)
+        );
+    }
+    if let (Some(c), Some(w)) = (q.condition, &q.weakest) {
+        println!("{method}: observability condition {c:.1}; weakest: {w}");
+    }
+    let names = ["rx", "ry", "rz", "tx", "ty", "tz"];
+    let mut strong = Vec::new();
+    if let Some(cor) = q.correlations() {
+        for r in 0..6 {
+            for c in r + 1..6 {
+                if cor[(r, c)].abs() > 0.9 {
+                    strong.push(format!("{}-{} {:+.2}", names[r], names[c], cor[(r, c)]));
+                }
+            }
+        }
+    }
+    if !strong.is_empty() {
+        println!("{method}: correlations above 0.9: {}", strong.join(", "));
+    }
+    if let (Some(d), Some(m)) = (q.from_fit_deg, q.from_fit_mm) {
+        println!("{method}: {d:.4} deg / {m:.4} mm from the least-squares fit of its own features");
+    }
+    if let Some(l) = loo.filter(|l| l.failed == l.runs) {
+        println!(
+            "{method}: leave one group out: no run could calibrate without any one of the {} \
+             groups (the protocol needs them all)",
+            l.runs
+        );
+    } else if let Some(l) = loo {
+        println!(
+            "{method}: leave one group out ({} runs{}): the result moves up to {:.4} deg / {:.4} \
+             mm (group {})",
+            l.runs,
+            if l.failed > 0 {
+                format!(", {} could not calibrate", l.failed)
+            } else {
+                String::new()
+            },
+            l.rotation_deg,
+            l.translation_mm,
+            l.group
+        );
+    }
+    if q.rejected > 0 {
+        println!(
+            "{method}: {} of {} profiles rejected",
+            q.rejected, q.profiles
+        );
+    }
+    println!("{method}: verdict {}", j.verdict);
+    for r in &j.reasons {
+        println!("  - {r}");
+    }
+    let (br, bt) = q.error_bound();
+    serde_json::json!({
+        "verdict": j.verdict,
+        "reasons": j.reasons,
+        "residual_rms_mm": q.residual_rms_mm,
+        "stated_noise_mm": q.stated_noise_mm,
+        "noise_ratio": q.noise_ratio,
+        "noise_ratio_bound": q.noise_ratio_bound,
+        "n_residuals": q.n_residuals,
+        "sd_rotation_deg": q.sd_rotation_deg,
+        "sd_translation_mm": q.sd_translation_mm,
+        "covariance_rad_m": q.covariance.map(|c| (0..6).map(|r| (0..6).map(|k| c[(r, k)]).collect::<Vec<_>>()).collect::<Vec<_>>()),
+        "correlations": q.correlations().map(|c| (0..6).map(|r| (0..6).map(|k| c[(r, k)]).collect::<Vec<_>>()).collect::<Vec<_>>()),
+        "condition": q.condition,
+        "weakest": q.weakest,
+        "from_fit_deg": q.from_fit_deg,
+        "from_fit_mm": q.from_fit_mm,
+        "error_bound_deg": br,
+        "error_bound_mm": bt,
+        "profiles": q.profiles,
+        "rejected_profiles": q.rejected,
+        "leave_one_out": loo.map(|l| serde_json::json!({
+            "runs": l.runs, "failed": l.failed, "rotation_deg": l.rotation_deg,
+            "translation_mm": l.translation_mm, "group": l.group,
+        })),
     })
 }

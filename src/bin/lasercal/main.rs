@@ -36,7 +36,8 @@ enum Command {
     Sweep(sweep::Args),
     /// Simulate one trial's captures and write them as a capture file (JSON).
     Simulate(simulate::Args),
-    /// Calibrate from a capture file (a real rig's or a simulated one) with the code `run` uses.
+    /// Calibrate from a capture file (a real rig's or a simulated one) with the code `run` uses;
+    /// exit 0 when the result is judged ok, 3 when suspect, 2 on bad input.
     Calibrate(calibrate::Args),
     /// Combine the folders of a sharded sweep into the files an unsharded run writes.
     Merge(merge::Args),
@@ -74,7 +75,10 @@ fn main() {
         Command::Scan(a) => scan::run(a),
         Command::Merge(a) => merge::run(a),
         Command::Simulate(a) => simulate::run(a),
-        Command::Calibrate(a) => calibrate::run(a),
+        Command::Calibrate(a) => match calibrate::run(a) {
+            Ok(code) => std::process::exit(code),
+            Err(e) => Err(e),
+        },
         Command::Fk(a) => fk::run(a),
         Command::Ik(a) => ik::run(a),
         Command::Run(a) => run::run(a),

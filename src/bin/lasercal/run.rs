@@ -1,4 +1,4 @@
-use super::common::{load_scenario, matrix_text, refinement};
+use super::common::{load_scenario, matrix_text, refinement, verdict_text};
 use anyhow::{Result, bail};
 use lasercal::math::pose_to_rows_mm;
 use lasercal::method::MethodId;
@@ -98,16 +98,30 @@ pub fn run(a: Args) -> Result<()> {
                     "{method}: rotation error {:.6} deg, translation error {:.6} mm, |dR|_F {:.3e}",
                     error.rotation_error_deg, error.translation_error_mm, error.frobenius_rotation
                 );
-                for (m, v) in s.metrics.present().skip(3) {
+                // The verdict's own figures are printed with it, below.
+                let verdict_figures = [
+                    Metric::NoiseRatio,
+                    Metric::PredictedSdRotation,
+                    Metric::PredictedSdTranslation,
+                    Metric::Suspect,
+                ];
+                for (m, v) in s
+                    .metrics
+                    .present()
+                    .skip(3)
+                    .filter(|(m, _)| !verdict_figures.contains(m))
+                {
                     line += &format!(", {} {v:.4} {}", m.words(), m.unit());
                 }
                 if out.missed_profiles > 0 {
                     line += &format!(", {} profiles without the feature", out.missed_profiles);
                 }
                 println!("{line}");
-                let refined = s.refined.as_ref().map(|r| refinement(method, r));
+                let refined = s.refined.as_ref().map(refinement);
+                let quality = verdict_text(method, &s.judged, None);
                 let mut doc = serde_json::json!({
                     "refinement": refined,
+                    "quality": quality,
                     "method": method,
                     "flange_to_sensor": est,
                     "truth": truth,
