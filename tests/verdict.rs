@@ -390,3 +390,43 @@ fn calibrate_runs_every_variant_prints_the_verdict_and_exits_3_when_suspect() {
     assert_eq!(code, 3, "{out} {err}");
     assert!(out.contains("specimen's size"), "{out}");
 }
+
+#[test]
+fn nearly_collinear_translations_are_refused_relative_to_their_length() {
+    // A public data set's rotation set: translations that leave their line by 0.04 mm over
+    // 33 mm passed an absolute 1e-9 test and gave 131 deg. Relative to the length they are a
+    // line (ratio about 1e-3).
+    use lasercal::calib::ball::{BallCapture, rotation_from_translations};
+    use nalgebra::{Rotation3, Vector3};
+    let dir = Vector3::new(0.6, -0.3, 0.74).normalize();
+    let side = dir.cross(&Vector3::z()).normalize();
+    let set: Vec<BallCapture> = (0..6)
+        .map(|i| BallCapture {
+            r_tcp: Rotation3::identity(),
+            t_tcp: Vector3::new(0.4, 0.1, 0.5)
+                + dir * (0.033 * i as f64 / 5.0)
+                + side * (if i % 2 == 0 { 4e-5 } else { -4e-5 }),
+            q_in_sensor: Vector3::zeros(),
+        })
+        .collect();
+    // The ball fixed in the base, the sensor frame the flange's: q = centre - t.
+    let seen = |set: &mut Vec<BallCapture>| {
+        for c in set.iter_mut() {
+            c.q_in_sensor = Vector3::new(0.45, 0.12, 0.8) - c.t_tcp;
+        }
+    };
+    let mut set = set;
+    seen(&mut set);
+    let err = rotation_from_translations(&set, 0.1)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("collinear") && err.contains("ratio"), "{err}");
+    // The same moves with a 5 mm second direction are accepted.
+    let mut wide = set.clone();
+    for (i, c) in wide.iter_mut().enumerate() {
+        c.t_tcp += side * (if i % 2 == 0 { 5e-3 } else { -5e-3 });
+    }
+    seen(&mut wide);
+    let r = rotation_from_translations(&wide, 0.1);
+    assert!(r.is_ok(), "{r:?}");
+}

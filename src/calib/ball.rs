@@ -72,6 +72,22 @@ pub fn rotation_from_translations(
                   jitter (calibrate --orientation-tolerance-deg), or use ball-any-pose",
         }
     })?;
+    let moves: Vec<Vector3<f64>> = set.iter().map(|c| c.t_tcp).collect();
+    let (ratio, length, width) = super::line_spread(&moves);
+    if !(ratio >= super::MIN_LINE_SPREAD) {
+        return Err(CalibError::Degenerate {
+            method: METHOD,
+            what: format!(
+                "the rotation-set translations are collinear: they leave their line by {:.3} mm \
+                 RMS over {:.3} mm (ratio {ratio:.2e}, at least {} needed)",
+                width * 1e3,
+                length * 1e3,
+                super::MIN_LINE_SPREAD
+            ),
+            part: "rotation",
+            fix: "translate in at least two directions",
+        });
+    }
     let n = set.len() as f64;
     let qm = set.iter().map(|c| c.q_in_sensor).sum::<Vector3<f64>>() / n;
     let tm = set.iter().map(|c| c.t_tcp).sum::<Vector3<f64>>() / n;

@@ -132,14 +132,18 @@ pub fn rotation(
             .collect();
         let ut: Vec<Vector3<f64>> = caps[1..].iter().map(|c| c.t_tcp - caps[0].t_tcp).collect();
         let scale_t = ut.iter().map(|v| v.norm()).fold(0.0, f64::max);
-        if scale_t == 0.0
-            || ut
-                .iter()
-                .all(|v| v.cross(&ut[0]).norm() <= 1e-9 * scale_t * scale_t)
-        {
+        let tcps: Vec<Vector3<f64>> = caps.iter().map(|c| c.t_tcp).collect();
+        let (ratio, length, width) = super::line_spread(&tcps);
+        if scale_t == 0.0 || !(ratio >= super::MIN_LINE_SPREAD) {
             return Err(CalibError::Degenerate {
                 method: METHOD,
-                what: format!("the translations of group {g} are collinear"),
+                what: format!(
+                    "the translations of group {g} are collinear: they leave their line by \
+                     {:.3} mm RMS over {:.3} mm (ratio {ratio:.2e}, at least {} needed)",
+                    width * 1e3,
+                    length * 1e3,
+                    super::MIN_LINE_SPREAD
+                ),
                 part: "rotation",
                 fix: "move along a circular arc, not a straight line",
             });

@@ -18,6 +18,31 @@ use thiserror::Error;
 /// reported W, P, R jitter by 0.003-0.055 deg between "pure translations" (public data sets).
 pub const ORIENTATION_TOLERANCE_DEG: f64 = 0.1;
 
+/// The least a set of moves must leave a line, relative to its length (`line_spread`): a
+/// protocol's "translate in two directions" with the second under 2 % of the first is collinear
+/// within a robot's repeatability, whatever the numbers' precision.
+pub const MIN_LINE_SPREAD: f64 = 0.02;
+
+/// How far a set of points leaves a line: the second singular value of the centred set over the
+/// first, with the first and second (m, RMS about the centroid). 0 when all coincide.
+pub fn line_spread(points: &[nalgebra::Vector3<f64>]) -> (f64, f64, f64) {
+    let n = points.len().max(1) as f64;
+    let mean = points.iter().sum::<nalgebra::Vector3<f64>>() / n;
+    let mut cov = Matrix3::zeros();
+    for p in points {
+        let d = p - mean;
+        cov += d * d.transpose() / n;
+    }
+    let mut ev: Vec<f64> = cov
+        .symmetric_eigenvalues()
+        .iter()
+        .map(|v| v.max(0.0).sqrt())
+        .collect();
+    ev.sort_by(|a, b| b.total_cmp(a));
+    let ratio = if ev[0] > 0.0 { ev[1] / ev[0] } else { 0.0 };
+    (ratio, ev[0], ev[1])
+}
+
 /// The orientation a protocol's "one orientation" captures share: their chordal mean, or, when
 /// one lies more than `tolerance_deg` from it (`ORIENTATION_TOLERANCE_DEG` unless the user says
 /// otherwise), (its index, its angle in deg).

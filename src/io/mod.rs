@@ -3,6 +3,7 @@
 
 pub mod captures;
 pub mod csv;
+pub mod export;
 pub mod plot;
 pub mod report;
 #[cfg(feature = "rerun")]

@@ -23,6 +23,21 @@ pub struct Args {
     /// Write the result as JSON
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Write the transform as easy_handeye-style YAML (metres, quaternion x y z w, covariance)
+    #[arg(long)]
+    yaml: Option<PathBuf>,
+    /// Write the sensor link and its fixed joint on the flange as a URDF fragment
+    #[arg(long)]
+    urdf: Option<PathBuf>,
+    /// Print the ROS 2 static_transform_publisher command for the transform
+    #[arg(long)]
+    ros2: bool,
+    /// The flange frame's name in the exports
+    #[arg(long, default_value = "tool0")]
+    parent_frame: String,
+    /// The sensor frame's name in the exports
+    #[arg(long, default_value = "laser_sensor")]
+    child_frame: String,
 }
 
 /// Exit status of a calibration judged suspect (docs: README, "Exit codes").
@@ -30,6 +45,8 @@ pub const SUSPECT: i32 = 3;
 
 pub fn run(a: Args) -> Result<i32> {
     let name = a.file.display().to_string();
+    lasercal::io::export::check_frame(&a.parent_frame, "--parent-frame")?;
+    lasercal::io::export::check_frame(&a.child_frame, "--child-frame")?;
     let text = std::fs::read_to_string(&a.file).with_context(|| format!("{name}: cannot read"))?;
     let (mut caps, sensor) = lasercal::io::captures::from_json(&text, &name)?;
     if let Some(t) = a.orientation_tolerance_deg {
@@ -173,6 +190,21 @@ pub fn run(a: Args) -> Result<i32> {
     }
     if let Some(p) = &a.json {
         lasercal::io::write(p, serde_json::to_string_pretty(&doc)?.as_bytes())?;
+    }
+    let exported = lasercal::io::export::Exported {
+        parent_frame: a.parent_frame.clone(),
+        child_frame: a.child_frame.clone(),
+        flange_to_sensor: cal.flange_to_sensor,
+        covariance: judged.quality.covariance,
+    };
+    if let Some(p) = &a.yaml {
+        lasercal::io::write(p, lasercal::io::export::to_yaml(&exported)?.as_bytes())?;
+    }
+    if let Some(p) = &a.urdf {
+        lasercal::io::write(p, lasercal::io::export::to_urdf(&exported).as_bytes())?;
+    }
+    if a.ros2 {
+        println!("{}", lasercal::io::export::ros2_command(&exported));
     }
     Ok(if judged.verdict == verdict::Verdict::Suspect {
         SUSPECT

@@ -1,0 +1,163 @@
+//! Exports (issue 15, item 3): YAML, URDF and the ROS 2 command each read back to the transform.
+
+mod common;
+
+use lasercal::io::export::{Exported, from_yaml, ros2_command, to_urdf, to_yaml};
+use nalgebra::{Isometry3, Matrix6, Translation3, UnitQuaternion, Vector3};
+
+fn example(seed: u32) -> Exported {
+    let s = seed as f64;
+    Exported {
+        parent_frame: "tool0".into(),
+        child_frame: "gocator/optical".into(),
+        flange_to_sensor: Isometry3::from_parts(
+            Translation3::new(0.006 + 0.01 * s, -0.054, 0.364),
+            UnitQuaternion::from_scaled_axis(Vector3::new(3.0 - 0.3 * s, 0.2, -1.1 + 0.5 * s)),
+        ),
+        covariance: Some(Matrix6::from_fn(|r, c| {
+            if r == c {
+                1e-8 * (r + 1) as f64
+            } else {
+                1e-10 * (r + c) as f64
+            }
+        })),
+    }
+}
+
+fn close(a: &Isometry3<f64>, b: &Isometry3<f64>, tol: f64) {
+    let e = lasercal::calib::PoseError::between(a, b);
+    assert!(
+        e.rotation_error_deg.to_radians() < tol && e.translation_error_mm * 1e-3 < tol,
+        "{e:?}"
+    );
+}
+
+#[test]
+fn yaml_round_trips_with_its_covariance() {
+    for seed in 0..8 {
+        let e = example(seed);
+        let text = to_yaml(&e).unwrap();
+        assert!(
+            text.contains("qw:") && text.contains("robot_effector_frame: tool0"),
+            "{text}"
+        );
+        let back = from_yaml(&text, "x.yaml").unwrap();
+        close(&back.flange_to_sensor, &e.flange_to_sensor, 1e-14);
+        assert_eq!(back.parent_frame, e.parent_frame);
+        assert_eq!(back.child_frame, e.child_frame);
+        assert_eq!(back.covariance, e.covariance);
+    }
+    let err = from_yaml("eye_on_hand: true\n", "bad.yaml")
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("bad.yaml"), "{err}");
+}
+
+#[test]
+fn urdf_fragment_reads_back_through_urdf_rs() {
+    for seed in 0..8 {
+        let e = example(seed);
+        let robot = format!(
+            "<robot name=\"r\"><link name=\"tool0\"/>{}</robot>",
+            to_urdf(&e)
+        );
+        let r = urdf_rs::read_from_string(&robot).unwrap();
+        let o = &r.joints[0].origin;
+        let (x, rpy) = (o.xyz.0, o.rpy.0);
+        let back = Isometry3::from_parts(
+            Translation3::new(x[0], x[1], x[2]),
+            UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]),
+        );
+        close(&back, &e.flange_to_sensor, 1e-11);
+        assert_eq!(r.joints[0].parent.link, "tool0");
+        assert_eq!(r.joints[0].child.link, "gocator/optical");
+    }
+}
+
+#[test]
+fn ros2_command_carries_the_transform() {
+    let e = example(3);
+    let cmd = ros2_command(&e);
+    let words: Vec<&str> = cmd.split_whitespace().collect();
+    let arg = |k: &str| -> f64 {
+        let i = words.iter().position(|w| *w == k).unwrap();
+        words[i + 1].parse().unwrap()
+    };
+    let back = Isometry3::from_parts(
+        Translation3::new(arg("--x"), arg("--y"), arg("--z")),
+        UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+            arg("--qw"),
+            arg("--qx"),
+            arg("--qy"),
+            arg("--qz"),
+        )),
+    );
+    close(&back, &e.flange_to_sensor, 1e-11);
+    assert!(cmd.starts_with("ros2 run tf2_ros static_transform_publisher"));
+    assert!(
+        cmd.ends_with("--frame-id tool0 --child-frame-id gocator/optical"),
+        "{cmd}"
+    );
+}
+
+#[test]
+fn calibrate_exports_what_it_prints() {
+    let dir = tempfile::tempdir().unwrap();
+    let caps = dir.path().join("c.json");
+    let c = caps.to_str().unwrap();
+    let (code, _, err) = common::lasercal(&[
+        "simulate",
+        &common::scen("chen2018-disk-raycast.toml"),
+        "--out",
+        c,
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let (yaml, urdf, json) = (
+        dir.path().join("r.yaml"),
+        dir.path().join("r.urdf"),
+        dir.path().join("r.json"),
+    );
+    let (code, out, err) = common::lasercal(&[
+        "calibrate",
+        c,
+        "--method",
+        "disk-refined",
+        "--yaml",
+        yaml.to_str().unwrap(),
+        "--urdf",
+        urdf.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+        "--ros2",
+        "--child-frame",
+        "gocator",
+    ]);
+    assert_eq!(code, 0, "{out} {err}");
+    assert!(out.contains("static_transform_publisher") && out.contains("--child-frame-id gocator"));
+    let y = from_yaml(&std::fs::read_to_string(&yaml).unwrap(), "r.yaml").unwrap();
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let m: Vec<Vec<f64>> = serde_json::from_value(doc["flange_to_sensor"].clone()).unwrap();
+    for (k, v) in [
+        y.flange_to_sensor.translation.x,
+        y.flange_to_sensor.translation.y,
+        y.flange_to_sensor.translation.z,
+    ]
+    .iter()
+    .enumerate()
+    {
+        assert!((v * 1e3 - m[k][3]).abs() < 1e-9, "{v} vs {}", m[k][3]);
+    }
+    assert!(y.covariance.is_some());
+    assert!(
+        std::fs::read_to_string(&urdf)
+            .unwrap()
+            .contains("<child link=\"gocator\"/>")
+    );
+    let (code, _, err) = common::lasercal(&["calibrate", c, "--parent-frame", "tool 0", "--ros2"]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("--parent-frame") && err.contains("tool 0"),
+        "{err}"
+    );
+}
