@@ -75,13 +75,13 @@ pub fn run(a: Args) -> Result<i32> {
     };
     let mut variants = Vec::new();
     if a.method.is_none() {
-        println!(
+        say!(
             "{name}: {} captures, {} groups, {} profiles; every variant:",
             caps.method,
             caps.groups.len(),
             caps.profiles.len()
         );
-        println!(
+        say!(
             "  {:<15} {:<8} {:>12} {:>12} {:>13}",
             "variant", "verdict", "bound deg", "bound mm", "noise ratio"
         );
@@ -92,7 +92,7 @@ pub fn run(a: Args) -> Result<i32> {
                 let (br, bt) = x.judged.quality.error_bound();
                 let nr = x.judged.quality.noise_ratio;
                 if a.method.is_none() {
-                    println!(
+                    say!(
                         "  {:<15} {:<8} {br:>12.4} {bt:>12.4} {:>13}",
                         id.to_string(),
                         x.judged.verdict.to_string(),
@@ -109,7 +109,7 @@ pub fn run(a: Args) -> Result<i32> {
                     let e = e.to_string();
                     let short = e.split(" | ").next().unwrap_or(&e);
                     let more = if short.len() < e.len() { " ..." } else { "" };
-                    println!("  {:<15} cannot run: {short}{more}", id.to_string());
+                    say!("  {:<15} cannot run: {short}{more}", id.to_string());
                 }
                 serde_json::json!({ "method": id, "error": e.to_string() })
             }
@@ -139,7 +139,7 @@ pub fn run(a: Args) -> Result<i32> {
         (id, r.map_err(anyhow::Error::from)?)
     };
     if a.method.is_none() {
-        println!(
+        say!(
             "chosen: {method} (the smallest error bound among the variants judged ok; --method \
              to choose another)"
         );
@@ -150,7 +150,7 @@ pub fn run(a: Args) -> Result<i32> {
     judged.add_reasons(loo.as_ref().and_then(verdict::leave_one_out_reason));
     let cal = &chosen.calibration;
     let est = pose_to_rows_mm(&cal.flange_to_sensor);
-    println!(
+    say!(
         "{method}: recovered flange_to_sensor (mm) from {} profiles:\n{}",
         caps.profiles.len(),
         matrix_text(&est)
@@ -160,7 +160,7 @@ pub fn run(a: Args) -> Result<i32> {
         .iter()
         .filter(|g| g.left_out || !g.rejected.is_empty())
     {
-        println!("{}", g.describe());
+        say!("{}", g.describe());
     }
     let mut doc = serde_json::json!({
         "method": method,
@@ -177,10 +177,10 @@ pub fn run(a: Args) -> Result<i32> {
     if let Some(r) = &chosen.refined {
         doc["refinement"] = refinement(r);
     }
-    doc["quality"] = verdict_text(method, &judged, loo.as_ref());
+    doc["quality"] = verdict_text(method, &judged, loo.as_ref())?;
     if let Some(t) = &caps.truth {
         let e = PoseError::between(&cal.flange_to_sensor, t);
-        println!(
+        say!(
             "against the file's truth: rotation error {:.6} deg, translation error {:.6} mm",
             e.rotation_error_deg, e.translation_error_mm
         );
@@ -204,7 +204,7 @@ pub fn run(a: Args) -> Result<i32> {
         lasercal::io::write(p, lasercal::io::export::to_urdf(&exported).as_bytes())?;
     }
     if a.ros2 {
-        println!("{}", lasercal::io::export::ros2_command(&exported));
+        say!("{}", lasercal::io::export::ros2_command(&exported));
     }
     Ok(if judged.verdict == verdict::Verdict::Suspect {
         SUSPECT

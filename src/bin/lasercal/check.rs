@@ -72,7 +72,7 @@ pub fn run(a: Args) -> Result<i32> {
             })
             .collect();
         if !failed.is_empty() {
-            println!(
+            say!(
                 "FAIL {method}: {} of {} trials did not calibrate (first: trial {}: {})",
                 failed.len(),
                 a.trials,
@@ -89,7 +89,7 @@ pub fn run(a: Args) -> Result<i32> {
         let p = a.percentile;
         let mut ok = true;
         if r > a.max_rotation_deg {
-            println!(
+            say!(
                 "FAIL {method}: p{p} rotation error {r:.6} deg exceeds {} deg by {:.6} deg",
                 a.max_rotation_deg,
                 r - a.max_rotation_deg
@@ -97,7 +97,7 @@ pub fn run(a: Args) -> Result<i32> {
             ok = false;
         }
         if t > a.max_translation_mm {
-            println!(
+            say!(
                 "FAIL {method}: p{p} translation error {t:.6} mm exceeds {} mm by {:.6} mm",
                 a.max_translation_mm,
                 t - a.max_translation_mm
@@ -105,7 +105,7 @@ pub fn run(a: Args) -> Result<i32> {
             ok = false;
         }
         if ok {
-            println!(
+            say!(
                 "ok {method}: p{p} rotation error {r:.6} deg <= {}, translation error {t:.6} mm <= {} ({} trials)",
                 a.max_rotation_deg, a.max_translation_mm, a.trials
             );

@@ -63,7 +63,7 @@ pub fn verdict_text(
     method: lasercal::method::MethodId,
     j: &lasercal::method::verdict::Judged,
     loo: Option<&lasercal::method::verdict::LeaveOneOut>,
-) -> serde_json::Value {
+) -> Result<serde_json::Value> {
     let q = &j.quality;
     let f3 = |v: &[f64; 3], d: usize| {
         v.iter()
@@ -72,21 +72,21 @@ pub fn verdict_text(
             .join(" / ")
     };
     match (q.residual_rms_mm, q.stated_noise_mm, q.noise_ratio_bound) {
-        (Some(rms), Some(noise), Some(bound)) => println!(
+        (Some(rms), Some(noise), Some(bound)) => say!(
             "{method}: residual RMS {rms:.4} mm over {} residuals = {:.2} x the stated noise \
              {noise:.4} mm (passes up to {bound:.2})",
             q.n_residuals,
             rms / noise
         ),
-        (Some(rms), _, _) => println!(
+        (Some(rms), _, _) => say!(
             "{method}: residual RMS {rms:.4} mm over {} residuals (no noise stated: give the \
              sensor's noise or feature_sigma_mm to test it)",
             q.n_residuals
         ),
-        _ => println!("{method}: no residuals (the captures hold fitted features only)"),
+        _ => say!("{method}: no residuals (the captures hold fitted features only)"),
     }
     if q.covariance.is_some() {
-        println!(
+        say!(
             "{method}: predicted sd: rotation about sensor x/y/z {} deg, translation along \
              flange x/y/z {} mm",
             f3(&q.sd_rotation_deg, 4),
@@ -94,7 +94,7 @@ pub fn verdict_text(
         );
     }
     if let (Some(c), Some(w)) = (q.condition, &q.weakest) {
-        println!("{method}: observability condition {c:.1}; weakest: {w}");
+        say!("{method}: observability condition {c:.1}; weakest: {w}");
     }
     let names = ["rx", "ry", "rz", "tx", "ty", "tz"];
     let mut strong = Vec::new();
@@ -108,19 +108,19 @@ pub fn verdict_text(
         }
     }
     if !strong.is_empty() {
-        println!("{method}: correlations above 0.9: {}", strong.join(", "));
+        say!("{method}: correlations above 0.9: {}", strong.join(", "));
     }
     if let (Some(d), Some(m)) = (q.from_fit_deg, q.from_fit_mm) {
-        println!("{method}: {d:.4} deg / {m:.4} mm from the least-squares fit of its own features");
+        say!("{method}: {d:.4} deg / {m:.4} mm from the least-squares fit of its own features");
     }
     if let Some(l) = loo.filter(|l| l.failed == l.runs) {
-        println!(
+        say!(
             "{method}: leave one group out: no run could calibrate without any one of the {} \
              groups (the protocol needs them all)",
             l.runs
         );
     } else if let Some(l) = loo {
-        println!(
+        say!(
             "{method}: leave one group out ({} runs{}): the result moves up to {:.4} deg / {:.4} \
              mm (group {})",
             l.runs,
@@ -135,17 +135,17 @@ pub fn verdict_text(
         );
     }
     if q.rejected > 0 {
-        println!(
+        say!(
             "{method}: {} of {} profiles rejected",
             q.rejected, q.profiles
         );
     }
-    println!("{method}: verdict {}", j.verdict);
+    say!("{method}: verdict {}", j.verdict);
     for r in &j.reasons {
-        println!("  - {r}");
+        say!("  - {r}");
     }
     let (br, bt) = q.error_bound();
-    serde_json::json!({
+    Ok(serde_json::json!({
         "verdict": j.verdict,
         "reasons": j.reasons,
         "residual_rms_mm": q.residual_rms_mm,
@@ -169,5 +169,5 @@ pub fn verdict_text(
             "runs": l.runs, "failed": l.failed, "rotation_deg": l.rotation_deg,
             "translation_mm": l.translation_mm, "group": l.group,
         })),
-    })
+    }))
 }

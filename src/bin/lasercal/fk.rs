@@ -34,7 +34,7 @@ pub fn run(a: Args) -> Result<()> {
         "position_mm": [round9(p.x), round9(p.y), round9(p.z)],
         "quaternion_wxyz": quat_wxyz(&t.rotation).map(round9),
     });
-    println!(
+    say!(
         "{}",
         serde_json::to_string(&out).context("serialising the pose")?
     );

@@ -52,6 +52,6 @@ pub fn run(a: Args) -> Result<()> {
                 .collect()
         })
         .collect();
-    println!("{}", serde_json::json!({ "solutions_deg": deg }));
+    say!("{}", serde_json::json!({ "solutions_deg": deg }));
     Ok(())
 }

@@ -1,5 +1,15 @@
 //! The `lasercal` command line: one module per subcommand.
 
+/// `println!` that returns an error instead of panicking when standard output is gone (a closed
+/// pipe, a full disk): the enclosing function returns `anyhow::Result`.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout(), $($t)*)
+            .map_err(|e| anyhow::anyhow!("cannot write to standard output: {e}"))?;
+    }};
+}
+
 mod calibrate;
 mod check;
 mod common;

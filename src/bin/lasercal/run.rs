@@ -78,8 +78,8 @@ pub fn run(a: Args) -> Result<()> {
     let setup = sc.build(&sf.file)?;
     let seed = a.seed.unwrap_or(sc.seed);
     let truth = pose_to_rows_mm(&setup.rig.flange_to_sensor);
-    println!("scenario {} (seed {seed}, trial {})", sc.name, a.trial);
-    println!("truth flange_to_sensor (mm):\n{}", matrix_text(&truth));
+    say!("scenario {} (seed {seed}, trial {})", sc.name, a.trial);
+    say!("truth flange_to_sensor (mm):\n{}", matrix_text(&truth));
     let mut results = Vec::new();
     let mut estimates = Vec::new();
     let mut failed = false;
@@ -90,7 +90,7 @@ pub fn run(a: Args) -> Result<()> {
                 let error = s.error();
                 estimates.push((method, s.estimate));
                 let est = pose_to_rows_mm(&s.estimate);
-                println!(
+                say!(
                     "\n{method}: recovered flange_to_sensor (mm):\n{}",
                     matrix_text(&est)
                 );
@@ -116,9 +116,9 @@ pub fn run(a: Args) -> Result<()> {
                 if out.missed_profiles > 0 {
                     line += &format!(", {} profiles without the feature", out.missed_profiles);
                 }
-                println!("{line}");
+                say!("{line}");
                 let refined = s.refined.as_ref().map(refinement);
-                let quality = verdict_text(method, &s.judged, None);
+                let quality = verdict_text(method, &s.judged, None)?;
                 let mut doc = serde_json::json!({
                     "refinement": refined,
                     "quality": quality,

@@ -136,7 +136,9 @@ pub fn run(a: Args) -> Result<()> {
     );
     match &a.out {
         Some(p) => lasercal::io::write(p, csv.as_bytes())?,
-        None => std::io::stdout().write_all(csv.as_bytes())?,
+        None => std::io::stdout()
+            .write_all(csv.as_bytes())
+            .context("cannot write to standard output")?,
     }
     Ok(())
 }
