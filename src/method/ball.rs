@@ -69,11 +69,11 @@ impl Method for Ball {
             ));
         }
         v.non_negative("ball.sigma_mm", b.sigma_mm)?;
-        if !(b.x_step_mm > 0.0) || b.arcs == 0 {
+        if !(b.x_step_mm >= 1e-3) || b.arcs == 0 || b.arcs > 10_000 {
             return Err(v.bad(
                 "ball.x_step_mm",
                 b.x_step_mm,
-                "x_step_mm must be > 0 and arcs >= 1",
+                "x_step_mm must be at least 0.001 mm and arcs from 1 to 10000",
             ));
         }
         Ok(())
@@ -94,6 +94,19 @@ impl Method for Ball {
                 "the ball method needs a ball specimen",
             )
         })?;
+        // An analytic arc holds one point per x_step across the ball: bounded before sampling.
+        let samples = 2.0 * radius / (b.x_step_mm * 1e-3);
+        if b.source != Source::Raycast && !(samples <= 1e6) {
+            return Err(v.bad(
+                "ball.x_step_mm",
+                b.x_step_mm,
+                format!(
+                    "{samples:.3e} points per arc across a ball of radius {} mm (at most 1e6); \
+                     take a coarser step",
+                    radius * 1e3
+                ),
+            ));
+        }
         let target = BallTarget {
             centre: pose * Point3::origin(),
             radius,

@@ -33,7 +33,7 @@ pub enum RobotError {
     #[error(
         "{path}: joint '{joint}' has no usable <limit> (lower {lower}, upper {upper}, velocity \
          {velocity}); add <limit lower=\"..\" upper=\"..\" velocity=\"..\" effort=\"..\"/> in radians \
-         with lower < upper and velocity > 0"
+         with lower < upper, both within +-1080 deg (18.85 rad), and velocity > 0"
     )]
     MissingLimits {
         path: String,

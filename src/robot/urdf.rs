@@ -76,8 +76,52 @@ fn pose(p: &urdf_rs::Pose) -> Isometry3<f64> {
     pose_from_xyz_rpy(*p.xyz, *p.rpy)
 }
 
+/// Deepest element nesting a URDF may have (a robot's is 3-4 deep); deeper input would
+/// overflow the XML parser's stack.
+pub const MAX_NESTING: usize = 64;
+/// Most links a serial chain may walk through (a 6-axis arm has 7-12).
+pub const MAX_CHAIN_LINKS: usize = 256;
+/// Joint limits beyond this many degrees either way would make IK list every 360 deg turn.
+pub const MAX_LIMIT_DEG: f64 = 1080.0;
+
+/// The element nesting depth of XML text, counted over its tags (comments, declarations and
+/// self-closing tags do not nest); stops counting past `MAX_NESTING`.
+fn nesting(text: &str) -> usize {
+    let (mut depth, mut deepest) = (0usize, 0usize);
+    let b = text.as_bytes();
+    let mut i = 0;
+    while let Some(k) = b[i..].iter().position(|&c| c == b'<') {
+        let s = i + k;
+        let end = match b[s..].iter().position(|&c| c == b'>') {
+            Some(e) => s + e,
+            None => break,
+        };
+        let tag = &b[s + 1..end];
+        if tag.starts_with(b"/") {
+            depth = depth.saturating_sub(1);
+        } else if !(tag.starts_with(b"?") || tag.starts_with(b"!") || tag.ends_with(b"/")) {
+            depth += 1;
+            deepest = deepest.max(depth);
+            if deepest > MAX_NESTING {
+                break;
+            }
+        }
+        i = end + 1;
+    }
+    deepest
+}
+
 /// Parse URDF text into the chain from the root link to `tip`.
 pub(crate) fn parse_serial_chain(text: &str, path: &str, tip: &str) -> Result<Chain, RobotError> {
+    if nesting(text) > MAX_NESTING {
+        return Err(RobotError::Parse {
+            path: path.to_string(),
+            message: format!(
+                "elements nested more than {MAX_NESTING} deep; a URDF's robot, link, joint and \
+                 their children nest 4 deep"
+            ),
+        });
+    }
     let robot = urdf_rs::read_from_string(text).map_err(|e| RobotError::Parse {
         path: path.to_string(),
         message: e.to_string(),
@@ -121,7 +165,27 @@ pub(crate) fn parse_serial_chain(text: &str, path: &str, tip: &str) -> Result<Ch
     let mut links = Vec::new();
     let mut offset = Isometry3::identity();
     let mut current = root.name.as_str();
+    let mut seen = std::collections::HashSet::new();
     loop {
+        if !seen.insert(current) {
+            return Err(RobotError::Parse {
+                path: path.to_string(),
+                message: format!(
+                    "the chain from '{}' loops back to link '{current}'; a serial arm's joints \
+                     lead from the root to the tip without a cycle",
+                    root.name
+                ),
+            });
+        }
+        if seen.len() > MAX_CHAIN_LINKS {
+            return Err(RobotError::Parse {
+                path: path.to_string(),
+                message: format!(
+                    "the chain from '{}' passes more than {MAX_CHAIN_LINKS} links before '{tip}'",
+                    root.name
+                ),
+            });
+        }
         let l = by_name.get(current).ok_or_else(|| RobotError::Parse {
             path: path.to_string(),
             message: format!("a joint names link '{current}', which is not defined"),
@@ -137,13 +201,32 @@ pub(crate) fn parse_serial_chain(text: &str, path: &str, tip: &str) -> Result<Ch
                 root: root.name.clone(),
             });
         };
+        let numbers = j
+            .origin
+            .xyz
+            .iter()
+            .chain(j.origin.rpy.iter())
+            .chain(j.axis.xyz.iter());
+        if !numbers.copied().all(f64::is_finite) {
+            return Err(RobotError::Parse {
+                path: path.to_string(),
+                message: format!(
+                    "joint '{}' has an origin or axis that is not a finite number (xyz {:?}, \
+                     rpy {:?}, axis {:?})",
+                    j.name, *j.origin.xyz, *j.origin.rpy, *j.axis.xyz
+                ),
+            });
+        }
         match j.joint_type {
             urdf_rs::JointType::Fixed => offset *= pose(&j.origin),
             urdf_rs::JointType::Revolute => {
                 let lim = &j.limit;
+                let bound = MAX_LIMIT_DEG.to_radians();
                 let usable = lim.lower.is_finite()
                     && lim.upper.is_finite()
                     && lim.lower < lim.upper
+                    && lim.lower >= -bound
+                    && lim.upper <= bound
                     && lim.velocity.is_finite()
                     && lim.velocity > 0.0;
                 if !usable {

@@ -102,6 +102,18 @@ impl ScenarioFile {
             message: e.to_string().trim().to_string(),
         };
         let mut raw: toml::Table = text.parse().map_err(syntax)?;
+        // TOML has `nan` and `inf`; no key of a scenario means either: refused by name here, so
+        // that no validation can miss one.
+        if let Some((key, v)) = non_finite(&raw, "") {
+            return Err(ScenarioError::BadValue {
+                file: file.to_string(),
+                key,
+                value: v.to_string(),
+                reason:
+                    "not a finite number (nan and inf mean nothing in a scenario); give the number"
+                        .into(),
+            });
+        }
         let path_error = |path: String, message: String| ScenarioError::Syntax {
             file: file.to_string(),
             message: format!("{path}: {}", message.trim()),
@@ -147,4 +159,27 @@ impl ScenarioFile {
     pub fn grid(&self) -> &[GridPoint] {
         &self.points
     }
+}
+
+/// The first value in a TOML tree that is NaN or infinite, with its key path (`a.b[2]`).
+fn non_finite(t: &toml::Table, prefix: &str) -> Option<(String, f64)> {
+    fn walk(v: &toml::Value, path: String) -> Option<(String, f64)> {
+        match v {
+            toml::Value::Float(f) if !f.is_finite() => Some((path, *f)),
+            toml::Value::Table(t) => non_finite(t, &path),
+            toml::Value::Array(a) => a
+                .iter()
+                .enumerate()
+                .find_map(|(i, x)| walk(x, format!("{path}[{i}]"))),
+            _ => None,
+        }
+    }
+    t.iter().find_map(|(k, v)| {
+        let path = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        walk(v, path)
+    })
 }

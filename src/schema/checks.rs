@@ -120,8 +120,12 @@ impl Scenario {
         let Some(s) = &self.sweep else {
             return Ok(());
         };
-        if s.trials == 0 {
-            return Err(v.bad("sweep.trials", 0, "at least one trial"));
+        if s.trials == 0 || s.trials > super::validator::MAX_TRIALS {
+            return Err(v.bad(
+                "sweep.trials",
+                s.trials,
+                format!("from 1 to {} trials", super::validator::MAX_TRIALS),
+            ));
         }
         if let Some(p) = &s.plot {
             for k in std::iter::once(&p.x).chain(p.series.iter()) {

@@ -15,7 +15,7 @@ pub mod plane;
 pub mod poses;
 mod sections;
 pub mod sensor;
-mod validator;
+pub mod validator;
 
 pub use common::{Common, place_specimen};
 pub use sections::*;

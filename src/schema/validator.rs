@@ -4,6 +4,12 @@
 use super::ScenarioError;
 use std::fmt::Display;
 
+/// The longest size a scenario may give (mm): 100 m, beyond any cell a robot works in; sizes
+/// set how much is sampled, so they are bounded before anything is allocated.
+pub const MAX_LENGTH_MM: f64 = 100_000.0;
+/// Trials per grid point (and for `check`): beyond this a run would not end in a working day.
+pub const MAX_TRIALS: usize = 10_000_000;
+
 /// Makes `ScenarioError::BadValue`s for one file.
 #[derive(Debug, Clone, Copy)]
 pub struct Validator<'a> {
@@ -49,12 +55,16 @@ impl Validator<'_> {
         }
     }
 
-    /// A positive finite length in mm; returns it in metres.
+    /// A positive finite length in mm, at most `MAX_LENGTH_MM`; returns it in metres.
     pub fn length(&self, key: &str, mm: f64) -> Result<f64, ScenarioError> {
-        if mm > 0.0 && mm.is_finite() {
+        if mm > 0.0 && mm <= MAX_LENGTH_MM {
             Ok(mm * 1e-3)
         } else {
-            Err(self.bad(key, mm, "must be a positive length"))
+            Err(self.bad(
+                key,
+                mm,
+                format!("must be a positive length of at most {MAX_LENGTH_MM} mm"),
+            ))
         }
     }
 

@@ -83,7 +83,11 @@ pub fn run(a: Args) -> Result<i32> {
         );
         say!(
             "  {:<15} {:<8} {:>12} {:>12} {:>13}",
-            "variant", "verdict", "bound deg", "bound mm", "noise ratio"
+            "variant",
+            "verdict",
+            "bound deg",
+            "bound mm",
+            "noise ratio"
         );
     }
     for (id, r) in &results {
@@ -182,7 +186,8 @@ pub fn run(a: Args) -> Result<i32> {
         let e = PoseError::between(&cal.flange_to_sensor, t);
         say!(
             "against the file's truth: rotation error {:.6} deg, translation error {:.6} mm",
-            e.rotation_error_deg, e.translation_error_mm
+            e.rotation_error_deg,
+            e.translation_error_mm
         );
         doc["truth"] = serde_json::json!(pose_to_rows_mm(t));
         doc["rotation_error_deg"] = serde_json::json!(e.rotation_error_deg);

@@ -36,8 +36,14 @@ pub fn run(a: Args) -> Result<i32> {
     if !(a.max_rotation_deg > 0.0 && a.max_translation_mm > 0.0) {
         bail!("--max-rotation-deg and --max-translation-mm must be positive");
     }
-    if a.trials == 0 || !(a.percentile > 0.0 && a.percentile <= 100.0) {
-        bail!("--trials must be >= 1 and --percentile in (0, 100]");
+    let max = lasercal::schema::validator::MAX_TRIALS;
+    if a.trials == 0 || a.trials > max || !(a.percentile > 0.0 && a.percentile <= 100.0) {
+        bail!(
+            "--trials {} --percentile {}: --trials must be from 1 to {max} and --percentile in \
+             (0, 100]",
+            a.trials,
+            a.percentile
+        );
     }
     let sf = load_scenario(&a.scenario)?;
     let setup = sf.scenario.build(&sf.file)?;
@@ -107,7 +113,9 @@ pub fn run(a: Args) -> Result<i32> {
         if ok {
             say!(
                 "ok {method}: p{p} rotation error {r:.6} deg <= {}, translation error {t:.6} mm <= {} ({} trials)",
-                a.max_rotation_deg, a.max_translation_mm, a.trials
+                a.max_rotation_deg,
+                a.max_translation_mm,
+                a.trials
             );
         } else {
             code = 1;

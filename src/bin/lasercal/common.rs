@@ -137,7 +137,8 @@ pub fn verdict_text(
     if q.rejected > 0 {
         say!(
             "{method}: {} of {} profiles rejected",
-            q.rejected, q.profiles
+            q.rejected,
+            q.profiles
         );
     }
     say!("{method}: verdict {}", j.verdict);

@@ -104,8 +104,9 @@ pub fn run(a: Args) -> Result<()> {
             sf.file
         );
     }
-    if a.trials == Some(0) {
-        bail!("--trials must be at least 1");
+    let max = lasercal::schema::validator::MAX_TRIALS;
+    if let Some(t) = a.trials.filter(|&t| t == 0 || t > max) {
+        bail!("--trials {t}: from 1 to {max} trials per grid point");
     }
     let shard = a
         .shard
