@@ -240,22 +240,60 @@ pub struct MetricRow {
     pub metrics: Metrics,
 }
 
+/// Summaries built from metric rows fed one at a time in run order (point, method, trial): what
+/// `merge` streams through, holding only the current (point, method)'s values.
+pub struct Summariser<'a> {
+    points: &'a [GridPoint],
+    current: Option<(usize, MethodId, Accumulator)>,
+    done: Vec<SummaryRow>,
+}
+
+impl<'a> Summariser<'a> {
+    pub fn new(points: &'a [GridPoint]) -> Summariser<'a> {
+        Summariser {
+            points,
+            current: None,
+            done: Vec::new(),
+        }
+    }
+
+    pub fn add(&mut self, r: &MetricRow) {
+        if self
+            .current
+            .as_ref()
+            .is_none_or(|(p, m, _)| (*p, *m) != (r.point, r.method))
+        {
+            self.close();
+            self.current = Some((r.point, r.method, Accumulator::new()));
+        }
+        if let Some((_, _, acc)) = &mut self.current {
+            acc.add(r.ok, &r.metrics);
+        }
+    }
+
+    fn close(&mut self) {
+        if let Some((p, m, acc)) = self.current.take() {
+            let values = self
+                .points
+                .get(p)
+                .map(|g| g.values.clone())
+                .unwrap_or_default();
+            self.done.push(acc.finish(p, values, m));
+        }
+    }
+
+    pub fn finish(mut self) -> Vec<SummaryRow> {
+        self.close();
+        self.done
+    }
+}
+
 /// Summaries from metric rows in run order (point, method, trial), e.g. merged shards; equal to
 /// what `run` computes for the same rows.
 pub fn summarise_metrics(rows: &[MetricRow], points: &[GridPoint]) -> Vec<SummaryRow> {
-    let mut out: Vec<SummaryRow> = Vec::new();
-    let mut start = 0;
-    while start < rows.len() {
-        let (p, m) = (rows[start].point, rows[start].method);
-        let mut acc = Accumulator::new();
-        let mut end = start;
-        while end < rows.len() && rows[end].point == p && rows[end].method == m {
-            acc.add(rows[end].ok, &rows[end].metrics);
-            end += 1;
-        }
-        let values = points.get(p).map(|g| g.values.clone()).unwrap_or_default();
-        out.push(acc.finish(p, values, m));
-        start = end;
+    let mut s = Summariser::new(points);
+    for r in rows {
+        s.add(r);
     }
-    out
+    s.finish()
 }

@@ -210,3 +210,139 @@ fn sizes_are_bounded_before_anything_is_allocated() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--trials"), "{err}");
 }
+
+/// Shards 1..3 of xu2021-rotations (6 trials) in `dir`/s1..s3.
+fn shards(dir: &std::path::Path) -> Vec<String> {
+    (1..=3)
+        .map(|k| {
+            let d = dir.join(format!("s{k}")).to_str().unwrap().to_string();
+            let (code, _, err) = common::lasercal(&[
+                "sweep",
+                &common::scen("xu2021-rotations.toml"),
+                "--trials",
+                "6",
+                "--shard",
+                &format!("{k}/3"),
+                "--out",
+                &d,
+            ]);
+            assert_eq!(code, 0, "{err}");
+            d
+        })
+        .collect()
+}
+
+#[test]
+fn merge_checks_every_row_against_its_shard() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = shards(dir.path());
+    let out = dir.path().join("m").to_str().unwrap().to_string();
+    let trials = |k: usize| std::path::Path::new(&s[k]).join("trials.csv");
+    let original: Vec<String> = (0..3)
+        .map(|k| std::fs::read_to_string(trials(k)).unwrap())
+        .collect();
+    let merge = |expect: &str| {
+        let (code, _, err) = common::lasercal(&["merge", &s[0], &s[1], &s[2], "--out", &out]);
+        assert_eq!(code, 2, "{expect}: {err}");
+        assert!(
+            err.contains(expect) && !err.contains("panicked"),
+            "{expect}: {err}"
+        );
+        assert!(
+            std::path::Path::new(&out).join("INCOMPLETE").exists()
+                || !std::path::Path::new(&out).join("summary.csv").exists(),
+            "{expect}: a refused merge must not look complete"
+        );
+    };
+    let restore = || {
+        for k in 0..3 {
+            std::fs::write(trials(k), &original[k]).unwrap();
+        }
+    };
+    // Shard 2's trials.csv copied over shard 1's.
+    std::fs::write(trials(0), &original[1]).unwrap();
+    merge("belongs to shard 2/3");
+    restore();
+    // A duplicated row.
+    let mut lines: Vec<&str> = original[0].lines().collect();
+    lines.insert(2, lines[1]);
+    std::fs::write(trials(0), lines.join("\n") + "\n").unwrap();
+    merge("repeats or is out of order");
+    restore();
+    // A NaN, an unknown method, a point outside the grid.
+    let first_row = original[0].lines().nth(1).unwrap().to_string();
+    let header = original[0].lines().next().unwrap();
+    let col = |name: &str| header.split(',').position(|h| h == name).unwrap();
+    let edit = |c: usize, v: &str| {
+        let mut f: Vec<String> = first_row.split(',').map(String::from).collect();
+        f[c] = v.into();
+        original[0].replacen(&first_row, &f.join(","), 1)
+    };
+    std::fs::write(trials(0), edit(col("rotation_error_deg"), "NaN")).unwrap();
+    merge("not a finite number");
+    std::fs::write(trials(0), edit(col("method"), "disk")).unwrap();
+    merge("not in the scenario's methods");
+    std::fs::write(trials(0), edit(col("point"), "999")).unwrap();
+    merge("outside the sweep");
+    restore();
+    // The output is one of the inputs.
+    let (code, _, err) = common::lasercal(&["merge", &s[0], &s[1], &s[2], "--out", &s[1]]);
+    assert_eq!(code, 2);
+    assert!(err.contains("that is shard folder"), "{err}");
+    // Restored, it merges, and the folder is complete.
+    let (code, _, err) = common::lasercal(&["merge", &s[0], &s[1], &s[2], "--out", &out]);
+    assert_eq!(code, 0, "{err}");
+    let m = std::path::Path::new(&out);
+    assert!(m.join("summary.csv").exists() && !m.join("INCOMPLETE").exists());
+}
+
+#[test]
+fn a_sweep_marks_its_folder_until_done_and_replaces_an_old_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o");
+    let o = out.to_str().unwrap();
+    // An old run's outputs, one of which this run would not rewrite were it not cleared.
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("summary.csv"), "stale\n").unwrap();
+    std::fs::write(out.join("plot.png"), "stale").unwrap();
+    let (code, _, err) = common::lasercal(&[
+        "sweep",
+        &common::scen("xu2021-rotations.toml"),
+        "--trials",
+        "2",
+        "--out",
+        o,
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("replacing the previous run's"), "{err}");
+    assert_ne!(
+        std::fs::read_to_string(out.join("summary.csv")).unwrap(),
+        "stale\n"
+    );
+    assert!(!out.join("INCOMPLETE").exists());
+    assert!(!out.join(".trials.csv.partial").exists());
+    // Interrupted: the marker stays and no trials.csv appears under its real name.
+    let out2 = dir.path().join("killed");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lasercal"))
+        .args([
+            "sweep",
+            &common::scen("chen2018-fig15.toml"),
+            "--out",
+            out2.to_str().unwrap(),
+        ])
+        .env("CI", "1")
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let marker = out2.join("INCOMPLETE");
+    for _ in 0..200 {
+        if marker.exists() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(25));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(marker.exists(), "the marker is written first");
+    assert!(!out2.join("trials.csv").exists() && !out2.join("summary.csv").exists());
+}

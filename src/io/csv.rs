@@ -180,8 +180,10 @@ pub fn read_trials<R: Read>(
     input: R,
     grid_keys: &[String],
     file: &str,
-) -> Result<impl Iterator<Item = Result<(MetricRow, csv::StringRecord), FormatError>>, FormatError>
-{
+) -> Result<
+    impl Iterator<Item = Result<(MetricRow, csv::StringRecord), FormatError>> + use<R>,
+    FormatError,
+> {
     let mut rd = csv::ReaderBuilder::new()
         .has_headers(true)
         .flexible(false)
@@ -229,7 +231,9 @@ pub fn read_trials<R: Read>(
             if !v.is_empty() {
                 let x = v
                     .parse::<f64>()
-                    .map_err(|_| bad(m.name(), v, "not a number"))?;
+                    .ok()
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| bad(m.name(), v, "not a finite number"))?;
                 metrics.set(m, Some(x));
             }
         }

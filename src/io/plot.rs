@@ -156,8 +156,25 @@ pub fn svg(f: &Figure) -> Result<String, FormatError> {
 
 /// Write the figure as a PNG file.
 pub fn png(f: &Figure, path: &Path) -> Result<(), FormatError> {
-    let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
-    draw(root, f)
+    // Drawn under a partial name (ending .png: the backend picks the format by it), then renamed:
+    // a full disk leaves no half image under the real name.
+    let stem = path
+        .file_stem()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{stem}.partial.png"));
+    let drawn = draw(BitMapBackend::new(&tmp, (900, 600)).into_drawing_area(), f);
+    let renamed = drawn.and_then(|_| {
+        std::fs::rename(&tmp, path).map_err(|e| FormatError::Field {
+            file: path.display().to_string(),
+            at: "plot".into(),
+            message: format!("cannot write: {e}"),
+        })
+    });
+    if renamed.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    renamed
 }
 
 /// A figure from sweep summaries: x from a grid key, one curve per value of the series key (and per

@@ -1,10 +1,9 @@
-use super::sweep::{Meta, finish};
+use super::sweep::{Meta, begin, done, finish};
 use anyhow::{Context, Result, bail};
 use lasercal::io;
 use lasercal::method::MethodId;
 use lasercal::scenario::ScenarioFile;
-use lasercal::sweep::{SweepPlan, summarise_metrics};
-use std::io::Write;
+use lasercal::sweep::SweepPlan;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -59,40 +58,133 @@ pub fn run(a: Args) -> Result<()> {
             .position(|x| *x == m)
             .unwrap_or(usize::MAX)
     };
-    let mut rows = Vec::new();
-    for (d, _) in &metas {
-        let p = d.join("trials.csv");
-        let f = std::fs::File::open(&p).with_context(|| format!("{}: cannot read", p.display()))?;
-        for row in io::csv::read_trials(f, &plan.grid_keys, &p.display().to_string())? {
-            rows.push(row?);
-        }
-    }
-    rows.sort_by_key(|(m, _)| (m.point, method_rank(m.method), m.trial));
-    let expected = plan.work(lasercal::sweep::Shard::ALL);
-    if rows.len() != expected {
-        bail!(
-            "the shards hold {} trials, the sweep has {expected}: a shard folder is incomplete",
-            rows.len()
-        );
-    }
     let out = a
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&sf.scenario.name));
-    let trials_path = out.join("trials.csv");
-    let mut csv = io::csv::TrialsWriter::new(
-        io::create(&trials_path)?,
-        &plan.grid_keys,
-        &trials_path.display().to_string(),
-    )?;
-    for (_, record) in &rows {
-        csv.write_raw(record)?;
+    // The output must not be one of the shards it reads (it would overwrite them).
+    let same = |x: &PathBuf, y: &PathBuf| match (x.canonicalize(), y.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => x == y,
+    };
+    if let Some((d, _)) = metas.iter().find(|(d, _)| same(d, &out)) {
+        bail!(
+            "--out {}: that is shard folder {}; merge into a new folder",
+            out.display(),
+            d.display()
+        );
     }
-    csv.finish()?
-        .flush()
-        .with_context(|| format!("{}: cannot write", trials_path.display()))?;
-    let metrics: Vec<_> = rows.into_iter().map(|(m, _)| m).collect();
-    let summary = summarise_metrics(&metrics, &plan.points);
+    // Each shard's rows, checked as they stream: the shard owns the trial, the point, method and
+    // trial exist, the order is the run's (which also refuses a duplicate), every figure finite.
+    type Row = (lasercal::sweep::MetricRow, csv::StringRecord);
+    let mut streams: Vec<(
+        String,
+        std::iter::Peekable<Box<dyn Iterator<Item = Result<Row>>>>,
+    )> = Vec::new();
+    for (d, m) in &metas {
+        let p = d.join("trials.csv");
+        let name = p.display().to_string();
+        let f = std::fs::File::open(&p).with_context(|| format!("{name}: cannot read"))?;
+        let shard = lasercal::sweep::Shard {
+            index: m.shard - 1,
+            count: m.shards,
+        };
+        let (points, trials, methods) =
+            (plan.points.len(), plan.trials, sf.scenario.methods.clone());
+        let rank = move |m: MethodId| methods.iter().position(|x| *x == m);
+        let mut last: Option<(usize, usize, u64)> = None;
+        let file = name.clone();
+        let rows = io::csv::read_trials(f, &plan.grid_keys, &name)?.map(move |row| {
+            let (r, rec) = row?;
+            let line = rec.position().map_or(0, |p| p.line());
+            let at = format!("{file}: line {line}");
+            let Some(k) = rank(r.method) else {
+                bail!("{at}: method {} is not in the scenario's methods", r.method);
+            };
+            if r.point >= points || r.trial as usize >= trials {
+                bail!(
+                    "{at}: point {} trial {} lies outside the sweep ({points} points x {trials} \
+                     trials)",
+                    r.point,
+                    r.trial
+                );
+            }
+            if !shard.owns(r.trial as usize) {
+                bail!(
+                    "{at}: trial {} belongs to shard {}/{}, not {}/{} (a trials.csv copied from \
+                     another shard?)",
+                    r.trial,
+                    r.trial as usize % shard.count + 1,
+                    shard.count,
+                    shard.index + 1,
+                    shard.count
+                );
+            }
+            let key = (r.point, k, r.trial);
+            if last.is_some_and(|l| l >= key) {
+                bail!(
+                    "{at}: point {} {} trial {} repeats or is out of order (a duplicated row?)",
+                    r.point,
+                    r.method,
+                    r.trial
+                );
+            }
+            last = Some(key);
+            if let Some((m, v)) = r.metrics.present().find(|(_, v)| !v.is_finite()) {
+                bail!("{at}: {} = {v} is not a finite number", m.name());
+            }
+            Ok((r, rec))
+        });
+        streams.push((
+            name,
+            (Box::new(rows) as Box<dyn Iterator<Item = Result<Row>>>).peekable(),
+        ));
+    }
+    begin(&out, "lasercal merge")?;
+    let trials_path = out.join("trials.csv");
+    let (pending, w) = io::Pending::create(&trials_path)?;
+    let mut csv =
+        io::csv::TrialsWriter::new(w, &plan.grid_keys, &trials_path.display().to_string())?;
+    let mut summariser = lasercal::sweep::Summariser::new(&plan.points);
+    let mut merged = 0usize;
+    loop {
+        // The next row in run order over the shards' heads (k-way merge: memory per shard, not
+        // per trial).
+        let mut best: Option<(usize, (usize, usize, u64))> = None;
+        for (i, (_, s)) in streams.iter_mut().enumerate() {
+            match s.peek() {
+                None => {}
+                Some(Err(_)) => {
+                    if let Some(Err(e)) = s.next() {
+                        return Err(e);
+                    }
+                }
+                Some(Ok((r, _))) => {
+                    let key = (r.point, method_rank(r.method), r.trial);
+                    if best.is_none_or(|(_, b)| key < b) {
+                        best = Some((i, key));
+                    }
+                }
+            }
+        }
+        let Some((i, _)) = best else { break };
+        let Some(Ok((r, rec))) = streams[i].1.next() else {
+            continue;
+        };
+        csv.write_raw(&rec)?;
+        summariser.add(&r);
+        merged += 1;
+    }
+    let expected = plan.work(lasercal::sweep::Shard::ALL);
+    if merged != expected {
+        bail!(
+            "the shards hold {merged} trials, the sweep has {expected}: a shard folder is incomplete \
+             ({} left INCOMPLETE)",
+            out.display()
+        );
+    }
+    pending.commit(csv.finish()?)?;
+    let summary = summariser.finish();
     finish(&out, &sf, &plan, &summary)?;
     let meta = Meta {
         shard: 1,
@@ -103,10 +195,10 @@ pub fn run(a: Args) -> Result<()> {
         &out.join("sweep.json"),
         serde_json::to_string_pretty(&meta)?.as_bytes(),
     )?;
+    done(&out)?;
     eprintln!(
-        "merged {} shards ({} trials) into {}",
+        "merged {} shards ({merged} trials) into {}",
         metas.len(),
-        metrics.len(),
         out.display()
     );
     Ok(())

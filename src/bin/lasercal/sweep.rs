@@ -3,7 +3,6 @@ use anyhow::{Context, Result, bail};
 use lasercal::io;
 use lasercal::scenario::ScenarioFile;
 use lasercal::sweep::{self, Shard, SummaryRow, SweepPlan};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -60,6 +59,57 @@ fn parse_shard(s: &str) -> Result<Shard> {
         index: k - 1,
         count: n,
     })
+}
+
+/// The files a sweep or merge writes into its folder.
+const OUTPUTS: [&str; 6] = [
+    "trials.csv",
+    "summary.csv",
+    "plot.svg",
+    "plot.png",
+    "report.md",
+    "sweep.json",
+];
+/// Present while a sweep or merge writes its folder: a folder holding it is incomplete.
+pub const INCOMPLETE: &str = "INCOMPLETE";
+
+/// Start writing a sweep folder: the previous run's outputs are removed (a re-run never mixes old
+/// summaries with new trials) and the INCOMPLETE marker says what is running until `done`.
+pub fn begin(out: &Path, what: &str) -> Result<()> {
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("{}: cannot create the folder", out.display()))?;
+    let old: Vec<&str> = OUTPUTS
+        .iter()
+        .copied()
+        .filter(|f| out.join(f).exists())
+        .collect();
+    if !old.is_empty() {
+        eprintln!(
+            "{}: replacing the previous run's {}",
+            out.display(),
+            old.join(", ")
+        );
+        for f in old {
+            std::fs::remove_file(out.join(f))
+                .with_context(|| format!("{}: cannot remove", out.join(f).display()))?;
+        }
+    }
+    io::write(
+        &out.join(INCOMPLETE),
+        format!(
+            "{what} is writing this folder (process {}); if that run is gone, the folder is \
+             incomplete: run it again\n",
+            std::process::id()
+        )
+        .as_bytes(),
+    )?;
+    Ok(())
+}
+
+/// Finish writing a sweep folder: the marker goes.
+pub fn done(out: &Path) -> Result<()> {
+    std::fs::remove_file(out.join(INCOMPLETE))
+        .with_context(|| format!("{}: cannot remove", out.join(INCOMPLETE).display()))
 }
 
 /// summary.csv, plots and report.md: the same bytes for a whole run and for merged shards.
@@ -137,12 +187,11 @@ pub fn run(a: Args) -> Result<()> {
         rayon::current_num_threads(),
         out.display()
     );
+    begin(&out, &format!("lasercal sweep {}", a.scenario.display()))?;
     let trials_path = out.join("trials.csv");
-    let mut trials_csv = io::csv::TrialsWriter::new(
-        io::create(&trials_path)?,
-        &plan.grid_keys,
-        &trials_path.display().to_string(),
-    )?;
+    let (pending, w) = io::Pending::create(&trials_path)?;
+    let mut trials_csv =
+        io::csv::TrialsWriter::new(w, &plan.grid_keys, &trials_path.display().to_string())?;
     let pb = progress(total as u64, &sf.scenario.name);
     let started = std::time::Instant::now();
     let summary = sweep::run(
@@ -158,10 +207,7 @@ pub fn run(a: Args) -> Result<()> {
         &|done| pb.set_position(done as u64),
     )?;
     pb.finish_and_clear();
-    trials_csv
-        .finish()?
-        .flush()
-        .with_context(|| format!("{}: cannot write", trials_path.display()))?;
+    pending.commit(trials_csv.finish()?)?;
     let meta = Meta {
         format: "lasercal-sweep".into(),
         version: 1,
@@ -181,6 +227,7 @@ pub fn run(a: Args) -> Result<()> {
     let failures: usize = summary.iter().map(|s| s.failures).sum();
     if shard.count == 1 {
         finish(&out, &sf, &plan, &summary)?;
+        done(&out)?;
         if let Some(p) = &a.rerun {
             record_curves(p, &sf, &summary)?;
         }
@@ -190,6 +237,7 @@ pub fn run(a: Args) -> Result<()> {
             out.display()
         );
     } else {
+        done(&out)?;
         eprintln!(
             "shard {}/{} done: {total} trials in {:.1} s ({failures} failed); combine the shards with `lasercal merge DIR...`",
             shard.index + 1,
