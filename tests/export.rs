@@ -161,3 +161,149 @@ fn calibrate_exports_what_it_prints() {
         "{err}"
     );
 }
+
+/// The transform `calibrate` writes for a capture file (JSON, mm rows).
+fn calibrated(file: &str, dir: &std::path::Path, tag: &str) -> Vec<Vec<f64>> {
+    let json = dir.join(format!("{tag}.json"));
+    let (code, out, err) = common::lasercal(&[
+        "calibrate",
+        file,
+        "--method",
+        "ball-any-pose",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(code == 0 || code == 3, "{tag}: {out} {err}");
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    serde_json::from_value(doc["flange_to_sensor"].clone()).unwrap()
+}
+
+#[test]
+fn import_builds_the_capture_file_a_rig_would_have_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let caps = dir.path().join("sim.json");
+    let (code, _, err) = common::lasercal(&[
+        "simulate",
+        &common::scen("ball-free.toml"),
+        "--out",
+        caps.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&caps).unwrap()).unwrap();
+    let want = calibrated(caps.to_str().unwrap(), dir.path(), "sim");
+    let profiles = doc["profiles"].as_array().unwrap();
+    // The profiles: one CSV per pose (every column, empty where the sensor saw nothing) and one
+    // long CSV.
+    let per_pose = dir.path().join("profiles");
+    std::fs::create_dir_all(&per_pose).unwrap();
+    let mut long = String::from("pose,x_mm,z_mm\n");
+    for (i, p) in profiles.iter().enumerate() {
+        let mut csv = String::from("x_mm,z_mm\n");
+        for pt in p["points_mm"].as_array().unwrap() {
+            match pt.as_array() {
+                Some(xz) => {
+                    csv += &format!("{},{}\n", xz[0], xz[1]);
+                    long += &format!("{i},{},{}\n", xz[0], xz[1]);
+                }
+                None => {
+                    csv += ",\n";
+                    long += &format!("{i},,\n");
+                }
+            }
+        }
+        std::fs::write(per_pose.join(format!("pose_{i:03}.csv")), csv).unwrap();
+    }
+    let long_path = dir.path().join("long.csv");
+    std::fs::write(&long_path, long).unwrap();
+    // The poses in three controllers' conventions.
+    let pose = |p: &serde_json::Value| {
+        let t: Vec<f64> = serde_json::from_value(p["tcp_position_mm"].clone()).unwrap();
+        let q: Vec<f64> = serde_json::from_value(p["tcp_quaternion_wxyz"].clone()).unwrap();
+        let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
+        (t, q)
+    };
+    let lists = [
+        ("x_mm,y_mm,z_mm,qw,qx,qy,qz", "abb"),
+        ("x_mm,y_mm,z_mm,w_deg,p_deg,r_deg", "fanuc"),
+        ("x_mm,y_mm,z_mm,a_deg,b_deg,c_deg", "kuka"),
+        ("x_mm,y_mm,z_mm,rx_rad,ry_rad,rz_rad", "ur"),
+    ];
+    for (k, (header, name)) in lists.iter().enumerate() {
+        let mut csv = format!("{header}\n");
+        for p in profiles {
+            let (t, q) = pose(p);
+            let (roll, pitch, yaw) = q.euler_angles();
+            let rv = q.scaled_axis();
+            let rot = match *name {
+                "abb" => format!("{},{},{},{}", q.w, q.i, q.j, q.k),
+                "fanuc" => format!(
+                    "{},{},{}",
+                    roll.to_degrees(),
+                    pitch.to_degrees(),
+                    yaw.to_degrees()
+                ),
+                "kuka" => format!(
+                    "{},{},{}",
+                    yaw.to_degrees(),
+                    pitch.to_degrees(),
+                    roll.to_degrees()
+                ),
+                _ => format!("{},{},{}", rv.x, rv.y, rv.z),
+            };
+            csv += &format!("{},{},{},{rot}\n", t[0], t[1], t[2]);
+        }
+        let poses = dir.path().join(format!("{name}.csv"));
+        std::fs::write(&poses, csv).unwrap();
+        let profiles_arg = if k % 2 == 0 { &per_pose } else { &long_path };
+        let out = dir.path().join(format!("{name}-caps.json"));
+        let (code, _, err) = common::lasercal(&[
+            "import",
+            "--poses",
+            poses.to_str().unwrap(),
+            "--profiles",
+            profiles_arg.to_str().unwrap(),
+            "--sensor",
+            doc["sensor"].as_str().unwrap(),
+            "--method",
+            "ball",
+            "--specimen",
+            "ball",
+            "--radius-mm",
+            &doc["specimen"]["radius_mm"].to_string(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{name}: {err}");
+        let got = calibrated(out.to_str().unwrap(), dir.path(), name);
+        for i in 0..3 {
+            for j in 0..4 {
+                assert!(
+                    (got[i][j] - want[i][j]).abs() < 1e-6,
+                    "{name}: [{i}][{j}] {} vs {}",
+                    got[i][j],
+                    want[i][j]
+                );
+            }
+        }
+    }
+    // Errors name the file and what to fix.
+    let (code, _, err) = common::lasercal(&[
+        "import",
+        "--poses",
+        long_path.to_str().unwrap(),
+        "--profiles",
+        per_pose.to_str().unwrap(),
+        "--sensor",
+        "gocator-2340",
+        "--method",
+        "ball",
+        "--specimen",
+        "ball",
+        "--out",
+        dir.path().join("x.json").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 2);
+    assert!(err.contains("long.csv"), "{err}");
+}

@@ -4,6 +4,7 @@
 pub mod captures;
 pub mod csv;
 pub mod export;
+pub mod import;
 pub mod plot;
 pub mod report;
 #[cfg(feature = "rerun")]

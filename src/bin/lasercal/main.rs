@@ -15,6 +15,7 @@ mod check;
 mod common;
 mod fk;
 mod ik;
+mod import;
 mod merge;
 mod run;
 mod scan;
@@ -49,6 +50,8 @@ enum Command {
     /// Calibrate from a capture file (a real rig's or a simulated one) with the code `run` uses;
     /// exit 0 when the result is judged ok, 3 when suspect, 2 on bad input.
     Calibrate(calibrate::Args),
+    /// Build a capture file from a pose list (any controller's convention) and profile CSVs.
+    Import(import::Args),
     /// Combine the folders of a sharded sweep into the files an unsharded run writes.
     Merge(merge::Args),
     /// One profile as the sensor sees it, as CSV (x, z in the sensor frame).
@@ -84,6 +87,7 @@ fn main() {
         },
         Command::Scan(a) => scan::run(a),
         Command::Merge(a) => merge::run(a),
+        Command::Import(a) => import::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Calibrate(a) => match calibrate::run(a) {
             Ok(code) => std::process::exit(code),

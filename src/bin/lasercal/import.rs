@@ -1,0 +1,93 @@
+use anyhow::{Context, Result, bail};
+use lasercal::io::import::{Header, ProfileSource, capture_file, flange_poses};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Pose list (CSV, one row per profile); its header names the convention: x_mm,y_mm,z_mm
+    /// with qw,qx,qy,qz (ABB) or w_deg,p_deg,r_deg (FANUC, Yaskawa) or a_deg,b_deg,c_deg (KUKA)
+    /// or rx_rad,ry_rad,rz_rad (UR); or j1_deg..j6_deg with --robot
+    #[arg(long)]
+    poses: PathBuf,
+    /// Profiles: a folder of one CSV per pose (x_mm,z_mm; name order = pose order) or one CSV
+    /// with pose,x_mm,z_mm (pose: 0-based row of the pose list)
+    #[arg(long)]
+    profiles: PathBuf,
+    /// Sensor preset (gocator-2340, vlm350, ...)
+    #[arg(long)]
+    sensor: String,
+    /// Specimen method: ball, disk, edge or plane
+    #[arg(long)]
+    method: String,
+    /// Specimen kind (ball, disk-cylinder, disk-paper, parallel-bar, scale, knife-blade, plane)
+    #[arg(long)]
+    specimen: String,
+    /// The specimen's radius (ball, disk), mm
+    #[arg(long)]
+    radius_mm: Option<f64>,
+    /// The sensor's z noise, mm (one standard deviation, from its data sheet): the verdict's
+    /// residual test compares with it
+    #[arg(long)]
+    z_sigma_mm: Option<f64>,
+    /// Robot (irb120, irb2600 or a URDF path) for a pose list of joint angles
+    #[arg(long)]
+    robot: Option<String>,
+    /// Capture file to write (JSON)
+    #[arg(long)]
+    out: PathBuf,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let pname = a.poses.display().to_string();
+    let f = std::fs::File::open(&a.poses).with_context(|| format!("{pname}: cannot read"))?;
+    let (key, rows) = lasercal::io::csv::pose_list(f, &pname)?;
+    let robot = a
+        .robot
+        .as_deref()
+        .map(lasercal::robot::Robot::resolve)
+        .transpose()?;
+    let poses = flange_poses(key, &rows, robot.as_ref(), &pname)?;
+    for (v, name) in [(a.radius_mm, "--radius-mm"), (a.z_sigma_mm, "--z-sigma-mm")] {
+        if let Some(x) = v
+            && !(x > 0.0 && x <= 1e5)
+        {
+            bail!("{name} {x}: give a positive number of mm");
+        }
+    }
+    let source = if a.profiles.is_dir() {
+        let mut files: Vec<PathBuf> = std::fs::read_dir(&a.profiles)
+            .with_context(|| format!("{}: cannot list", a.profiles.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x.eq_ignore_ascii_case("csv")))
+            .collect();
+        files.sort();
+        let mut readers: Vec<(String, Box<dyn std::io::Read>)> = Vec::new();
+        for p in files {
+            let name = p.display().to_string();
+            let f = std::fs::File::open(&p).with_context(|| format!("{name}: cannot read"))?;
+            readers.push((name, Box::new(f)));
+        }
+        ProfileSource::PerPose(readers)
+    } else {
+        let name = a.profiles.display().to_string();
+        let f = std::fs::File::open(&a.profiles).with_context(|| format!("{name}: cannot read"))?;
+        ProfileSource::Long(name, Box::new(f))
+    };
+    let header = Header {
+        method: &a.method,
+        sensor: &a.sensor,
+        specimen: &a.specimen,
+        radius_mm: a.radius_mm,
+        feature_sigma_mm: None,
+        z_sigma_mm: a.z_sigma_mm,
+    };
+    let text = capture_file(&header, &pname, &poses, source)?;
+    lasercal::io::write(&a.out, text.as_bytes())?;
+    eprintln!(
+        "{}: {} poses ({key}) with their profiles; calibrate it with `lasercal calibrate {}`",
+        a.out.display(),
+        poses.len(),
+        a.out.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,292 @@
+//! `lasercal import`: a capture file from what a real rig records, a pose list (one row per
+//! profile, in the controller's convention) and the profiles (one CSV per pose, or one long CSV).
+//! Each pose becomes its own group (role `pose`): the any-pose estimators take them as they are.
+//! The file is assembled as the capture format and read back through `captures::from_json`, so
+//! an imported file means exactly what a written one does.
+
+use crate::error::FormatError;
+use crate::robot::Robot;
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use std::io::Read;
+
+/// Most points one profile may hold (a profiler has at most a few thousand columns).
+pub const MAX_POINTS: usize = 100_000;
+
+fn field(file: &str, at: String, message: String) -> FormatError {
+    FormatError::Field {
+        file: file.to_string(),
+        at,
+        message,
+    }
+}
+
+/// Flange poses from a pose list's rows (`io::csv::pose_list`): the key says the convention;
+/// joint angles need the robot.
+pub fn flange_poses(
+    key: &str,
+    rows: &[Vec<f64>],
+    robot: Option<&Robot>,
+    file: &str,
+) -> Result<Vec<Isometry3<f64>>, FormatError> {
+    rows.iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let at = format!("line {}", i + 2);
+            let t = Translation3::new(r[0] * 1e-3, r[1] * 1e-3, r[2] * 1e-3);
+            let deg = |k: usize| r[k].to_radians();
+            let q = match key {
+                "tcp_mm_wxyz" => {
+                    let q = nalgebra::Quaternion::new(r[3], r[4], r[5], r[6]);
+                    if !((q.norm() - 1.0).abs() < 1e-3) {
+                        return Err(field(
+                            file,
+                            at,
+                            format!(
+                                "the quaternion ({}, {}, {}, {}) has length {:.6}, not 1",
+                                r[3],
+                                r[4],
+                                r[5],
+                                r[6],
+                                q.norm()
+                            ),
+                        ));
+                    }
+                    UnitQuaternion::from_quaternion(q)
+                }
+                // FANUC / Yaskawa W, P, R: R = Rz(R) Ry(P) Rx(W).
+                "tcp_mm_wpr_deg" => UnitQuaternion::from_euler_angles(deg(3), deg(4), deg(5)),
+                // KUKA A, B, C: R = Rz(A) Ry(B) Rx(C).
+                "tcp_mm_abc_deg" => UnitQuaternion::from_euler_angles(deg(5), deg(4), deg(3)),
+                // UR rotation vector.
+                "tcp_mm_rotvec_rad" => {
+                    UnitQuaternion::from_scaled_axis(Vector3::new(r[3], r[4], r[5]))
+                }
+                "joints_deg" => {
+                    let robot = robot.ok_or_else(|| {
+                        field(
+                            file,
+                            "header".into(),
+                            "joint angles need the robot: give --robot (irb120, irb2600 or a \
+                             URDF)"
+                                .into(),
+                        )
+                    })?;
+                    let q: [f64; 6] = std::array::from_fn(|k| r[k].to_radians());
+                    if !robot.within_limits(&q, 1e-9) {
+                        return Err(field(
+                            file,
+                            at,
+                            format!("joints {:?} deg lie outside the robot's limits", &r[..6]),
+                        ));
+                    }
+                    return Ok(robot.fk(&q));
+                }
+                other => {
+                    return Err(field(
+                        file,
+                        "header".into(),
+                        format!("{other}: not a pose convention import knows"),
+                    ));
+                }
+            };
+            Ok(Isometry3::from_parts(t, q))
+        })
+        .collect()
+}
+
+/// One profile's points (x, z in mm, sensor frame) from a CSV with columns `x_mm` and `z_mm`
+/// (others ignored; an empty cell is a column without a point).
+fn points<R: Read>(
+    reader: R,
+    file: &str,
+    pose_column: bool,
+) -> Result<Vec<(usize, Option<[f64; 2]>)>, FormatError> {
+    let mut r = ::csv::ReaderBuilder::new()
+        .trim(::csv::Trim::All)
+        .flexible(true)
+        .from_reader(reader);
+    let header = r
+        .headers()
+        .map_err(|e| field(file, "header".into(), e.to_string()))?
+        .clone();
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| h.eq_ignore_ascii_case(name))
+            .ok_or_else(|| {
+                field(
+                    file,
+                    "header".into(),
+                    format!(
+                        "no {name} column (the header is: {}); a profile CSV has x_mm and z_mm{}",
+                        header.iter().collect::<Vec<_>>().join(","),
+                        if pose_column {
+                            ", and a pose column (0-based row of the pose list)"
+                        } else {
+                            ""
+                        }
+                    ),
+                )
+            })
+    };
+    let (cx, cz) = (col("x_mm")?, col("z_mm")?);
+    let cp = if pose_column {
+        Some(col("pose")?)
+    } else {
+        None
+    };
+    let mut out = Vec::new();
+    for (i, rec) in r.records().enumerate() {
+        let line = i + 2;
+        let rec = rec.map_err(|e| field(file, format!("line {line}"), e.to_string()))?;
+        if out.len() >= MAX_POINTS * 1000 {
+            return Err(field(
+                file,
+                format!("line {line}"),
+                "too many points for one import".into(),
+            ));
+        }
+        let num = |c: usize, name: &str| -> Result<Option<f64>, FormatError> {
+            let v = rec.get(c).unwrap_or("");
+            if v.is_empty() || v.eq_ignore_ascii_case("nan") {
+                return Ok(None);
+            }
+            v.parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite() && x.abs() < 1e5)
+                .map(Some)
+                .ok_or_else(|| {
+                    field(
+                        file,
+                        format!("line {line}, {name}"),
+                        format!("'{v}' is not a number of mm (|x| < 100000)"),
+                    )
+                })
+        };
+        let pose = match cp {
+            Some(c) => {
+                let v = rec.get(c).unwrap_or("");
+                v.parse::<usize>().map_err(|_| {
+                    field(
+                        file,
+                        format!("line {line}, pose"),
+                        format!("'{v}' is not a pose index"),
+                    )
+                })?
+            }
+            None => 0,
+        };
+        let p = match (num(cx, "x_mm")?, num(cz, "z_mm")?) {
+            (Some(x), Some(z)) => Some([x, z]),
+            _ => None,
+        };
+        out.push((pose, p));
+    }
+    Ok(out)
+}
+
+/// Where the profiles are: one CSV per pose (a folder's `*.csv`, in name order) or one long CSV
+/// with a `pose` column.
+pub enum ProfileSource<'a> {
+    PerPose(Vec<(String, Box<dyn Read + 'a>)>),
+    Long(String, Box<dyn Read + 'a>),
+}
+
+/// What the capture file says besides the data.
+pub struct Header<'a> {
+    pub method: &'a str,
+    pub sensor: &'a str,
+    pub specimen: &'a str,
+    pub radius_mm: Option<f64>,
+    pub feature_sigma_mm: Option<f64>,
+    /// The sensor's z noise (mm, one standard deviation) as its data sheet states it.
+    pub z_sigma_mm: Option<f64>,
+}
+
+/// Assemble a capture file (JSON text) and check it by reading it back; errors name the file,
+/// line and field.
+pub fn capture_file(
+    h: &Header,
+    poses_file: &str,
+    poses: &[Isometry3<f64>],
+    profiles: ProfileSource,
+) -> Result<String, FormatError> {
+    let mut per_pose: Vec<Vec<Option<[f64; 2]>>> = vec![Vec::new(); poses.len()];
+    match profiles {
+        ProfileSource::PerPose(files) => {
+            if files.len() != poses.len() {
+                return Err(field(
+                    poses_file,
+                    "rows".into(),
+                    format!(
+                        "{} poses but {} profile files: one profile CSV per pose, in the \
+                         pose list's order",
+                        poses.len(),
+                        files.len()
+                    ),
+                ));
+            }
+            for (i, (name, r)) in files.into_iter().enumerate() {
+                per_pose[i] = points(r, &name, false)?.into_iter().map(|p| p.1).collect();
+            }
+        }
+        ProfileSource::Long(name, r) => {
+            for (pose, p) in points(r, &name, true)? {
+                let slot = per_pose.get_mut(pose).ok_or_else(|| {
+                    field(
+                        &name,
+                        "pose".into(),
+                        format!(
+                            "pose {pose} does not exist: the pose list has {} rows (0-based)",
+                            poses.len()
+                        ),
+                    )
+                })?;
+                slot.push(p);
+            }
+        }
+    }
+    let profiles: Vec<serde_json::Value> = poses
+        .iter()
+        .zip(&per_pose)
+        .enumerate()
+        .map(|(i, (f, pts))| {
+            let t = f.translation.vector * 1e3;
+            let q = f.rotation;
+            serde_json::json!({
+                "group": i,
+                "tcp_position_mm": [t.x, t.y, t.z],
+                "tcp_quaternion_wxyz": [q.w, q.i, q.j, q.k],
+                "points_mm": pts,
+            })
+        })
+        .collect();
+    let groups: Vec<serde_json::Value> = (0..poses.len())
+        .map(|i| serde_json::json!({ "id": i, "role": "pose" }))
+        .collect();
+    let mut doc = serde_json::json!({
+        "format": super::captures::FORMAT,
+        "version": super::captures::VERSION,
+        "method": h.method,
+        "sensor": h.sensor,
+        "specimen": { "kind": h.specimen },
+        "groups": groups,
+        "profiles": profiles,
+    });
+    if let Some(r) = h.radius_mm {
+        doc["specimen"]["radius_mm"] = serde_json::json!(r);
+    }
+    if let Some(z) = h.z_sigma_mm {
+        doc["sensor_noise"] = serde_json::json!({
+            "z_sigma_near_mm": z, "z_sigma_far_mm": z, "x_sigma_mm": 0.0,
+            "dark_noise_factor": 1.0, "z_quantum_mm": 0.0,
+        });
+    }
+    if let Some(s) = h.feature_sigma_mm {
+        doc["feature_sigma_mm"] = serde_json::json!(s);
+    }
+    let text = serde_json::to_string_pretty(&doc)
+        .map_err(|e| field(poses_file, "json".into(), e.to_string()))?;
+    super::captures::from_json(&text, "the imported capture file")?;
+    Ok(text)
+}
