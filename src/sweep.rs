@@ -4,7 +4,7 @@
 use crate::error::Error;
 use crate::method::MethodId;
 use crate::metrics::{Metric, Metrics, Stat};
-use crate::scenario::{GridPoint, ScenarioFile};
+use crate::scenario::ScenarioFile;
 use crate::trial::{TrialOutcome, run_trial};
 use rayon::prelude::*;
 
@@ -108,9 +108,16 @@ impl TrialRow {
     }
 }
 
+/// A sweep: the scenario file (whose grid points are built one at a time), each point's grid
+/// values (for the summaries), the trials and the seed. Its memory does not grow with the grid
+/// beyond the values.
 #[derive(Debug, Clone)]
 pub struct SweepPlan {
-    pub points: Vec<GridPoint>,
+    pub sf: ScenarioFile,
+    /// Each grid point's (key, value) overrides, in grid order.
+    pub values: Vec<Vec<(String, toml::Value)>>,
+    /// Each grid point's method count.
+    methods: Vec<usize>,
     pub trials: usize,
     pub seed: u64,
     pub grid_keys: Vec<String>,
@@ -119,29 +126,38 @@ pub struct SweepPlan {
 impl SweepPlan {
     /// The sweep a scenario file describes; `trials` overrides its trial count.
     pub fn new(sf: &ScenarioFile, trials: Option<usize>, seed: Option<u64>) -> SweepPlan {
-        let points = sf.grid().to_vec();
+        let (mut values, mut methods) = (Vec::new(), Vec::new());
+        // Validated at load: every point builds.
+        for p in sf.points().flatten() {
+            methods.push(p.scenario.methods.len());
+            values.push(p.values);
+        }
         let trials = trials
             .or(sf.scenario.sweep.as_ref().map(|s| s.trials))
             .unwrap_or(1);
-        let grid_keys = points
+        let grid_keys = values
             .first()
-            .map(|p| p.values.iter().map(|v| v.0.clone()).collect())
+            .map(|v| v.iter().map(|v| v.0.clone()).collect())
             .unwrap_or_default();
         SweepPlan {
-            points,
+            sf: sf.clone(),
+            values,
+            methods,
             trials,
             seed: seed.unwrap_or(sf.scenario.seed),
             grid_keys,
         }
     }
 
+    /// Grid points.
+    pub fn n_points(&self) -> usize {
+        self.values.len()
+    }
+
     /// Trials this shard runs, over all points and methods.
     pub fn work(&self, shard: Shard) -> usize {
         let per_point = (0..self.trials).filter(|t| shard.owns(*t)).count();
-        self.points
-            .iter()
-            .map(|p| p.scenario.methods.len() * per_point)
-            .sum()
+        self.methods.iter().map(|m| m * per_point).sum()
     }
 }
 
@@ -203,7 +219,8 @@ pub fn run(
     let mut summary = Vec::new();
     let mut done = 0;
     let mine: Vec<usize> = (0..plan.trials).filter(|t| shard.owns(*t)).collect();
-    for point in &plan.points {
+    for point in plan.sf.points() {
+        let point = point?;
         let setup = point.scenario.build(file)?;
         for &method in &point.scenario.methods {
             let mut acc = Accumulator::new();
@@ -243,13 +260,13 @@ pub struct MetricRow {
 /// Summaries built from metric rows fed one at a time in run order (point, method, trial): what
 /// `merge` streams through, holding only the current (point, method)'s values.
 pub struct Summariser<'a> {
-    points: &'a [GridPoint],
+    points: &'a [Vec<(String, toml::Value)>],
     current: Option<(usize, MethodId, Accumulator)>,
     done: Vec<SummaryRow>,
 }
 
 impl<'a> Summariser<'a> {
-    pub fn new(points: &'a [GridPoint]) -> Summariser<'a> {
+    pub fn new(points: &'a [Vec<(String, toml::Value)>]) -> Summariser<'a> {
         Summariser {
             points,
             current: None,
@@ -273,11 +290,7 @@ impl<'a> Summariser<'a> {
 
     fn close(&mut self) {
         if let Some((p, m, acc)) = self.current.take() {
-            let values = self
-                .points
-                .get(p)
-                .map(|g| g.values.clone())
-                .unwrap_or_default();
+            let values = self.points.get(p).cloned().unwrap_or_default();
             self.done.push(acc.finish(p, values, m));
         }
     }
@@ -290,7 +303,10 @@ impl<'a> Summariser<'a> {
 
 /// Summaries from metric rows in run order (point, method, trial), e.g. merged shards; equal to
 /// what `run` computes for the same rows.
-pub fn summarise_metrics(rows: &[MetricRow], points: &[GridPoint]) -> Vec<SummaryRow> {
+pub fn summarise_metrics(
+    rows: &[MetricRow],
+    points: &[Vec<(String, toml::Value)>],
+) -> Vec<SummaryRow> {
     let mut s = Summariser::new(points);
     for r in rows {
         s.add(r);

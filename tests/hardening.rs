@@ -346,3 +346,26 @@ fn a_sweep_marks_its_folder_until_done_and_replaces_an_old_run() {
     assert!(marker.exists(), "the marker is written first");
     assert!(!out2.join("trials.csv").exists() && !out2.join("summary.csv").exists());
 }
+
+#[test]
+fn a_grid_beyond_a_million_points_is_refused_before_it_is_built() {
+    let hundred: Vec<toml::Value> = (0..100)
+        .map(|i| toml::Value::Float(0.01 * i as f64))
+        .collect();
+    let e = scenario_error(&|t| {
+        let grid = t["sweep"]["grid"].as_table_mut().unwrap();
+        grid.clear();
+        for k in [
+            "sensor.noise.z_sigma_far_mm",
+            "sensor.noise.z_sigma_near_mm",
+            "sensor.noise.x_sigma_mm",
+            "sensor.noise.dropout",
+        ] {
+            grid.insert(k.into(), toml::Value::Array(hundred.clone()));
+        }
+    });
+    assert!(
+        e.contains("sweep.grid") && e.contains("more than 1000000 grid points"),
+        "{e}"
+    );
+}

@@ -19,7 +19,7 @@ fn every_scenario_file_parses_and_builds() {
         if p.extension().is_some_and(|x| x == "toml") {
             let sf = ScenarioFile::load(&p).unwrap_or_else(|e| panic!("{e}"));
             // Building checks reachability and plans; the first grid point is enough here.
-            let first = sf.grid()[0].clone();
+            let first = sf.point(0).unwrap();
             first
                 .scenario
                 .build(&sf.file)

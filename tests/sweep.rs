@@ -116,7 +116,7 @@ fn results_do_not_depend_on_thread_count() {
     assert_eq!(bytes(&one), bytes(&four));
     // And a trial is the same whether run alone or in a sweep.
     let sf = ScenarioFile::parse(&text, "t.toml").unwrap();
-    let p = &sf.grid()[1];
+    let p = &sf.point(1).unwrap();
     let setup = p.scenario.build(&sf.file).unwrap();
     let alone = run_trial(&setup, "disk".parse().unwrap(), sf.scenario.seed, 17);
     assert_eq!(

@@ -3,6 +3,9 @@
 
 use super::{Scenario, ScenarioError, ScenarioFile};
 
+/// Most grid points a sweep may have.
+pub const MAX_GRID_POINTS: usize = 1_000_000;
+
 /// One grid point: the (key, value) overrides and the scenario they give.
 #[derive(Debug, Clone)]
 pub struct GridPoint {
@@ -38,56 +41,76 @@ impl ScenarioFile {
         Ok(axes)
     }
 
-    /// The sweep grid's points, deserialised (one point, the base scenario, when there is no
-    /// sweep). The last axis varies fastest.
-    pub(super) fn make_grid(&self) -> Result<Vec<GridPoint>, ScenarioError> {
+    /// How many points the grid has (1 without a sweep); refused beyond `MAX_GRID_POINTS`
+    /// before anything is built.
+    pub fn grid_len(&self) -> Result<usize, ScenarioError> {
         let Some(sweep) = &self.scenario.sweep else {
-            return Ok(vec![GridPoint {
+            return Ok(1);
+        };
+        let axes = self.axes(&sweep.grid)?;
+        let total = axes
+            .iter()
+            .try_fold(1usize, |acc, a| acc.checked_mul(a.1.len()))
+            .filter(|t| *t <= MAX_GRID_POINTS);
+        total.ok_or_else(|| {
+            self.bad(
+                "sweep.grid",
+                &toml::Value::String(
+                    axes.iter()
+                        .map(|a| format!("{} x {}", a.0, a.1.len()))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                ),
+                &format!("more than {MAX_GRID_POINTS} grid points; split the sweep"),
+            )
+        })
+    }
+
+    /// Grid point `index`, deserialised (the base scenario when there is no sweep). The last
+    /// axis varies fastest. Built on demand: a sweep holds one point at a time.
+    pub fn point(&self, index: usize) -> Result<GridPoint, ScenarioError> {
+        let Some(sweep) = &self.scenario.sweep else {
+            return Ok(GridPoint {
                 index: 0,
                 values: vec![],
                 scenario: self.scenario.clone(),
-            }]);
+            });
         };
         let axes = self.axes(&sweep.grid)?;
-        let total: usize = axes.iter().map(|a| a.1.len()).product();
-        let mut out = Vec::with_capacity(total);
-        for index in 0..total {
-            let mut rem = index;
-            let mut picks = vec![0; axes.len()];
-            for (i, a) in axes.iter().enumerate().rev() {
-                picks[i] = rem % a.1.len();
-                rem /= a.1.len();
-            }
-            let mut table = self.raw.clone();
-            let mut values = Vec::with_capacity(axes.len());
-            for (i, (k, vals)) in axes.iter().enumerate() {
-                let v = vals[picks[i]].clone();
-                let slot = set_dotted(&mut table, k).ok_or_else(|| {
-                    self.bad(
-                        &format!("sweep.grid.\"{k}\""),
-                        &v,
-                        "this key does not name a scenario value",
-                    )
-                })?;
-                *slot = v.clone();
-                values.push((k.clone(), v));
-            }
-            let scenario: Scenario =
-                toml::Value::Table(table)
-                    .try_into()
-                    .map_err(|e: toml::de::Error| ScenarioError::BadValue {
-                        file: self.file.clone(),
-                        key: join(values.iter().map(|(k, _)| k.clone())),
-                        value: join(values.iter().map(|(_, v)| v.to_string())),
-                        reason: e.to_string().trim().to_string(),
-                    })?;
-            out.push(GridPoint {
-                index,
-                values,
-                scenario,
-            });
+        let mut rem = index;
+        let mut picks = vec![0; axes.len()];
+        for (i, a) in axes.iter().enumerate().rev() {
+            picks[i] = rem % a.1.len();
+            rem /= a.1.len();
         }
-        Ok(out)
+        let mut table = self.raw.clone();
+        let mut values = Vec::with_capacity(axes.len());
+        for (i, (k, vals)) in axes.iter().enumerate() {
+            let v = vals[picks[i]].clone();
+            let slot = set_dotted(&mut table, k).ok_or_else(|| {
+                self.bad(
+                    &format!("sweep.grid.\"{k}\""),
+                    &v,
+                    "this key does not name a scenario value",
+                )
+            })?;
+            *slot = v.clone();
+            values.push((k.clone(), v));
+        }
+        let scenario: Scenario =
+            toml::Value::Table(table)
+                .try_into()
+                .map_err(|e: toml::de::Error| ScenarioError::BadValue {
+                    file: self.file.clone(),
+                    key: join(values.iter().map(|(k, _)| k.clone())),
+                    value: join(values.iter().map(|(_, v)| v.to_string())),
+                    reason: e.to_string().trim().to_string(),
+                })?;
+        Ok(GridPoint {
+            index,
+            values,
+            scenario,
+        })
     }
 }
 

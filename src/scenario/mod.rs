@@ -18,7 +18,8 @@ pub struct ScenarioFile {
     pub file: String,
     pub raw: toml::Table,
     pub scenario: Scenario,
-    points: Vec<GridPoint>,
+    /// The grid's size (its points are built on demand: `point`).
+    points: usize,
 }
 
 /// `[<section>.poses] csv = "file.csv"` (relative to the scenario's folder): the file's pose list
@@ -143,21 +144,27 @@ impl ScenarioFile {
             file: file.to_string(),
             raw,
             scenario,
-            points: Vec::new(),
+            points: 0,
         };
         sf.scenario.validate(file)?;
-        sf.points = sf.make_grid()?;
+        sf.points = sf.grid_len()?;
+        // Every point validated now (a bad value fails before the sweep starts), one at a time.
         if sf.scenario.sweep.is_some() {
-            for p in &sf.points {
-                p.scenario.validate(file)?;
+            for i in 0..sf.points {
+                sf.point(i)?.scenario.validate(file)?;
             }
         }
         Ok(sf)
     }
 
-    /// The sweep grid's points (one point, the base scenario, when there is no sweep), validated.
-    pub fn grid(&self) -> &[GridPoint] {
-        &self.points
+    /// How many grid points (1 without a sweep); each is `point(i)`, validated at load.
+    pub fn n_points(&self) -> usize {
+        self.points
+    }
+
+    /// The grid's points in order, built one at a time.
+    pub fn points(&self) -> impl Iterator<Item = Result<GridPoint, ScenarioError>> + '_ {
+        (0..self.points).map(|i| self.point(i))
     }
 }
 

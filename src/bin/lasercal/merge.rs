@@ -89,8 +89,7 @@ pub fn run(a: Args) -> Result<()> {
             index: m.shard - 1,
             count: m.shards,
         };
-        let (points, trials, methods) =
-            (plan.points.len(), plan.trials, sf.scenario.methods.clone());
+        let (points, trials, methods) = (plan.n_points(), plan.trials, sf.scenario.methods.clone());
         let rank = move |m: MethodId| methods.iter().position(|x| *x == m);
         let mut last: Option<(usize, usize, u64)> = None;
         let file = name.clone();
@@ -145,7 +144,7 @@ pub fn run(a: Args) -> Result<()> {
     let (pending, w) = io::Pending::create(&trials_path)?;
     let mut csv =
         io::csv::TrialsWriter::new(w, &plan.grid_keys, &trials_path.display().to_string())?;
-    let mut summariser = lasercal::sweep::Summariser::new(&plan.points);
+    let mut summariser = lasercal::sweep::Summariser::new(&plan.values);
     let mut merged = 0usize;
     loop {
         // The next row in run order over the shards' heads (k-way merge: memory per shard, not

@@ -173,7 +173,7 @@ pub fn run(a: Args) -> Result<()> {
     eprintln!(
         "sweep {}: {} grid points x {} trials{}, {} threads, writing {}",
         sf.scenario.name,
-        plan.points.len(),
+        plan.n_points(),
         plan.trials,
         if shard.count > 1 {
             format!(
