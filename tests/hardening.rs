@@ -369,3 +369,29 @@ fn a_grid_beyond_a_million_points_is_refused_before_it_is_built() {
         "{e}"
     );
 }
+
+#[test]
+fn an_analytic_disk_out_of_the_sensors_view_is_refused() {
+    // The sensor mounted 3 m out: the analytic source gave chords anyway and a confident answer.
+    let text = std::fs::read_to_string(common::scen("chen2018-disk.toml")).unwrap();
+    let far: String = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("mount_position_mm") {
+                "mount_position_mm = [6.0, 54.0, 3000.0]".to_string()
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("far.toml");
+    std::fs::write(&p, far).unwrap();
+    let (code, _, err) = common::lasercal(&["run", p.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("out of range") && err.contains("mount_position_mm"),
+        "{err}"
+    );
+}

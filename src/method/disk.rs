@@ -304,6 +304,32 @@ impl Plan for DiskPlan {
                     rng,
                     &mut |f, _| actual(f),
                 );
+                // The analytic source, as the paper's simulation, does not clip chords to the
+                // sensor's view (the paper's own poses reach up to 17 mm beyond the modelled
+                // Gocator 2340's far range); a scan mostly out of view is refused, not calibrated.
+                let seen = |v: &nalgebra::Vector2<f64>| rig.sensor.sees(v.x, v.y);
+                let visible = scan
+                    .chords
+                    .iter()
+                    .filter(|c| seen(&c.a) && seen(&c.b))
+                    .count();
+                if 2 * visible < p.m.max(1) {
+                    let (z0, z1) = rig.sensor.z_range();
+                    return Err(crate::sim::PlanError::BadScan {
+                        scan: i,
+                        reason: format!(
+                            "only {} of {} chords lie within the sensor's view (z {:.1} to {:.1} \
+                             mm, fan +-{:.1} deg): the disk is out of range; check the mounting \
+                             (mount_position_mm) and the scan poses",
+                            visible,
+                            p.m,
+                            z0 * 1e3,
+                            z1 * 1e3,
+                            rig.sensor.tan_half_fov.atan().to_degrees()
+                        ),
+                    }
+                    .into());
+                }
                 for ch in scan.chords {
                     let f = flange_pose(&p.r_tcp, &(p.t_start + (p.t_end - p.t_start) * ch.u));
                     profiles.push(CaptureProfile {

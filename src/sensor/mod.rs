@@ -445,6 +445,15 @@ impl SensorModel {
         self.dir_z * (p.z - self.apex_z)
     }
 
+    /// Whether a profile point (x, z) lies where the sensor measures: within its depth range and
+    /// its fan.
+    pub fn sees(&self, x: f64, z: f64) -> bool {
+        let depth = self.dir_z * (z - self.apex_z);
+        depth >= self.depth_near
+            && depth <= self.depth_far
+            && (x / depth).abs() <= self.tan_half_fov
+    }
+
     /// Slope x/depth of the ray through a profile point (x, z).
     pub fn tan_of(&self, x: f64, z: f64) -> f64 {
         x / (self.dir_z * (z - self.apex_z))
