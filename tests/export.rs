@@ -229,6 +229,11 @@ fn import_builds_the_capture_file_a_rig_would_have_written() {
         ("x_mm,y_mm,z_mm,w_deg,p_deg,r_deg", "fanuc"),
         ("x_mm,y_mm,z_mm,a_deg,b_deg,c_deg", "kuka"),
         ("x_mm,y_mm,z_mm,rx_rad,ry_rad,rz_rad", "ur"),
+        ("x_mm,y_mm,z_mm,qx,qy,qz,qw", "ros"),
+        (
+            "m00,m01,m02,m03_mm,m10,m11,m12,m13_mm,m20,m21,m22,m23_mm,m30,m31,m32,m33",
+            "matrix",
+        ),
     ];
     for (k, (header, name)) in lists.iter().enumerate() {
         let mut csv = format!("{header}\n");
@@ -250,6 +255,14 @@ fn import_builds_the_capture_file_a_rig_would_have_written() {
                     pitch.to_degrees(),
                     roll.to_degrees()
                 ),
+                "ros" => format!("{},{},{},{}", q.i, q.j, q.k, q.w),
+                "matrix" => {
+                    let m = q.to_rotation_matrix().into_inner();
+                    let row =
+                        |a: usize| format!("{},{},{},{}", m[(a, 0)], m[(a, 1)], m[(a, 2)], t[a]);
+                    csv += &format!("{},{},{},0,0,0,1\n", row(0), row(1), row(2));
+                    continue;
+                }
                 _ => format!("{},{},{}", rv.x, rv.y, rv.z),
             };
             csv += &format!("{},{},{},{rot}\n", t[0], t[1], t[2]);

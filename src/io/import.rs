@@ -20,6 +20,78 @@ fn field(file: &str, at: String, message: String) -> FormatError {
     }
 }
 
+/// The 4x4 matrix columns a pose list may have instead (row-major, translation in mm).
+const MATRIX: [&str; 16] = [
+    "m00", "m01", "m02", "m03_mm", "m10", "m11", "m12", "m13_mm", "m20", "m21", "m22", "m23_mm",
+    "m30", "m31", "m32", "m33",
+];
+
+/// A pose list: the scenario's conventions (`io::csv::pose_list`), plus what only recordings
+/// carry: a quaternion in x, y, z, w order (ROS) and 4x4 matrices. Returns the convention's key
+/// and the rows.
+pub fn pose_rows(text: &str, file: &str) -> Result<(&'static str, Vec<Vec<f64>>), FormatError> {
+    let header: Vec<String> = text
+        .lines()
+        .next()
+        .unwrap_or("")
+        .split(',')
+        .map(|h| h.trim().to_ascii_lowercase())
+        .collect();
+    let own: Option<(&'static str, Vec<&str>)> =
+        if header == ["x_mm", "y_mm", "z_mm", "qx", "qy", "qz", "qw"] {
+            Some((
+                "tcp_mm_xyzw",
+                vec!["x_mm", "y_mm", "z_mm", "qx", "qy", "qz", "qw"],
+            ))
+        } else if header == MATRIX {
+            Some(("matrix_mm", MATRIX.to_vec()))
+        } else {
+            None
+        };
+    let Some((key, cols)) = own else {
+        return super::csv::pose_list(text.as_bytes(), file);
+    };
+    let mut rows = Vec::new();
+    for (i, line) in text.lines().skip(1).enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        if rows.len() >= 10_000 {
+            return Err(field(
+                file,
+                format!("line {}", i + 2),
+                "more than 10000 poses".into(),
+            ));
+        }
+        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+        if cells.len() != cols.len() {
+            return Err(field(
+                file,
+                format!("line {}", i + 2),
+                format!("{} cells; the header has {}", cells.len(), cols.len()),
+            ));
+        }
+        let row = cells
+            .iter()
+            .zip(&cols)
+            .map(|(c, name)| {
+                c.parse::<f64>()
+                    .ok()
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| {
+                        field(
+                            file,
+                            format!("line {}, {name}", i + 2),
+                            format!("'{c}' is not a finite number"),
+                        )
+                    })
+            })
+            .collect::<Result<Vec<f64>, _>>()?;
+        rows.push(row);
+    }
+    Ok((key, rows))
+}
+
 /// Flange poses from a pose list's rows (`io::csv::pose_list`): the key says the convention;
 /// joint angles need the robot.
 pub fn flange_poses(
@@ -32,27 +104,47 @@ pub fn flange_poses(
         .enumerate()
         .map(|(i, r)| {
             let at = format!("line {}", i + 2);
+            if key == "matrix_mm" {
+                let m = nalgebra::Matrix3::from_fn(|a, b| r[4 * a + b]);
+                let off = (m.transpose() * m - nalgebra::Matrix3::identity()).norm();
+                let last = [r[12], r[13], r[14], r[15]];
+                if !(off < 1e-4 && m.determinant() > 0.0) || last != [0.0, 0.0, 0.0, 1.0] {
+                    return Err(field(
+                        file,
+                        at,
+                        format!(
+                            "not a rigid transform: the rotation block is {off:.2e} from \
+                             orthonormal (det {:.6}), the last row {last:?} (want 0 0 0 1)",
+                            m.determinant()
+                        ),
+                    ));
+                }
+                let rot = crate::calib::quat_from_matrix(&m);
+                return Ok(Isometry3::from_parts(
+                    Translation3::new(r[3] * 1e-3, r[7] * 1e-3, r[11] * 1e-3),
+                    rot,
+                ));
+            }
             let t = Translation3::new(r[0] * 1e-3, r[1] * 1e-3, r[2] * 1e-3);
             let deg = |k: usize| r[k].to_radians();
-            let q = match key {
-                "tcp_mm_wxyz" => {
-                    let q = nalgebra::Quaternion::new(r[3], r[4], r[5], r[6]);
-                    if !((q.norm() - 1.0).abs() < 1e-3) {
-                        return Err(field(
-                            file,
-                            at,
-                            format!(
-                                "the quaternion ({}, {}, {}, {}) has length {:.6}, not 1",
-                                r[3],
-                                r[4],
-                                r[5],
-                                r[6],
-                                q.norm()
-                            ),
-                        ));
-                    }
-                    UnitQuaternion::from_quaternion(q)
+            let quaternion = |w: f64, x: f64, y: f64, z: f64| {
+                let q = nalgebra::Quaternion::new(w, x, y, z);
+                if (q.norm() - 1.0).abs() < 1e-3 {
+                    Ok(UnitQuaternion::from_quaternion(q))
+                } else {
+                    Err(field(
+                        file,
+                        at.clone(),
+                        format!(
+                            "the quaternion (w {w}, x {x}, y {y}, z {z}) has length {:.6}, not 1",
+                            q.norm()
+                        ),
+                    ))
                 }
+            };
+            let q = match key {
+                "tcp_mm_xyzw" => quaternion(r[6], r[3], r[4], r[5])?,
+                "tcp_mm_wxyz" => quaternion(r[3], r[4], r[5], r[6])?,
                 // FANUC / Yaskawa W, P, R: R = Rz(R) Ry(P) Rx(W).
                 "tcp_mm_wpr_deg" => UnitQuaternion::from_euler_angles(deg(3), deg(4), deg(5)),
                 // KUKA A, B, C: R = Rz(A) Ry(B) Rx(C).

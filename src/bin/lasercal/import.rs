@@ -5,8 +5,9 @@ use std::path::PathBuf;
 #[derive(clap::Args)]
 pub struct Args {
     /// Pose list (CSV, one row per profile); its header names the convention: x_mm,y_mm,z_mm
-    /// with qw,qx,qy,qz (ABB) or w_deg,p_deg,r_deg (FANUC, Yaskawa) or a_deg,b_deg,c_deg (KUKA)
-    /// or rx_rad,ry_rad,rz_rad (UR); or j1_deg..j6_deg with --robot
+    /// with qw,qx,qy,qz (ABB) or qx,qy,qz,qw (ROS) or w_deg,p_deg,r_deg (FANUC, Yaskawa) or
+    /// a_deg,b_deg,c_deg (KUKA) or rx_rad,ry_rad,rz_rad (UR); m00..m33 (4x4, translation
+    /// m03_mm, m13_mm, m23_mm); or j1_deg..j6_deg with --robot
     #[arg(long)]
     poses: PathBuf,
     /// Profiles: a folder of one CSV per pose (x_mm,z_mm; name order = pose order) or one CSV
@@ -39,8 +40,16 @@ pub struct Args {
 
 pub fn run(a: Args) -> Result<()> {
     let pname = a.poses.display().to_string();
-    let f = std::fs::File::open(&a.poses).with_context(|| format!("{pname}: cannot read"))?;
-    let (key, rows) = lasercal::io::csv::pose_list(f, &pname)?;
+    let meta = std::fs::metadata(&a.poses).with_context(|| format!("{pname}: cannot read"))?;
+    if meta.len() > 64 << 20 {
+        bail!(
+            "{pname}: {} bytes; a pose list is at most 64 MB",
+            meta.len()
+        );
+    }
+    let text =
+        std::fs::read_to_string(&a.poses).with_context(|| format!("{pname}: cannot read"))?;
+    let (key, rows) = lasercal::io::import::pose_rows(&text, &pname)?;
     let robot = a
         .robot
         .as_deref()
