@@ -162,6 +162,27 @@ fn calibrate_exports_what_it_prints() {
     );
 }
 
+/// A float64 NPY array (format 1.0, C order) of `rows`, each `width` wide.
+fn npy(rows: &[Vec<f64>], width: usize) -> Vec<u8> {
+    let mut h = format!(
+        "{{'descr': '<f8', 'fortran_order': False, 'shape': ({}, {width}), }}",
+        rows.len()
+    )
+    .into_bytes();
+    let pad = (64 - (10 + h.len() + 1) % 64) % 64;
+    h.extend(std::iter::repeat_n(b' ', pad));
+    h.push(b'\n');
+    let mut out = b"\x93NUMPY\x01\x00".to_vec();
+    out.extend((h.len() as u16).to_le_bytes());
+    out.extend(h);
+    for r in rows {
+        for v in r {
+            out.extend(v.to_le_bytes());
+        }
+    }
+    out
+}
+
 /// The transform `calibrate` writes for a capture file (JSON, mm rows).
 fn calibrated(file: &str, dir: &std::path::Path, tag: &str) -> Vec<Vec<f64>> {
     let json = dir.join(format!("{tag}.json"));
@@ -197,26 +218,37 @@ fn import_builds_the_capture_file_a_rig_would_have_written() {
     // The profiles: one CSV per pose (every column, empty where the sensor saw nothing) and one
     // long CSV.
     let per_pose = dir.path().join("profiles");
+    let per_pose_npy = dir.path().join("profiles-npy");
     std::fs::create_dir_all(&per_pose).unwrap();
+    std::fs::create_dir_all(&per_pose_npy).unwrap();
     let mut long = String::from("pose,x_mm,z_mm\n");
+    let mut long_npy = Vec::new();
     for (i, p) in profiles.iter().enumerate() {
         let mut csv = String::from("x_mm,z_mm\n");
+        let mut rows = Vec::new();
         for pt in p["points_mm"].as_array().unwrap() {
-            match pt.as_array() {
+            let (x, z) = match pt.as_array() {
                 Some(xz) => {
                     csv += &format!("{},{}\n", xz[0], xz[1]);
                     long += &format!("{i},{},{}\n", xz[0], xz[1]);
+                    (xz[0].as_f64().unwrap(), xz[1].as_f64().unwrap())
                 }
                 None => {
                     csv += ",\n";
                     long += &format!("{i},,\n");
+                    (f64::NAN, f64::NAN)
                 }
-            }
+            };
+            rows.push(vec![x, z]);
+            long_npy.push(vec![i as f64, x, z]);
         }
         std::fs::write(per_pose.join(format!("pose_{i:03}.csv")), csv).unwrap();
+        std::fs::write(per_pose_npy.join(format!("pose_{i:03}.npy")), npy(&rows, 2)).unwrap();
     }
     let long_path = dir.path().join("long.csv");
     std::fs::write(&long_path, long).unwrap();
+    let long_npy_path = dir.path().join("long.npy");
+    std::fs::write(&long_npy_path, npy(&long_npy, 3)).unwrap();
     // The poses in three controllers' conventions.
     let pose = |p: &serde_json::Value| {
         let t: Vec<f64> = serde_json::from_value(p["tcp_position_mm"].clone()).unwrap();
@@ -269,7 +301,12 @@ fn import_builds_the_capture_file_a_rig_would_have_written() {
         }
         let poses = dir.path().join(format!("{name}.csv"));
         std::fs::write(&poses, csv).unwrap();
-        let profiles_arg = if k % 2 == 0 { &per_pose } else { &long_path };
+        let profiles_arg = match k {
+            0 | 2 => &per_pose,
+            1 | 3 => &long_path,
+            4 => &per_pose_npy,
+            _ => &long_npy_path,
+        };
         let out = dir.path().join(format!("{name}-caps.json"));
         let (code, _, err) = common::lasercal(&[
             "import",

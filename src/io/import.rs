@@ -277,6 +277,59 @@ fn points<R: Read>(
     Ok(out)
 }
 
+/// Profile points from an NPY array of float64: shape (n, 2) x_mm, z_mm, or with a pose column
+/// (n, 3) pose, x_mm, z_mm; NaN where a column has no point.
+fn npy_points<R: Read>(
+    reader: R,
+    file: &str,
+    pose_column: bool,
+) -> Result<Vec<(usize, Option<[f64; 2]>)>, FormatError> {
+    let bad = |m: String| field(file, "npy".into(), m);
+    let npy = npyz::NpyFile::new(reader).map_err(|e| bad(e.to_string()))?;
+    let width = if pose_column { 3 } else { 2 };
+    let shape = npy.shape().to_vec();
+    if shape.len() != 2 || shape[1] != width as u64 || shape[0] > (MAX_POINTS * 1000) as u64 {
+        return Err(bad(format!(
+            "shape {shape:?}: want (n, {width}) ({}x_mm, z_mm)",
+            if pose_column { "pose, " } else { "" }
+        )));
+    }
+    if npy.order() != npyz::Order::C {
+        return Err(bad("Fortran order: save the array in C order".into()));
+    }
+    let v: Vec<f64> = npy
+        .into_vec()
+        .map_err(|e| bad(format!("{e} (the array must hold float64)")))?;
+    v.chunks(width)
+        .enumerate()
+        .map(|(i, r)| {
+            let (pose, x, z) = if pose_column {
+                (r[0], r[1], r[2])
+            } else {
+                (0.0, r[0], r[1])
+            };
+            if !(pose >= 0.0 && pose.fract() == 0.0 && pose < 1e7) {
+                return Err(bad(format!("row {i}: pose {pose} is not a pose index")));
+            }
+            let p = (x.is_finite() && z.is_finite() && x.abs() < 1e5 && z.abs() < 1e5)
+                .then_some([x, z]);
+            Ok((pose as usize, p))
+        })
+        .collect()
+}
+
+fn any_points<R: Read>(
+    reader: R,
+    file: &str,
+    pose_column: bool,
+) -> Result<Vec<(usize, Option<[f64; 2]>)>, FormatError> {
+    if file.to_ascii_lowercase().ends_with(".npy") {
+        npy_points(reader, file, pose_column)
+    } else {
+        points(reader, file, pose_column)
+    }
+}
+
 /// Where the profiles are: one CSV per pose (a folder's `*.csv`, in name order) or one long CSV
 /// with a `pose` column.
 pub enum ProfileSource<'a> {
@@ -319,11 +372,14 @@ pub fn capture_file(
                 ));
             }
             for (i, (name, r)) in files.into_iter().enumerate() {
-                per_pose[i] = points(r, &name, false)?.into_iter().map(|p| p.1).collect();
+                per_pose[i] = any_points(r, &name, false)?
+                    .into_iter()
+                    .map(|p| p.1)
+                    .collect();
             }
         }
         ProfileSource::Long(name, r) => {
-            for (pose, p) in points(r, &name, true)? {
+            for (pose, p) in any_points(r, &name, true)? {
                 let slot = per_pose.get_mut(pose).ok_or_else(|| {
                     field(
                         &name,

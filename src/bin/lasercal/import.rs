@@ -11,7 +11,8 @@ pub struct Args {
     #[arg(long)]
     poses: PathBuf,
     /// Profiles: a folder of one CSV per pose (x_mm,z_mm; name order = pose order) or one CSV
-    /// with pose,x_mm,z_mm (pose: 0-based row of the pose list)
+    /// with pose,x_mm,z_mm (pose: 0-based row of the pose list); NPY float64 arrays likewise:
+    /// (n, 2) per pose or (n, 3) pose, x_mm, z_mm, NaN where a column has no point
     #[arg(long)]
     profiles: PathBuf,
     /// Sensor preset (gocator-2340, vlm350, ...)
@@ -67,7 +68,10 @@ pub fn run(a: Args) -> Result<()> {
         let mut files: Vec<PathBuf> = std::fs::read_dir(&a.profiles)
             .with_context(|| format!("{}: cannot list", a.profiles.display()))?
             .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|x| x.eq_ignore_ascii_case("csv")))
+            .filter(|p| {
+                p.extension()
+                    .is_some_and(|x| x.eq_ignore_ascii_case("csv") || x.eq_ignore_ascii_case("npy"))
+            })
             .collect();
         files.sort();
         let mut readers: Vec<(String, Box<dyn std::io::Read>)> = Vec::new();
