@@ -70,3 +70,57 @@ fn cli_bad_arguments_fail_cleanly() {
     let (_, _, err) = lasercal(&["ik", "irb120", "2000", "0", "0", "1", "0", "0", "0"]);
     assert!(err.contains("out of reach"), "{err}");
 }
+
+#[test]
+fn cli_errors_name_the_missing_argument_and_bad_plot_keys() {
+    let (code, _, err) = common::lasercal(&["simulate", &common::scen("comparison.toml")]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--out"), "{err}");
+    let (code, _, err) = common::lasercal(&["run"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("<SCENARIO>"), "{err}");
+    // A typo in [sweep.plot] y: refused before any trial runs (it gave an empty plot, exit 0).
+    let text = std::fs::read_to_string(common::scen("comparison.toml")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("typo.toml");
+    std::fs::write(
+        &p,
+        text.replace(
+            "y = \"translation_error_mm_p95\"",
+            "y = \"translation_eror_mm_p95\"",
+        ),
+    )
+    .unwrap();
+    let (code, _, err) = common::lasercal(&[
+        "sweep",
+        p.to_str().unwrap(),
+        "--out",
+        dir.path().join("o").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("sweep.plot.y") && err.contains("translation_error_mm_p95"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_long_run_off_a_terminal_prints_progress_lines() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lasercal"))
+        .args([
+            "sweep",
+            &common::scen("xu2021-rotations.toml"),
+            "--trials",
+            "12",
+            "--out",
+            dir.path().join("o").to_str().unwrap(),
+        ])
+        .env("CI", "1")
+        .env("LASERCAL_PROGRESS_EVERY_S", "0")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("trials (") && err.contains("to go"), "{err}");
+}

@@ -171,7 +171,7 @@ pub fn summary_value(r: &SummaryRow, column: &str) -> Option<f64> {
 pub fn is_summary_column(grid_keys: &[String], column: &str) -> bool {
     grid_keys.iter().any(|k| k == column)
         || matches!(column, "trials" | "failures")
-        || parse_column(column).is_some()
+        || parse_column(column).is_some_and(|(m, _)| Metric::SUMMARISED.contains(&m))
 }
 
 /// Read trials.csv back: each row's metrics and its record (to copy it unchanged). Errors name

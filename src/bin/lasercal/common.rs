@@ -9,23 +9,96 @@ pub fn load_scenario(path: &Path) -> Result<ScenarioFile> {
     Ok(ScenarioFile::load(path)?)
 }
 
-/// A progress bar on stderr when it is a terminal and not under CI; hidden otherwise.
-pub fn progress(total: u64, what: &str) -> indicatif::ProgressBar {
-    use std::io::IsTerminal;
-    let quiet = std::env::var_os("CI").is_some() || !std::io::stderr().is_terminal();
-    if quiet {
-        return indicatif::ProgressBar::hidden();
+/// Progress of a long run on stderr: a bar on a terminal; off a terminal (a batch job, CI, a
+/// pipe) a line every 10 s, so a long run is never silent.
+pub struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+    what: String,
+    total: u64,
+    done: std::sync::atomic::AtomicU64,
+    started: std::time::Instant,
+    last_line: std::sync::Mutex<std::time::Instant>,
+    every_s: f64,
+}
+
+/// Seconds between progress lines off a terminal (`LASERCAL_PROGRESS_EVERY_S` overrides it).
+fn line_every_s() -> f64 {
+    std::env::var("LASERCAL_PROGRESS_EVERY_S")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .filter(|v: &f64| *v >= 0.0)
+        .unwrap_or(10.0)
+}
+
+impl Progress {
+    pub fn inc(&self, n: u64) {
+        let done = self.done.fetch_add(n, std::sync::atomic::Ordering::Relaxed) + n;
+        self.show(done);
     }
-    let pb = indicatif::ProgressBar::new(total);
-    pb.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{msg} [{bar:40}] {pos}/{len} trials, {per_sec}, ETA {eta}",
-        )
-        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-        .progress_chars("=> "),
-    );
-    pb.set_message(what.to_string());
-    pb
+
+    pub fn set_position(&self, done: u64) {
+        self.done.store(done, std::sync::atomic::Ordering::Relaxed);
+        self.show(done);
+    }
+
+    fn show(&self, done: u64) {
+        if let Some(b) = &self.bar {
+            b.set_position(done);
+            return;
+        }
+        let Ok(mut last) = self.last_line.lock() else {
+            return;
+        };
+        if last.elapsed().as_secs_f64() < self.every_s {
+            return;
+        }
+        *last = std::time::Instant::now();
+        let t = self.started.elapsed().as_secs_f64();
+        let eta = if done > 0 {
+            t * (self.total.saturating_sub(done)) as f64 / done as f64
+        } else {
+            f64::NAN
+        };
+        eprintln!(
+            "{}: {done} of {} trials ({:.0} %), {t:.0} s, about {eta:.0} s to go",
+            self.what,
+            self.total,
+            100.0 * done as f64 / self.total.max(1) as f64
+        );
+    }
+
+    pub fn finish_and_clear(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
+}
+
+/// Progress on stderr: a bar on a terminal (not under CI), lines every 10 s otherwise.
+pub fn progress(total: u64, what: &str) -> Progress {
+    use std::io::IsTerminal;
+    let terminal = std::env::var_os("CI").is_none() && std::io::stderr().is_terminal();
+    let bar = terminal.then(|| {
+        let pb = indicatif::ProgressBar::new(total);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{msg} [{bar:40}] {pos}/{len} trials, {per_sec}, ETA {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+        );
+        pb.set_message(what.to_string());
+        pb
+    });
+    Progress {
+        bar,
+        what: what.to_string(),
+        total,
+        done: std::sync::atomic::AtomicU64::new(0),
+        started: std::time::Instant::now(),
+        last_line: std::sync::Mutex::new(std::time::Instant::now()),
+        every_s: line_every_s(),
+    }
 }
 
 /// A 4x4 pose (mm) printed as rows.

@@ -70,12 +70,21 @@ fn main() {
             | clap::error::ErrorKind::DisplayVersion
             | clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => e.exit(),
             _ => {
+                // The message up to the usage block: its first line, and for a missing argument
+                // the lines that name it.
                 let msg = e.to_string();
-                let first = msg
+                let head: Vec<&str> = msg
                     .lines()
-                    .find(|l| !l.trim().is_empty())
-                    .unwrap_or("invalid arguments");
-                eprintln!("{} (see lasercal --help)", first.trim());
+                    .skip_while(|l| l.trim().is_empty())
+                    .take_while(|l| !l.trim().is_empty())
+                    .map(str::trim)
+                    .collect();
+                let text = if head.is_empty() {
+                    "invalid arguments".to_string()
+                } else {
+                    head.join(" ")
+                };
+                eprintln!("{text} (see lasercal --help)");
                 std::process::exit(2);
             }
         },

@@ -165,6 +165,28 @@ pub fn run(a: Args) -> Result<()> {
         .transpose()?
         .unwrap_or(Shard::ALL);
     let plan = SweepPlan::new(&sf, a.trials, a.seed);
+    // The plot's keys checked before any trial runs (a typo gave an empty plot and exit 0).
+    if let Some(p) = sf.scenario.sweep.as_ref().and_then(|s| s.plot.as_ref()) {
+        let grid = plan.grid_keys.join(", ");
+        for (key, v) in [("x", Some(&p.x)), ("series", p.series.as_ref())] {
+            if let Some(v) = v.filter(|v| !plan.grid_keys.contains(v)) {
+                bail!(
+                    "{}: sweep.plot.{key} = \"{v}\": not a grid key; use one of: {grid}",
+                    sf.file
+                );
+            }
+        }
+        if !io::csv::is_summary_column(&plan.grid_keys, &p.y) {
+            bail!(
+                "{}: sweep.plot.y = \"{}\": not a summary column; use one of: {}",
+                sf.file,
+                p.y,
+                lasercal::metrics::summary_columns()
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+    }
     let out = a
         .out
         .clone()
