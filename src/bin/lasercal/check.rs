@@ -33,6 +33,8 @@ fn percentile(v: &mut [f64], p: f64) -> f64 {
 
 /// Exit code 0: within bounds; 1: a bound is exceeded (or a trial failed); 2: bad input (main).
 pub fn run(a: Args) -> Result<i32> {
+    let mut a = a;
+    a.trials = super::common::trials_cap(a.trials);
     if !(a.max_rotation_deg > 0.0 && a.max_translation_mm > 0.0) {
         bail!("--max-rotation-deg and --max-translation-mm must be positive");
     }

@@ -101,6 +101,22 @@ pub fn progress(total: u64, what: &str) -> Progress {
     }
 }
 
+/// `LASERCAL_MAX_TRIALS`, when set: the most trials a sweep point or `check` runs (the README
+/// command test runs every documented command in seconds with it). Said on stderr when it cuts.
+pub fn trials_cap(trials: usize) -> usize {
+    let cap = std::env::var("LASERCAL_MAX_TRIALS")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+        .filter(|c| *c >= 1);
+    match cap {
+        Some(c) if c < trials => {
+            eprintln!("LASERCAL_MAX_TRIALS={c}: {trials} trials cut to {c}");
+            c
+        }
+        _ => trials,
+    }
+}
+
 /// A 4x4 pose (mm) printed as rows.
 pub fn matrix_text(rows: &[[f64; 4]; 4]) -> String {
     rows.iter()

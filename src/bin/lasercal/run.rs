@@ -51,6 +51,17 @@ fn record(
         recorders.push(Recorder::save(p)?);
     }
     if a.spawn {
+        // Without a display the viewer cannot start and the recording waits for it to connect:
+        // fail at once with what to do instead.
+        let display = ["DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"]
+            .iter()
+            .any(|v| std::env::var_os(v).is_some_and(|x| !x.is_empty()));
+        if cfg!(target_os = "linux") && !display {
+            bail!(
+                "--spawn needs a display (DISPLAY and WAYLAND_DISPLAY are not set): record with \
+                 --rerun run.rrd and open it with `rerun run.rrd` where there is one"
+            );
+        }
         recorders.push(Recorder::spawn()?);
     }
     for r in &recorders {

@@ -164,7 +164,12 @@ pub fn run(a: Args) -> Result<()> {
         .map(parse_shard)
         .transpose()?
         .unwrap_or(Shard::ALL);
-    let plan = SweepPlan::new(&sf, a.trials, a.seed);
+    let trials = super::common::trials_cap(
+        a.trials
+            .or(sf.scenario.sweep.as_ref().map(|s| s.trials))
+            .unwrap_or(1),
+    );
+    let plan = SweepPlan::new(&sf, Some(trials), a.seed);
     // The plot's keys checked before any trial runs (a typo gave an empty plot and exit 0).
     if let Some(p) = sf.scenario.sweep.as_ref().and_then(|s| s.plot.as_ref()) {
         let grid = plan.grid_keys.join(", ");
