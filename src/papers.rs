@@ -1,6 +1,20 @@
 //! Published numbers of the two papers, for reproduction tests and scenarios (mm, radians).
 
 /// Chen et al. 2018 (the disk paper).
+/// Xu et al. (RCIM 2022), the straight-edge method.
+pub mod xu2021 {
+    /// Table 1: mean edge-direction deviation (deg) per number of rotations, for the parallel
+    /// bar, the straight scale and the knife blade (the bar's 20 and 25 are printed negative).
+    pub const TABLE1_MEAN_DEG: [(usize, [f64; 3]); 4] = [
+        (10, [2.19, 3.10, 1.85]),
+        (15, [1.16, 0.74, 0.81]),
+        (20, [-1.03, 0.86, 0.84]),
+        (25, [-1.12, 0.73, 0.94]),
+    ];
+    /// The specimens of Table 1's columns, as scenario specimen kinds.
+    pub const TABLE1_SPECIMENS: [&str; 3] = ["parallel-bar", "scale", "knife-blade"];
+}
+
 pub mod chen2018 {
     /// Table I: T_tcp,i (mm).
     pub const TABLE1_T_TCP: [[f64; 3]; 4] = [

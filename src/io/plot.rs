@@ -30,6 +30,66 @@ pub struct Figure {
     pub log_x: bool,
     pub log_y: bool,
     pub series: Vec<Series>,
+    /// Published points (a paper's figure or table), drawn as hollow triangles.
+    pub reference: Vec<Series>,
+}
+
+/// A tick label: at most four significant digits, no float noise (0.30000000000000004 -> 0.3).
+pub fn tick(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let mag = v.abs().log10().floor() as i32;
+    if !(-4..6).contains(&mag) {
+        return format!("{v:.1e}");
+    }
+    let decimals = (3 - mag).clamp(0, 8) as usize;
+    let s = format!("{v:.decimals$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+/// An axis key in words with its unit: a grid key (`disk.sigma_mm` -> "disk sigma (mm)") or a
+/// summary column (`centre_error_mm_std` -> "centre error, std (mm)").
+pub fn axis_words(key: &str) -> String {
+    if let Some((m, st)) = crate::metrics::parse_column(key) {
+        let unit = m.unit();
+        let stat = match st.name() {
+            "p95" => "95th percentile",
+            "std" => "standard deviation",
+            other => other,
+        };
+        return if unit.is_empty() {
+            format!("{}, {stat}", m.words())
+        } else {
+            format!("{}, {stat} ({unit})", m.words())
+        };
+    }
+    let units = [
+        ("_mm", "mm"),
+        ("_deg", "deg"),
+        ("_rad", "rad"),
+        ("_hz", "Hz"),
+        ("_ms", "ms"),
+        ("_kg", "kg"),
+    ];
+    let words = |k: &str| k.replace(['_', '.'], " ");
+    for (suffix, unit) in units {
+        if let Some(stem) = key.strip_suffix(suffix) {
+            return format!("{} ({unit})", words(stem));
+        }
+    }
+    match key {
+        "disk.chords" => "chords per scan m".into(),
+        "ball.arcs" => "arcs per pose m".into(),
+        "edge.rotations" => "flange rotations".into(),
+        "causes.scale" => "cause magnitude (x paper level)".into(),
+        k if k.ends_with("poses.count") => "number of poses".into(),
+        k => words(k),
+    }
 }
 
 fn bounds(f: &Figure) -> ((f64, f64), (f64, f64)) {
@@ -83,20 +143,29 @@ where
         message: format!("{err:?}"),
     };
     root.fill(&WHITE).map_err(e)?;
-    let ((x0, x1), (y0, y1)) = bounds(f);
-    let mut b = ChartBuilder::on(&root);
-    b.caption(&f.title, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(60);
+    // The title over everything, the legend beside the data, never over it.
+    let body = root.titled(&f.title, ("sans-serif", 18)).map_err(e)?;
+    let (plot_area, legend_area) = body.split_horizontally(660);
+    let mut with_ref = f.clone();
+    with_ref.series.extend(f.reference.iter().cloned());
+    let ((x0, x1), (y0, y1)) = bounds(&with_ref);
+    let mut b = ChartBuilder::on(&plot_area);
+    b.margin(12).x_label_area_size(45).y_label_area_size(70);
     macro_rules! body {
         ($chart:expr) => {{
             let mut chart = $chart;
+            let fmt = |v: &f64| tick(*v);
             chart
                 .configure_mesh()
                 .x_desc(&f.x_label)
                 .y_desc(&f.y_label)
+                .x_labels(10)
+                .y_labels(10)
+                .light_line_style(RGBColor(238, 238, 238))
+                .x_label_formatter(&fmt)
+                .y_label_formatter(&fmt)
                 .label_style(("sans-serif", 13))
+                .axis_desc_style(("sans-serif", 15))
                 .draw()
                 .map_err(e)?;
             for (i, s) in f.series.iter().enumerate() {
@@ -106,42 +175,123 @@ where
                         s.points.iter().copied(),
                         color.stroke_width(2),
                     ))
-                    .map_err(e)?
-                    .label(s.label.clone())
-                    .legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
-                    });
+                    .map_err(e)?;
                 chart
                     .draw_series(s.points.iter().map(|&p| Circle::new(p, 3, color.filled())))
                     .map_err(e)?;
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 12))
-                .draw()
-                .map_err(e)?;
+            for (i, s) in f.reference.iter().enumerate() {
+                let color = reference_color(i);
+                chart
+                    .draw_series(
+                        s.points
+                            .iter()
+                            .map(|&p| TriangleMarker::new(p, 7, color.stroke_width(2))),
+                    )
+                    .map_err(e)?;
+            }
         }};
     }
+    use plotters::coord::combinators::BindKeyPoints;
+    // Log axes labelled at 1, 2 and 5 of every decade.
+    let (kx, ky) = (log_keys(x0, x1), log_keys(y0, y1));
     match (f.log_x, f.log_y) {
         (false, false) => body!(b.build_cartesian_2d(x0..x1, y0..y1).map_err(e)?),
         (true, false) => body!(
-            b.build_cartesian_2d((x0..x1).log_scale(), y0..y1)
+            b.build_cartesian_2d((x0..x1).log_scale().with_key_points(kx), y0..y1)
                 .map_err(e)?
         ),
         (false, true) => body!(
-            b.build_cartesian_2d(x0..x1, (y0..y1).log_scale())
+            b.build_cartesian_2d(x0..x1, (y0..y1).log_scale().with_key_points(ky))
                 .map_err(e)?
         ),
         (true, true) => body!(
-            b.build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
-                .map_err(e)?
+            b.build_cartesian_2d(
+                (x0..x1).log_scale().with_key_points(kx),
+                (y0..y1).log_scale().with_key_points(ky)
+            )
+            .map_err(e)?
         ),
+    }
+    // The legend: one row per curve, then the published points.
+    let font = ("sans-serif", 12).into_font();
+    let mut y = 40;
+    let rows = f
+        .series
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (s.label.as_str(), Palette99::pick(i).to_rgba(), false))
+        .chain(
+            f.reference
+                .iter()
+                .enumerate()
+                .map(|(i, s)| (s.label.as_str(), reference_color(i), true)),
+        );
+    for (label, color, published) in rows {
+        if published {
+            legend_area
+                .draw(&TriangleMarker::new((16, y), 6, color.stroke_width(2)))
+                .map_err(e)?;
+        } else {
+            legend_area
+                .draw(&PathElement::new(
+                    vec![(6, y), (26, y)],
+                    color.stroke_width(2),
+                ))
+                .map_err(e)?;
+        }
+        // Long labels wrap at about 28 characters.
+        let mut line = String::new();
+        let mut lines = Vec::new();
+        for w in label.split(' ') {
+            if !line.is_empty() && line.len() + w.len() > 28 {
+                lines.push(std::mem::take(&mut line));
+            }
+            if !line.is_empty() {
+                line.push(' ');
+            }
+            line += w;
+        }
+        lines.push(line);
+        for l in lines {
+            legend_area
+                .draw(&Text::new(l, (32, y - 7), font.clone()))
+                .map_err(e)?;
+            y += 16;
+        }
+        y += 4;
     }
     root.present().map_err(e)?;
     Ok(())
+}
+
+/// 1, 2 and 5 times every power of ten within (lo, hi), lo > 0.
+fn log_keys(lo: f64, hi: f64) -> Vec<f64> {
+    let mut out = Vec::new();
+    if !(lo > 0.0 && hi > lo) {
+        return out;
+    }
+    let (d0, d1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    for d in d0..=d1.min(d0 + 30) {
+        for m in [1.0, 2.0, 5.0] {
+            let v = m * 10f64.powi(d);
+            if v >= lo && v <= hi {
+                out.push(v);
+            }
+        }
+    }
+    out
+}
+
+/// Published points' colours: dark, apart from the palette's.
+fn reference_color(i: usize) -> RGBAColor {
+    [
+        BLACK,
+        RGBColor(120, 60, 0),
+        RGBColor(90, 90, 90),
+        RGBColor(0, 70, 120),
+    ][i % 4]
+        .to_rgba()
 }
 
 /// The figure as SVG text.
@@ -198,14 +348,15 @@ pub fn from_summary(
         };
         let mut label = match &plot.series {
             Some(k) => format!(
-                "{k} = {}",
+                "{} = {}",
+                axis_words(k),
                 r.values
                     .iter()
                     .find(|(kk, _)| kk == k)
-                    .map(|(_, v)| v.to_string())
+                    .map(|(_, v)| v.as_str().map_or_else(|| v.to_string(), str::to_string))
                     .unwrap_or_default()
             ),
-            None => plot.y.clone(),
+            None => axis_words(&plot.y),
         };
         if methods.len() > 1 {
             label = format!("{} {label}", r.method);
@@ -226,10 +377,43 @@ pub fn from_summary(
             .title
             .clone()
             .unwrap_or_else(|| format!("{scenario}: {} vs {}", plot.y, plot.x)),
-        x_label: plot.x.clone(),
-        y_label: plot.y.clone(),
+        x_label: axis_words(&plot.x),
+        y_label: axis_words(&plot.y),
         log_x: plot.log_x,
         log_y: plot.log_y,
         series,
+        reference: plot.paper.map(published).unwrap_or_default(),
+    }
+}
+
+/// A paper's published points, one series per curve of the figure.
+fn published(p: crate::schema::PaperFigure) -> Vec<Series> {
+    use crate::schema::PaperFigure;
+    match p {
+        PaperFigure::Chen2018Fig15 => {
+            let mut out: Vec<Series> = Vec::new();
+            for (sigma, m, e) in crate::papers::chen2018::FIG15_POINTS {
+                let label = format!("Chen et al. 2018 Fig. 15, sigma = {sigma} (published)");
+                match out.iter_mut().find(|s| s.label == label) {
+                    Some(s) => s.points.push((m as f64, e)),
+                    None => out.push(Series {
+                        label,
+                        points: vec![(m as f64, e)],
+                    }),
+                }
+            }
+            out
+        }
+        PaperFigure::Xu2021Table1 => crate::papers::xu2021::TABLE1_SPECIMENS
+            .iter()
+            .enumerate()
+            .map(|(k, name)| Series {
+                label: format!("Xu et al. Table 1, {name} (published, |mean|)"),
+                points: crate::papers::xu2021::TABLE1_MEAN_DEG
+                    .iter()
+                    .map(|(n, v)| (*n as f64, v[k].abs()))
+                    .collect(),
+            })
+            .collect(),
     }
 }

@@ -400,4 +400,18 @@ pub struct PlotSection {
     pub log_y: bool,
     #[serde(default)]
     pub title: Option<String>,
+    /// The paper figure or table the sweep reproduces: its published points are overlaid.
+    #[serde(default)]
+    pub paper: Option<PaperFigure>,
+}
+
+/// Published results a plot can overlay (`crate::papers`).
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum PaperFigure {
+    /// Chen et al. 2018, Fig. 15: disk-centre error std vs chords, per sigma (points quoted in the
+    /// text).
+    Chen2018Fig15,
+    /// Xu et al., Table 1: mean edge-direction deviation vs rotations, per specimen.
+    Xu2021Table1,
 }
