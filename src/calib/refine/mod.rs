@@ -359,8 +359,12 @@ fn cost_of(r: &DVector<f64>, loss: Loss, scale: f64) -> f64 {
 }
 
 fn observability_of(j: &DMatrix<f64>) -> Observability {
+    observability_from(ata(j, j))
+}
+
+/// The observability from J^T J.
+fn observability_from(mut a: DMatrix<f64>) -> Observability {
     // Rotations as displacements LEVER away: scale their rows and columns of J^T J.
-    let mut a = ata(j, j);
     let p = a.nrows();
     for c in 0..3 {
         a.row_mut(c).scale_mut(1.0 / LEVER);
@@ -512,16 +516,19 @@ pub fn refine<M: Model>(
 /// the transform is from the best fit of its own data.
 pub fn assess(p: &dyn Refinable, x: &Isometry3<f64>, status: Status) -> (Refined, Vector6<f64>) {
     let (r, j) = p.residuals_and_jacobian(x);
-    (figures_of(&r, &j, x, status), gauss_newton_step(&r, &j))
+    // J^T J once: the covariance, the observability and the step all start from it.
+    let a = ata(&j, &j);
+    (
+        figures_of(&a, &r, &j, x, status),
+        gauss_newton_step(&a, &r, &j),
+    )
 }
 
-fn gauss_newton_step(r: &DVector<f64>, j: &DMatrix<f64>) -> Vector6<f64> {
-    let used: Vec<usize> = (0..j.ncols())
-        .filter(|&c| c < 6 || j.column(c).iter().any(|v| *v != 0.0))
-        .collect();
-    let j = j.select_columns(&used);
-    let a = ata(&j, &j);
-    let g = atb(&j, r);
+fn gauss_newton_step(a: &DMatrix<f64>, r: &DVector<f64>, j: &DMatrix<f64>) -> Vector6<f64> {
+    let used = used_columns(a);
+    let a = a.select_rows(&used).select_columns(&used);
+    let g_all = atb(j, r);
+    let g = DVector::from_fn(used.len(), |i, _| g_all[used[i]]);
     // Scaled so that one ill-scaled parameter does not spoil the solve; a singular system has
     // no step to speak of (the observability figures say why).
     let d: Vec<f64> = (0..a.nrows())
@@ -535,13 +542,15 @@ fn gauss_newton_step(r: &DVector<f64>, j: &DMatrix<f64>) -> Vector6<f64> {
     }
 }
 
-fn figures_of(r: &DVector<f64>, j: &DMatrix<f64>, x: &Isometry3<f64>, status: Status) -> Refined {
+fn figures_of(
+    a: &DMatrix<f64>,
+    r: &DVector<f64>,
+    j: &DMatrix<f64>,
+    x: &Isometry3<f64>,
+    status: Status,
+) -> Refined {
     let n = r.len();
-    let cov = if n > j.ncols() {
-        covariance(r, j)
-    } else {
-        Matrix6::from_element(f64::INFINITY)
-    };
+    let cov = covariance_from(a, r, j);
     let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
     let cost = r.norm_squared() / 2.0;
     Refined {
@@ -556,7 +565,7 @@ fn figures_of(r: &DVector<f64>, j: &DMatrix<f64>, x: &Isometry3<f64>, status: St
         covariance: cov,
         sd_rotation_deg: Vector3::new(sd(0), sd(1), sd(2)).map(f64::to_degrees),
         sd_translation_mm: Vector3::new(sd(3), sd(4), sd(5)) * 1e3,
-        observability: observability_of(j),
+        observability: observability_from(a.clone()),
     }
 }
 
@@ -665,18 +674,31 @@ fn minimise<M: Model>(
 /// with the small-sample factor N / (N - p): consistent when residuals have unequal variances (a
 /// chord end's distance from the rim is noisier than its distance from the disk plane).
 fn covariance(r: &DVector<f64>, j: &DMatrix<f64>) -> Matrix6<f64> {
-    // A specimen parameter no residual depends on at the optimum (a bar's edge whose every
-    // crossing falls inside its censored gap) carries no information: left out.
-    let used: Vec<usize> = (0..j.ncols())
-        .filter(|&c| c < 6 || j.column(c).iter().any(|v| *v != 0.0))
-        .collect();
-    let j = &j.select_columns(&used);
-    let (n, p) = (j.nrows(), j.ncols());
-    let a = ata(j, j);
-    let Some(inv) = a.clone().try_inverse() else {
+    covariance_from(&ata(j, j), r, j)
+}
+
+/// The parameters the residuals depend on: every transform one, and a specimen parameter only
+/// when its column of J is not all zero (a bar's edge whose every crossing falls inside its
+/// censored gap carries no information), read off the diagonal of J^T J.
+fn used_columns(a: &DMatrix<f64>) -> Vec<usize> {
+    (0..a.ncols())
+        .filter(|&c| c < 6 || a[(c, c)] != 0.0)
+        .collect()
+}
+
+/// The sandwich covariance from J^T J (computed once by the caller), the residuals and J.
+fn covariance_from(a: &DMatrix<f64>, r: &DVector<f64>, j: &DMatrix<f64>) -> Matrix6<f64> {
+    let used = used_columns(a);
+    let (n, p) = (j.nrows(), used.len());
+    if n <= p {
+        return Matrix6::from_element(f64::INFINITY);
+    }
+    let a = a.select_rows(&used).select_columns(&used);
+    let Some(inv) = a.try_inverse() else {
         return Matrix6::from_element(f64::INFINITY);
     };
-    let mut jr = j.clone();
+    // sum_i J_i^T r_i^2 J_i over the used columns: (J r)^T (J r), J's used columns scaled once.
+    let mut jr = j.select_columns(&used);
     for mut col in jr.column_iter_mut() {
         col.component_mul_assign(r);
     }
