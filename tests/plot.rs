@@ -50,6 +50,8 @@ fn a_reproduction_overlays_the_published_points() {
         title: "t".into(),
         x_label: "x".into(),
         y_label: "y".into(),
+        x_key: "x".into(),
+        y_key: "y".into(),
         log_x: true,
         log_y: true,
         series: vec![Series {

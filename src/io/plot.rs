@@ -27,6 +27,9 @@ pub struct Figure {
     pub title: String,
     pub x_label: String,
     pub y_label: String,
+    /// The keys the labels say in words (a grid key and a summary column), for Rerun's paths.
+    pub x_key: String,
+    pub y_key: String,
     pub log_x: bool,
     pub log_y: bool,
     pub series: Vec<Series>,
@@ -379,6 +382,8 @@ pub fn from_summary(
             .unwrap_or_else(|| format!("{scenario}: {} vs {}", plot.y, plot.x)),
         x_label: axis_words(&plot.x),
         y_label: axis_words(&plot.y),
+        x_key: plot.x.clone(),
+        y_key: plot.y.clone(),
         log_x: plot.log_x,
         log_y: plot.log_y,
         series,

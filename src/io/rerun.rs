@@ -339,26 +339,48 @@ impl Recorder {
     /// A sweep's curves as scalar series: `sweep/<series>/<column>` over the timeline `x` (the
     /// grid index of the x value).
     pub fn log_curves(&self, fig: &crate::io::plot::Figure) -> Res {
-        for s in &fig.series {
-            let name: String = s
-                .label
-                .chars()
+        // One view per metric: every series under `sweep/<summary column>/<k>`, named by its
+        // value in the legend; the timeline is the grid key, at the grid values (a sequence for
+        // whole numbers such as chord counts, else a duration whose seconds are the values).
+        let clean = |k: &str| -> String {
+            k.chars()
                 .map(|c| {
-                    if c.is_alphanumeric() || c == '.' || c == '-' {
+                    if c.is_ascii_alphanumeric() || c == '_' {
                         c
                     } else {
                         '_'
                     }
                 })
-                .collect();
-            for (k, (x, y)) in s.points.iter().enumerate() {
-                self.rec.set_time_sequence("x", k as i64);
-                let _ = x;
+                .collect()
+        };
+        let metric = clean(&fig.y_key);
+        let timeline = rerun::TimelineName::try_new(&fig.x_key).map_err(|err| {
+            crate::error::FormatError::Render {
+                what: "sweep recording".into(),
+                message: format!("timeline {:?}: {err}", fig.x_key),
+            }
+        })?;
+        let whole = fig
+            .series
+            .iter()
+            .flat_map(|s| s.points.iter())
+            .all(|(x, _)| x.fract() == 0.0 && x.abs() < 1e15);
+        for (k, s) in fig.series.iter().enumerate() {
+            let path = format!("sweep/{metric}/{k}");
+            self.rec
+                .log_static(
+                    path.as_str(),
+                    &rerun::SeriesLines::new().with_names([s.label.as_str()]),
+                )
+                .map_err(e)?;
+            for (x, y) in &s.points {
+                if whole {
+                    self.rec.set_time_sequence(timeline, *x as i64);
+                } else {
+                    self.rec.set_duration_secs(timeline, *x);
+                }
                 self.rec
-                    .log(
-                        format!("sweep/{name}/{}", fig.y_label),
-                        &rerun::Scalars::new([*y]),
-                    )
+                    .log(path.as_str(), &rerun::Scalars::new([*y]))
                     .map_err(e)?;
             }
         }
