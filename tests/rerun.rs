@@ -147,3 +147,40 @@ fn sweep_records_its_curves() {
         "clean entity paths: {m:?}"
     );
 }
+
+#[test]
+fn mesh_visuals_that_cannot_be_shown_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = env!("CARGO_MANIFEST_DIR");
+    let urdf = std::fs::read_to_string(format!("{root}/robots/irb120_3_58.urdf"))
+        .unwrap()
+        .replacen(
+            "<geometry><box size=\"0.24 0.18 0.02\"/></geometry>",
+            "<geometry><mesh filename=\"package://abb/meshes/base.stl\"/></geometry>",
+            1,
+        );
+    assert!(urdf.contains("base.stl"));
+    std::fs::write(dir.path().join("arm.urdf"), urdf).unwrap();
+    let scen = std::fs::read_to_string(format!("{root}/scenarios/chen2018-disk-raycast.toml"))
+        .unwrap()
+        .replacen("name = \"irb120\"", "name = \"arm.urdf\"", 1);
+    assert!(scen.contains("arm.urdf"));
+    let p = dir.path().join("s.toml");
+    std::fs::write(&p, scen).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_lasercal"))
+        .args([
+            "run",
+            p.to_str().unwrap(),
+            "--rerun",
+            dir.path().join("r.rrd").to_str().unwrap(),
+        ])
+        .env("CI", "1")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("mesh visual") && err.contains("base.stl"),
+        "{err}"
+    );
+}

@@ -34,6 +34,8 @@ fn transform(p: &Isometry3<f64>) -> rerun::Transform3D {
 
 pub struct Recorder {
     rec: rerun::RecordingStream,
+    /// URDF mesh visuals that could not be shown (file names), for the caller's warning.
+    skipped_meshes: std::cell::RefCell<Vec<String>>,
 }
 
 fn e(x: impl std::fmt::Display) -> FormatError {
@@ -44,6 +46,11 @@ fn e(x: impl std::fmt::Display) -> FormatError {
 }
 
 impl Recorder {
+    /// The URDF mesh visuals the recording could not show (boxes, cylinders and spheres are).
+    pub fn skipped_meshes(&self) -> Vec<String> {
+        self.skipped_meshes.borrow().clone()
+    }
+
     /// Record into an .rrd file.
     pub fn save(path: &std::path::Path) -> Result<Recorder, FormatError> {
         let rec = rerun::RecordingStreamBuilder::new("lasercal")
@@ -52,7 +59,10 @@ impl Recorder {
                 what: path.display().to_string(),
                 message: x.to_string(),
             })?;
-        Ok(Recorder { rec })
+        Ok(Recorder {
+            rec,
+            skipped_meshes: Default::default(),
+        })
     }
 
     /// Record into a newly spawned viewer (needs the `rerun` viewer on PATH).
@@ -65,7 +75,10 @@ impl Recorder {
                     "cannot spawn the Rerun viewer ({x}); install it with `pip install rerun-sdk==0.36.3`"
                 ),
             })?;
-        Ok(Recorder { rec })
+        Ok(Recorder {
+            rec,
+            skipped_meshes: Default::default(),
+        })
     }
 
     fn shape(
@@ -200,7 +213,14 @@ impl Recorder {
                     Geometry::Sphere { radius } => {
                         PartShape::Ball(parry3d_f64::shape::Ball::new(*radius))
                     }
-                    Geometry::Mesh { .. } => continue,
+                    // Mesh files are not loaded: said to the user (`skipped_meshes`).
+                    Geometry::Mesh { filename } => {
+                        let mut m = self.skipped_meshes.borrow_mut();
+                        if !m.contains(filename) {
+                            m.push(filename.clone());
+                        }
+                        continue;
+                    }
                 };
                 self.shape(&path, &shape, &v.link_to_geometry, color, true)?;
             }

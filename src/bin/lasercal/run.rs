@@ -67,6 +67,17 @@ fn record(
     for r in &recorders {
         r.log_run(setup, &caps, est)?;
     }
+    if let Some(r) = recorders.first() {
+        let meshes = r.skipped_meshes();
+        if !meshes.is_empty() {
+            eprintln!(
+                "warning: the robot's {} mesh visual(s) are not shown ({}); boxes, cylinders and \
+                 spheres are",
+                meshes.len(),
+                meshes.join(", ")
+            );
+        }
+    }
     Ok(())
 }
 
