@@ -1119,3 +1119,80 @@ fn free_poses_take_only_the_any_pose_estimator_on_raycast_profiles() {
         );
     }
 }
+
+#[test]
+fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
+    // The independent generator's rigs (random fans, mountings, specimens, 16 free poses, z noise
+    // 0.1 mm, the sensor told so): correct captures are judged ok; a ball 5 % smaller than the
+    // file says is judged suspect whenever the answer is off by more than 1 deg or 1 mm.
+    use lasercal::method::verdict::{Verdict, judge, quality};
+    let sigma = 0.1e-3;
+    let told = |s: &Setup| {
+        let mut sensor = s.sensor.clone();
+        sensor.noise.z_sigma_near = sigma;
+        sensor.noise.z_sigma_far = sigma;
+        sensor
+    };
+    let any = |k: Kind| MethodId::new(k, Estimator::AnyPose);
+    let cases: [(MethodId, &dyn Fn(u64) -> Setup); 4] = [
+        (any(Kind::Ball), &|seed| {
+            random_setup(7000 + seed, 16, 3, sigma)
+        }),
+        (any(Kind::Plane), &|seed| {
+            random_plane_setup(7100 + seed, 16, false, sigma)
+        }),
+        (any(Kind::Edge), &|seed| {
+            random_bar_setup(7200 + seed, 16, sigma)
+        }),
+        (any(Kind::Disk), &|seed| {
+            random_disk_setup(7300 + seed, 16, sigma)
+        }),
+    ];
+    let (mut passed, mut flagged) = (0, Vec::new());
+    for (id, setup) in cases {
+        for seed in 0..10u64 {
+            let s = setup(seed);
+            let sensor = told(&s);
+            let (cal, r) = lasercal::method::estimate(id, &s.caps, &sensor).unwrap();
+            let j = judge(quality(&cal, r.as_ref(), &s.caps, &sensor));
+            let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
+            assert!(
+                e.rotation_error_deg < 1.0 && e.translation_error_mm < 1.0,
+                "{id} {seed}"
+            );
+            match j.verdict {
+                Verdict::Ok => passed += 1,
+                Verdict::Suspect => flagged.push(format!("{id} {seed}: {:?}", j.reasons)),
+            }
+        }
+    }
+    assert!(
+        flagged.len() <= 1,
+        "correct results judged suspect: {flagged:#?}"
+    );
+    let mut wrong = 0;
+    for seed in 0..10u64 {
+        let mut s = random_setup(7000 + seed, 16, 3, sigma);
+        s.caps.specimen_radius = s.caps.specimen_radius.map(|r| r * 1.05);
+        let sensor = told(&s);
+        let id = any(Kind::Ball);
+        let Ok((cal, r)) = lasercal::method::estimate(id, &s.caps, &sensor) else {
+            continue;
+        };
+        let j = judge(quality(&cal, r.as_ref(), &s.caps, &sensor));
+        let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
+        if e.rotation_error_deg > 1.0 || e.translation_error_mm > 1.0 {
+            wrong += 1;
+            assert_eq!(j.verdict, Verdict::Suspect, "seed {seed}: {e:?} judged ok");
+        }
+        // The residuals say so even when the answer stays within 1 deg and 1 mm.
+        assert!(
+            j.quality.noise_ratio.unwrap() > 1.5,
+            "seed {seed}: {:?}",
+            j.quality
+        );
+    }
+    eprintln!(
+        "verdict on independent rigs: {passed} of 40 correct ok; {wrong} of 10 wrong-radius answers off"
+    );
+}
