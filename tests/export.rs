@@ -203,16 +203,7 @@ fn calibrated(file: &str, dir: &std::path::Path, tag: &str) -> Vec<Vec<f64>> {
 #[test]
 fn import_builds_the_capture_file_a_rig_would_have_written() {
     let dir = tempfile::tempdir().unwrap();
-    let caps = dir.path().join("sim.json");
-    let (code, _, err) = common::lasercal(&[
-        "simulate",
-        &common::scen("ball-free.toml"),
-        "--out",
-        caps.to_str().unwrap(),
-    ]);
-    assert_eq!(code, 0, "{err}");
-    let doc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&caps).unwrap()).unwrap();
+    let (caps, doc) = common::simulated_capture(dir.path(), "ball-free.toml", "sim.json");
     let want = calibrated(caps.to_str().unwrap(), dir.path(), "sim");
     let profiles = doc["profiles"].as_array().unwrap();
     // The profiles: one CSV per pose (every column, empty where the sensor saw nothing) and one

@@ -64,16 +64,7 @@ fn blocks(text: &str) -> Vec<Vec<(usize, String)>> {
 /// The rig recording the import example names: the ball-free scenario's captures written out as
 /// a pose list and one profile CSV per pose.
 fn rig_recording(dir: &Path) {
-    let caps = dir.join(".sim-rig.json");
-    let (code, _, err) = common::lasercal(&[
-        "simulate",
-        &common::scen("ball-free.toml"),
-        "--out",
-        caps.to_str().unwrap(),
-    ]);
-    assert_eq!(code, 0, "{err}");
-    let doc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&caps).unwrap()).unwrap();
+    let (_, doc) = common::simulated_capture(dir, "ball-free.toml", ".sim-rig.json");
     let mut poses = String::from("x_mm,y_mm,z_mm,qw,qx,qy,qz\n");
     std::fs::create_dir_all(dir.join("profiles")).unwrap();
     for (i, p) in doc["profiles"].as_array().unwrap().iter().enumerate() {

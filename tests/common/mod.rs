@@ -63,3 +63,16 @@ pub fn raw(points: Vec<Option<(f64, f64)>>) -> lasercal::captures::ProfileData {
             .collect(),
     })
 }
+
+/// `lasercal simulate` of a scenario into `dir`/`name`: the capture file's path and its JSON.
+pub fn simulated_capture(
+    dir: &std::path::Path,
+    scenario: &str,
+    name: &str,
+) -> (std::path::PathBuf, serde_json::Value) {
+    let caps = dir.join(name);
+    let (code, _, err) = lasercal(&["simulate", &scen(scenario), "--out", caps.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let doc = serde_json::from_str(&std::fs::read_to_string(&caps).unwrap()).unwrap();
+    (caps, doc)
+}
