@@ -1196,3 +1196,52 @@ fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
         "verdict on independent rigs: {passed} of 40 correct ok; {wrong} of 10 wrong-radius answers off"
     );
 }
+
+#[test]
+fn the_view_fits_the_specimen_on_profiles_lasercal_did_not_make() {
+    // The recordings' truth-free picture (`method::view`) on the independent generator's rigs:
+    // with the right transform a typical profile lands on the fitted specimen within the noise (and
+    // the ball's fitted radius is the true one); with a transform a degree off it does not.
+    use lasercal::method::view::{Fitted, view};
+    let sigma = 0.1e-3;
+    let cases: [(Kind, &dyn Fn(u64) -> Setup); 4] = [
+        (Kind::Ball, &|seed| random_setup(7400 + seed, 16, 3, sigma)),
+        (Kind::Plane, &|seed| {
+            random_plane_setup(7500 + seed, 16, false, sigma)
+        }),
+        (Kind::Edge, &|seed| random_bar_setup(7600 + seed, 16, sigma)),
+        (Kind::Disk, &|seed| {
+            random_disk_setup(7700 + seed, 16, sigma)
+        }),
+    ];
+    let rms = |v: &lasercal::method::view::View| v.median_profile_rms().unwrap();
+    for (kind, setup) in cases {
+        for seed in 0..5u64 {
+            let s = setup(seed);
+            let v = view(&s.caps, &s.sensor, &s.truth);
+            let with = v.profiles.iter().filter(|p| p.feature.is_some()).count();
+            assert!(
+                with * 10 >= 9 * v.profiles.len(),
+                "{kind} {seed}: {with} features"
+            );
+            let good = rms(&v);
+            assert!(good < 4.0 * sigma, "{kind} {seed}: residual RMS {good}");
+            if let Some(Fitted::Sphere { radius, .. }) = v.fitted {
+                assert!((radius - RADIUS).abs() < 0.1e-3, "{seed}: radius {radius}");
+            }
+            assert!(v.fitted.is_some(), "{kind} {seed}: nothing fitted");
+            let wrong = s.truth
+                * Isometry3::from_parts(
+                    Translation3::new(0.0, 1e-3, 0.0),
+                    UnitQuaternion::from_euler_angles(0.0, 1f64.to_radians(), 0.0),
+                );
+            let bad = rms(&view(&s.caps, &s.sensor, &wrong));
+            eprintln!(
+                "view {kind} {seed}: typical profile RMS {:.4} mm, {:.4} mm off",
+                good * 1e3,
+                bad * 1e3
+            );
+            assert!(bad > 2.0 * good, "{kind} {seed}: {good} vs {bad}");
+        }
+    }
+}

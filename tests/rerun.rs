@@ -79,28 +79,99 @@ fn run_records_a_verifiable_rrd_with_every_entity() {
         String::from_utf8_lossy(&v.stderr)
     );
     let m = rows(&rrd, &cli);
-    // 4 scans x 100 profiles: one row per capture for the moving entities.
+    // 4 scans x 100 profiles: one row per capture for the moving entities, the profile and its
+    // feature in the sensor frame and in the laser plane's 2D view, the error and residual.
     for e in [
-        "/world/sensor/true",
-        "/world/sensor/estimated",
-        "/world/sensor/true/profile",
-        "/world/profile_in_base",
-        "/world/features",
+        "/world/sensor",
+        "/world/flange",
+        "/world/truth/sensor",
+        "/world/truth/sensor/error_arrow",
+        "/world/sensor/profile",
+        "/world/sensor/features",
+        "/laser_plane/profile",
+        "/laser_plane/features",
+        "/error/rotation_deg",
+        "/error/sensor_origin_mm",
+        "/residual/rms_mm",
         "/world/arm/link_3",
         "/world/arm/tool0",
     ] {
         assert_eq!(m.get(e).copied(), Some(400), "{e}: {m:?}");
     }
-    // Static geometry once.
+    // Static geometry and the mapped profiles once.
     for e in [
+        "/world",
+        "/summary",
         "/world/table",
         "/world/specimen/0/part_0",
-        "/world/sensor/true/fan",
+        "/world/sensor/fan",
+        "/world/sensor/body",
         "/world/arm/link_2/visual_0",
-        "/world/sensor/true/axes",
+        "/world/truth/sensor/axes",
+        "/world/mapped/profiles",
+        "/world/mapped/features",
+        "/world/mapped/fitted_specimen",
     ] {
         assert_eq!(m.get(e).copied(), Some(1), "{e}: {m:?}");
     }
+    // The layout: views (blueprint entities) come with the recording.
+    assert!(
+        m.keys().any(|k| k.starts_with("/view/")),
+        "no blueprint: {m:?}"
+    );
+    // That each capture's feature is found, on every source: tests/view.rs.
+}
+
+#[test]
+fn calibrate_records_a_capture_file_mapped_with_the_recovered_transform() {
+    let Some(cli) = rerun_cli() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let caps = dir.path().join("ball.json");
+    let rrd = dir.path().join("cal.rrd");
+    let lasercal = env!("CARGO_BIN_EXE_lasercal");
+    let scen = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/ball-free.toml");
+    let out = Command::new(lasercal)
+        .args(["simulate", scen, "--out", caps.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = Command::new(lasercal)
+        .args([
+            "calibrate",
+            caps.to_str().unwrap(),
+            "--rerun",
+            rrd.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let m = rows(&rrd, &cli);
+    // 15 free poses; no arm or scene (a capture file has neither); the file's truth shows the error.
+    for e in [
+        "/world/sensor",
+        "/world/sensor/profile",
+        "/laser_plane/features",
+        "/residual/rms_mm",
+        "/error/rotation_deg",
+    ] {
+        assert_eq!(m.get(e).copied(), Some(15), "{e}: {m:?}");
+    }
+    for e in [
+        "/world/mapped/profiles",
+        "/world/mapped/fitted_specimen",
+        "/summary",
+    ] {
+        assert_eq!(m.get(e).copied(), Some(1), "{e}: {m:?}");
+    }
+    assert!(!m.keys().any(|k| k.starts_with("/world/arm")), "{m:?}");
 }
 
 #[test]

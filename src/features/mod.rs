@@ -65,6 +65,16 @@ pub fn arc_points(profile: &Profile, circle: &Circle) -> Vec<Vector2<f64>> {
         .collect()
 }
 
+/// The points of the profile's longest straight segment (sensor x, z), in column order.
+pub fn largest_segment(profile: &Profile, cfg: &SplitMerge) -> Vec<Vector2<f64>> {
+    let pts = valid_points(profile);
+    split_and_merge(&pts, cfg)
+        .iter()
+        .max_by_key(|s| s.last - s.first)
+        .map(|s| pts[s.first..=s.last].iter().map(|p| p.1).collect())
+        .unwrap_or_default()
+}
+
 pub fn valid_points(profile: &Profile) -> Vec<(usize, Vector2<f64>)> {
     profile
         .points

@@ -10,11 +10,13 @@
 //! Timelines: `capture` (profile index) for runs, `x` for sweeps.
 
 use super::FormatError;
-use crate::captures::{Captures, ProfileData};
+use crate::captures::Captures;
+use crate::method::view::{Fitted, View};
 use crate::robot::{Geometry, Robot};
 use crate::scenario::Setup;
 use crate::scene::{PartShape, Scene, Specimen};
 use crate::sensor::SensorModel;
+use nalgebra::Vector2;
 use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
 
 type Res = Result<(), FormatError>;
@@ -30,6 +32,24 @@ fn quat(q: &UnitQuaternion<f64>) -> rerun::Quaternion {
 
 fn transform(p: &Isometry3<f64>) -> rerun::Transform3D {
     rerun::Transform3D::from_translation_rotation(f3(&p.translation.vector), quat(&p.rotation))
+}
+
+/// What a recording knows besides the captures: the arm and scene where simulated, the sensor,
+/// the true transform where known, and a summary text (the result and its verdict).
+pub struct Recorded<'a> {
+    pub robot: Option<&'a Robot>,
+    pub scene: Option<&'a Scene>,
+    pub sensor: &'a SensorModel,
+    pub truth: Option<Isometry3<f64>>,
+    pub summary: &'a str,
+}
+
+/// The power of ten that makes an error of `size` (m, or rad x 5 cm) about 5 cm long in view.
+fn magnification(size: f64) -> f64 {
+    if !(size > 0.0) {
+        return 1.0;
+    }
+    10f64.powf((0.05 / size).log10().floor()).max(1.0)
 }
 
 pub struct Recorder {
@@ -245,7 +265,7 @@ impl Recorder {
         ];
         self.rec
             .log_static(
-                "world/sensor/true/fan",
+                "world/sensor/fan",
                 &rerun::LineStrips3D::new(strips)
                     .with_colors([rerun::Color::from_rgb(255, 40, 40)]),
             )
@@ -266,94 +286,435 @@ impl Recorder {
             .map_err(e)
     }
 
-    /// A run: the arm, specimen, fan, every profile (sensor and base frame) with its feature, the
-    /// true and the recovered sensor poses, on the timeline `capture`.
-    pub fn log_run(&self, setup: &Setup, caps: &Captures, estimate: &Isometry3<f64>) -> Res {
+    /// The sensor's housing: a box behind the laser's apex, seen from the flange.
+    fn sensor_body(&self, sensor: &SensorModel) -> Res {
+        let depth = 0.09;
+        let centre = sensor.apex() - Vector3::z() * (sensor.dir_z * depth / 2.0);
+        self.rec
+            .log_static(
+                "world/sensor/body",
+                &rerun::Boxes3D::from_half_sizes([[0.03f32, 0.02, (depth / 2.0) as f32]])
+                    .with_centers([f3(&centre.coords)])
+                    .with_colors([rerun::Color::from_unmultiplied_rgba(40, 40, 48, 200)])
+                    .with_fill_mode(rerun::FillMode::Solid),
+            )
+            .map_err(e)
+    }
+
+    /// The layout a recording opens with: the scene and the mapped profiles in the base frame;
+    /// the current profile in the laser plane (sensor x right, z down, mm), the residual (and,
+    /// where the truth is known, the error) over the captures, and the summary text.
+    fn run_blueprint(&self, truth: bool) -> Res {
+        use rerun::blueprint::components::PanelState;
+        use rerun::blueprint::{
+            Blueprint, BlueprintActivation, BlueprintPanel, ContainerLike, Horizontal,
+            SelectionPanel, Spatial2DView, Spatial3DView, TextDocumentView, TimePanel,
+            TimeSeriesView, Vertical,
+        };
+        let mut side: Vec<ContainerLike> = vec![
+            Spatial2DView::new("laser plane (sensor x, z in mm)")
+                .with_origin("/laser_plane")
+                .into(),
+            TimeSeriesView::new("residual RMS per profile (mm)")
+                .with_origin("/residual")
+                .into(),
+        ];
+        if truth {
+            side.push(
+                TimeSeriesView::new("error against the truth")
+                    .with_origin("/error")
+                    .into(),
+            );
+        }
+        side.push(
+            TextDocumentView::new("summary")
+                .with_origin("/summary")
+                .into(),
+        );
+        Blueprint::new(Horizontal::new([
+            Vertical::new([
+                Spatial3DView::new("scene (base frame)")
+                    .with_origin("/world")
+                    .into(),
+                Spatial3DView::new("every profile mapped with the recovered transform")
+                    .with_origin("/world/mapped")
+                    .with_contents(["$origin/**"])
+                    .into(),
+            ])
+            .into(),
+            Vertical::new(side).into(),
+        ]))
+        .with_blueprint_panel(BlueprintPanel::from_state(PanelState::Collapsed))
+        .with_selection_panel(SelectionPanel::from_state(PanelState::Collapsed))
+        .with_time_panel(TimePanel::new().with_timeline("capture"))
+        .send(
+            &self.rec,
+            BlueprintActivation {
+                make_active: true,
+                make_default: true,
+            },
+        )
+        .map_err(e)
+    }
+
+    /// A run from a scenario: the scenario's arm, scene and true transform, then `log_captures`.
+    pub fn log_run(
+        &self,
+        setup: &Setup,
+        caps: &Captures,
+        estimate: &Isometry3<f64>,
+        summary: &str,
+    ) -> Res {
         let rig = &setup.rig;
         let scene = setup
             .plan(caps.method)
             .map(|p| p.scene())
             .unwrap_or(&setup.scene);
-        self.scene(scene)?;
-        self.arm_geometry(&rig.robot)?;
-        self.fan(&rig.sensor)?;
-        self.axes("world/sensor/true/axes", 0.05)?;
-        self.axes("world/sensor/estimated/axes", 0.04)?;
+        let what = Recorded {
+            robot: Some(&rig.robot),
+            scene: Some(scene),
+            sensor: &rig.sensor,
+            truth: Some(rig.flange_to_sensor),
+            summary,
+        };
+        self.log_captures(&what, caps, estimate)
+    }
+
+    /// Captures calibrated as `estimate`, on the timeline `capture`: the arm (when known), the
+    /// sensor's body, fan, profile and feature in its frame, every profile and feature mapped into
+    /// the base frame with `estimate` and coloured by its distance from the specimen fitted there
+    /// (truth-free), the fitted specimen; where the truth is known, the true sensor frame, the
+    /// error magnified into view and its scalars.
+    pub fn log_captures(&self, what: &Recorded, caps: &Captures, estimate: &Isometry3<f64>) -> Res {
+        let view = crate::method::view::view(caps, what.sensor, estimate);
+        self.run_blueprint(what.truth.is_some())?;
+        self.rec
+            .log_static("world", &rerun::ViewCoordinates::RIGHT_HAND_Z_UP())
+            .map_err(e)?;
+        self.rec
+            .log_static("summary", &rerun::TextDocument::new(what.summary))
+            .map_err(e)?;
+        if let Some(scene) = what.scene {
+            self.scene(scene)?;
+        }
+        if let Some(robot) = what.robot {
+            self.arm_geometry(robot)?;
+        }
+        self.fan(what.sensor)?;
+        self.sensor_body(what.sensor)?;
+        self.axes("world/sensor/axes", 0.04)?;
+        self.axes("world/flange/axes", 0.03)?;
+        // The colour scale of the residuals: 3 x their overall RMS (at least 10 um).
+        let all: Vec<f64> = view
+            .profiles
+            .iter()
+            .flat_map(|p| p.feature_residuals.iter().chain(&p.surface_residuals))
+            .copied()
+            .collect();
+        let rms = (all.iter().map(|x| x * x).sum::<f64>() / all.len().max(1) as f64).sqrt();
+        let scale = (3.0 * rms).max(1e-5);
+        if let Some(f) = &view.fitted {
+            self.fitted(f)?;
+        }
+        if what.truth.is_some() {
+            self.axes("world/truth/sensor/axes", 0.05)?;
+        }
         let mut q_prev = [0.0; 6];
-        for (i, p) in caps.profiles.iter().enumerate() {
+        for (i, p) in view.profiles.iter().enumerate() {
             self.rec.set_time_sequence("capture", i as i64);
-            if let Ok(q) = rig.robot.ik_nearest(&p.base_to_flange, &q_prev) {
+            if let Some(robot) = what.robot
+                && let Ok(q) = robot.ik_nearest(&p.base_to_flange, &q_prev)
+            {
                 q_prev = q;
-                for (l, pose) in rig.robot.links.iter().zip(rig.robot.link_poses(&q)) {
+                for (l, pose) in robot.links.iter().zip(robot.link_poses(&q)) {
                     self.rec
                         .log(format!("world/arm/{}", l.name), &transform(&pose))
                         .map_err(e)?;
                 }
             }
-            let base_to_sensor = p.base_to_flange * rig.flange_to_sensor;
             self.rec
-                .log("world/sensor/true", &transform(&base_to_sensor))
+                .log("world/flange", &transform(&p.base_to_flange))
                 .map_err(e)?;
             self.rec
-                .log(
-                    "world/sensor/estimated",
-                    &transform(&(p.base_to_flange * estimate)),
-                )
+                .log("world/sensor", &transform(&(p.base_to_flange * estimate)))
                 .map_err(e)?;
-            let (pts, feats): (Vec<Point3<f64>>, Vec<Point3<f64>>) = match &p.data {
-                ProfileData::Raw(prof) => (
-                    prof.points
-                        .iter()
-                        .flatten()
-                        .map(|q| Point3::new(q.x, 0.0, q.z))
-                        .collect(),
-                    vec![],
-                ),
-                ProfileData::Chord { a, b } => (
-                    vec![],
-                    vec![Point3::new(a.x, 0.0, a.y), Point3::new(b.x, 0.0, b.y)],
-                ),
-                ProfileData::Circle(c) => (vec![], vec![Point3::new(c.centre.x, 0.0, c.centre.y)]),
-                ProfileData::EdgePoint(q) => (vec![], vec![Point3::new(q.x, 0.0, q.y)]),
-                ProfileData::Arc(a) => (
-                    vec![],
-                    a.iter().map(|q| Point3::new(q.x, 0.0, q.y)).collect(),
-                ),
-            };
-            let in_sensor: Vec<[f32; 3]> = pts.iter().map(|q| f3(&q.coords)).collect();
-            let in_base: Vec<[f32; 3]> = pts
-                .iter()
-                .map(|q| f3(&(base_to_sensor * q).coords))
-                .collect();
+            if let Some(truth) = what.truth {
+                self.rec
+                    .log(
+                        "world/truth/sensor",
+                        &transform(&(p.base_to_flange * truth)),
+                    )
+                    .map_err(e)?;
+                self.error_at(p, &truth, estimate)?;
+            }
+            let plane = |q: &Vector2<f64>| [q.x as f32, 0.0, q.y as f32];
             self.rec
                 .log(
-                    "world/sensor/true/profile",
-                    &rerun::Points3D::new(in_sensor).with_radii([0.0004f32]),
-                )
-                .map_err(e)?;
-            self.rec
-                .log(
-                    "world/profile_in_base",
-                    &rerun::Points3D::new(in_base)
-                        .with_radii([0.0004f32])
+                    "world/sensor/profile",
+                    &rerun::Points3D::new(p.points.iter().map(plane))
+                        .with_radii([rerun::Radius::new_ui_points(1.5)])
                         .with_colors([rerun::Color::from_rgb(60, 200, 255)]),
                 )
                 .map_err(e)?;
-            let fb: Vec<[f32; 3]> = feats
+            let feats: Vec<[f32; 3]> = p
+                .feature
                 .iter()
-                .map(|q| f3(&(base_to_sensor * q).coords))
+                .flat_map(|f| f.features.iter().map(plane))
                 .collect();
+            // The same in the laser plane's own 2D view (mm; z grows downwards, away from the
+            // sensor, as the image axes do).
+            let mm = |q: &Vector2<f64>| [(q.x * 1e3) as f32, (q.y * 1e3) as f32];
             self.rec
                 .log(
-                    "world/features",
-                    &rerun::Points3D::new(fb)
-                        .with_radii([0.0015f32])
+                    "laser_plane/profile",
+                    &rerun::Points2D::new(p.points.iter().map(mm))
+                        .with_radii([rerun::Radius::new_ui_points(1.5)])
+                        .with_colors([rerun::Color::from_rgb(60, 200, 255)]),
+                )
+                .map_err(e)?;
+            self.rec
+                .log(
+                    "laser_plane/features",
+                    &rerun::Points2D::new(p.feature.iter().flat_map(|f| f.features.iter().map(mm)))
+                        .with_radii([rerun::Radius::new_ui_points(5.0)])
                         .with_colors([rerun::Color::from_rgb(255, 220, 0)]),
                 )
                 .map_err(e)?;
+            self.rec
+                .log(
+                    "world/sensor/features",
+                    &rerun::Points3D::new(feats)
+                        .with_radii([rerun::Radius::new_ui_points(5.0)])
+                        .with_colors([rerun::Color::from_rgb(255, 220, 0)]),
+                )
+                .map_err(e)?;
+            if let Some(r) = p.rms() {
+                self.rec
+                    .log("residual/rms_mm", &rerun::Scalars::new([r * 1e3]))
+                    .map_err(e)?;
+            }
         }
+        self.rec.disable_timeline("capture");
+        self.mapped(&view, estimate, scale)?;
         self.rec.flush_blocking().map_err(e)?;
         Ok(())
+    }
+
+    /// Every profile's points and features mapped into the base frame with `estimate`, static,
+    /// coloured by their distance from the fitted specimen (blue 0 to red at `scale` and beyond;
+    /// grey: not on the fitted surface).
+    fn mapped(&self, view: &View, estimate: &Isometry3<f64>, scale: f64) -> Res {
+        // At most about 300,000 points, so a large run stays quick to open.
+        let total: usize = view.profiles.iter().map(|p| p.points.len()).sum();
+        let stride = total.div_ceil(300_000).max(1);
+        let colour = |r: Option<f64>| match r {
+            None => rerun::Color::from_rgb(150, 150, 150),
+            Some(r) => {
+                let t = (r.abs() / scale).min(1.0);
+                rerun::Color::from_rgb(
+                    (255.0 * t) as u8,
+                    (120.0 * (1.0 - t)) as u8,
+                    (255.0 * (1.0 - t)) as u8,
+                )
+            }
+        };
+        let (mut pts, mut cols) = (Vec::new(), Vec::new());
+        let (mut feats, mut feat_cols) = (Vec::new(), Vec::new());
+        for p in &view.profiles {
+            let to_base = p.base_to_flange * estimate;
+            let at = |q: &Vector2<f64>| f3(&(to_base * Point3::new(q.x, 0.0, q.y)).coords);
+            match &p.feature {
+                // The surface points carry residuals; the rest of the profile is grey.
+                Some(f)
+                    if f.surface.len() == p.surface_residuals.len() && !f.surface.is_empty() =>
+                {
+                    for (q, r) in f.surface.iter().zip(&p.surface_residuals).step_by(stride) {
+                        pts.push(at(q));
+                        cols.push(colour(Some(*r)));
+                    }
+                }
+                _ => {
+                    for q in p.points.iter().step_by(stride) {
+                        pts.push(at(q));
+                        cols.push(colour(None));
+                    }
+                }
+            }
+            if let Some(f) = &p.feature {
+                for (k, q) in f.features.iter().enumerate() {
+                    feats.push(at(q));
+                    feat_cols.push(colour(p.feature_residuals.get(k).copied()));
+                }
+            }
+        }
+        self.rec
+            .log_static(
+                "world/mapped/profiles",
+                &rerun::Points3D::new(pts)
+                    .with_radii([rerun::Radius::new_ui_points(1.0)])
+                    .with_colors(cols),
+            )
+            .map_err(e)?;
+        self.rec
+            .log_static(
+                "world/mapped/features",
+                &rerun::Points3D::new(feats)
+                    .with_radii([rerun::Radius::new_ui_points(3.0)])
+                    .with_colors(feat_cols),
+            )
+            .map_err(e)
+    }
+
+    /// The specimen fitted to the mapped profiles, drawn as a wireframe.
+    fn fitted(&self, f: &Fitted) -> Res {
+        let colour = [rerun::Color::from_unmultiplied_rgba(80, 255, 120, 160)];
+        let path = "world/mapped/fitted_specimen";
+        let plane_box = |point: &Point3<f64>, normal: &Vector3<f64>, half: f32| {
+            let q = UnitQuaternion::rotation_between(&Vector3::z(), normal).unwrap_or_else(|| {
+                UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
+            });
+            rerun::Boxes3D::from_half_sizes([[half, half, 0.0]])
+                .with_centers([f3(&point.coords)])
+                .with_quaternions([quat(&q)])
+                .with_colors(colour)
+        };
+        match f {
+            Fitted::Sphere { centre, radius } => self.rec.log_static(
+                path,
+                &rerun::Ellipsoids3D::from_centers_and_radii(
+                    [f3(&centre.coords)],
+                    [*radius as f32],
+                )
+                .with_colors(colour)
+                .with_fill_mode(rerun::FillMode::MajorWireframe),
+            ),
+            Fitted::Disk {
+                centre,
+                normal,
+                radius,
+            } => {
+                let u = normal
+                    .cross(&Vector3::x())
+                    .try_normalize(1e-6)
+                    .unwrap_or_else(|| normal.cross(&Vector3::y()).normalize());
+                let v = normal.cross(&u);
+                let rim: Vec<[f32; 3]> = (0..=96)
+                    .map(|k| {
+                        let t = k as f64 * std::f64::consts::TAU / 96.0;
+                        f3(&(centre + *radius * (u * t.cos() + v * t.sin())).coords)
+                    })
+                    .collect();
+                self.rec
+                    .log_static(path, &rerun::LineStrips3D::new([rim]).with_colors(colour))
+            }
+            Fitted::Edge {
+                points,
+                direction,
+                face,
+            } => {
+                let lines: Vec<[[f32; 3]; 2]> = points
+                    .iter()
+                    .map(|p| {
+                        [
+                            f3(&(p - direction * 0.1).coords),
+                            f3(&(p + direction * 0.1).coords),
+                        ]
+                    })
+                    .collect();
+                self.rec
+                    .log_static(
+                        path,
+                        &rerun::LineStrips3D::new(lines)
+                            .with_colors(colour)
+                            .with_radii([rerun::Radius::new_ui_points(2.0)]),
+                    )
+                    .map_err(e)?;
+                match face {
+                    Some((q, n)) => self
+                        .rec
+                        .log_static("world/mapped/fitted_face", &plane_box(q, n, 0.05)),
+                    None => Ok(()),
+                }
+            }
+            Fitted::Plane { point, normal } => {
+                self.rec.log_static(path, &plane_box(point, normal, 0.1))
+            }
+        }
+        .map_err(e)
+    }
+
+    /// At one capture, the error against the truth: its scalars (`error/...`; the sensor
+    /// origin's error moves with the pose through the rotation error) and what makes it visible
+    /// under `world/truth/sensor`: an arrow to the recovered origin and a frame turned by the
+    /// rotation error, both magnified by a power of ten to a few centimetres (in their labels).
+    fn error_at(
+        &self,
+        p: &crate::method::view::ProfileView,
+        truth: &Isometry3<f64>,
+        estimate: &Isometry3<f64>,
+    ) -> Res {
+        // Both in the true sensor frame: the recovered origin, and the rotation between them.
+        let err = truth.inverse() * estimate;
+        let shift = err.translation.vector;
+        let rot = err.rotation.scaled_axis();
+        let size = shift.norm().max(rot.norm() * 0.05);
+        let k = magnification(size);
+        self.rec
+            .log(
+                "error/rotation_deg",
+                &rerun::Scalars::new([rot.norm().to_degrees()]),
+            )
+            .map_err(e)?;
+        self.rec
+            .log(
+                "error/translation_mm",
+                &rerun::Scalars::new([(estimate.translation.vector - truth.translation.vector)
+                    .norm()
+                    * 1e3]),
+            )
+            .map_err(e)?;
+        let origin_error_mm = ((p.base_to_flange * estimate).translation.vector
+            - (p.base_to_flange * truth).translation.vector)
+            .norm()
+            * 1e3;
+        self.rec
+            .log(
+                "error/sensor_origin_mm",
+                &rerun::Scalars::new([origin_error_mm]),
+            )
+            .map_err(e)?;
+        self.rec
+            .log(
+                "world/truth/sensor/error_arrow",
+                &rerun::Arrows3D::from_vectors([f3(&(shift * k))])
+                    .with_colors([rerun::Color::from_rgb(255, 0, 255)])
+                    .with_radii([rerun::Radius::new_ui_points(2.0)])
+                    .with_labels([format!("translation error x{k}")]),
+            )
+            .map_err(e)?;
+        let magnified = UnitQuaternion::from_scaled_axis(rot * k);
+        self.rec
+            .log(
+                "world/truth/sensor/rotation_error",
+                &rerun::Transform3D::from_rotation(quat(&magnified)),
+            )
+            .map_err(e)?;
+        self.rec
+            .log(
+                "world/truth/sensor/rotation_error/axes",
+                &rerun::Arrows3D::from_vectors([
+                    [0.05f32, 0.0, 0.0],
+                    [0.0, 0.05, 0.0],
+                    [0.0, 0.0, 0.05],
+                ])
+                .with_colors([rerun::Color::from_rgb(255, 0, 255)])
+                .with_labels([
+                    format!("rotation error x{k}"),
+                    String::new(),
+                    String::new(),
+                ]),
+            )
+            .map_err(e)
     }
 
     /// A sweep's curves as scalar series: `sweep/<series>/<column>` over the timeline `x` (the
@@ -374,6 +735,29 @@ impl Recorder {
                 .collect()
         };
         let metric = clean(&fig.y_key);
+        // Its own layout (the viewer keeps the last one per application otherwise): the curves in
+        // one view, titled as the plot is, with the time panel on the grid key.
+        {
+            use rerun::blueprint::components::PanelState;
+            use rerun::blueprint::{
+                Blueprint, BlueprintActivation, BlueprintPanel, SelectionPanel, TimePanel,
+                TimeSeriesView, Vertical,
+            };
+            Blueprint::new(Vertical::new([TimeSeriesView::new(fig.title.as_str())
+                .with_origin(format!("/sweep/{metric}"))
+                .into()]))
+            .with_blueprint_panel(BlueprintPanel::from_state(PanelState::Collapsed))
+            .with_selection_panel(SelectionPanel::from_state(PanelState::Collapsed))
+            .with_time_panel(TimePanel::new().with_timeline(fig.x_key.as_str()))
+            .send(
+                &self.rec,
+                BlueprintActivation {
+                    make_active: true,
+                    make_default: true,
+                },
+            )
+            .map_err(e)?;
+        }
         let timeline = rerun::TimelineName::try_new(&fig.x_key).map_err(|err| {
             crate::error::FormatError::Render {
                 what: "sweep recording".into(),

@@ -172,6 +172,47 @@ impl Method for Edge {
         any_pose(c, sensor)
     }
 
+    fn profile_features(
+        &self,
+        c: &Captures,
+        sensor: &SensorModel,
+    ) -> Vec<Option<super::ProfileFeature>> {
+        // With the sense recorded, the closed form's edge point; without it (free poses, real
+        // files), the any-pose estimator's reading: the top face and its edges in both senses.
+        let cfg = edge_config(sensor);
+        c.profiles
+            .iter()
+            .map(|p| {
+                let g = c.groups.iter().find(|g| g.id == p.group)?;
+                match (&p.data, c.edge_sense) {
+                    (ProfileData::Raw(prof), None) => {
+                        let bar = features::bar_profile(prof, sensor, &cfg).ok()?;
+                        Some(super::ProfileFeature {
+                            features: bar.edges.iter().map(|e| e.point).collect(),
+                            surface: bar.face,
+                        })
+                    }
+                    (data, sense) => {
+                        let sense = sense.unwrap_or(EdgeSense::Falling);
+                        let (q, face) = point_of(g, data, sensor, sense, &cfg).ok()?.ok()?;
+                        Some(super::ProfileFeature {
+                            features: vec![q],
+                            surface: face,
+                        })
+                    }
+                }
+            })
+            .collect()
+    }
+
+    fn fit_mapped(
+        &self,
+        features: &[Vec<Point3<f64>>],
+        surface: &[Vec<Point3<f64>>],
+    ) -> Option<super::view::Fitted> {
+        super::view::fit_bar(features, surface)
+    }
+
     fn needs_radius(&self) -> bool {
         false
     }

@@ -10,6 +10,7 @@ pub mod disk;
 pub mod edge;
 pub mod plane;
 pub mod verdict;
+pub mod view;
 
 use crate::calib::Status;
 use crate::calib::refine::{Options, Refinable, Refined};
@@ -98,11 +99,37 @@ pub trait Method: Sync {
         .into())
     }
 
+    /// Each profile's feature and the specimen-surface points it came from (for views and
+    /// their residuals), one entry per `caps.profiles`, None where the feature was not found.
+    fn profile_features(
+        &self,
+        caps: &Captures,
+        sensor: &SensorModel,
+    ) -> Vec<Option<ProfileFeature>>;
+
+    /// The specimen fitted to the profiles mapped into the base frame (per profile, its feature
+    /// points and surface points): what a view draws and measures residuals from.
+    fn fit_mapped(
+        &self,
+        features: &[Vec<Point3<f64>>],
+        surface: &[Vec<Point3<f64>>],
+    ) -> Option<view::Fitted>;
+
     /// Whether a capture file must give the specimen's radius.
     fn needs_radius(&self) -> bool;
 
     /// Whether a capture file's groups carry the sign s_i (+1 or -1).
     fn uses_group_signs(&self) -> bool;
+}
+
+/// One profile's feature as a view shows it, in the laser plane (sensor x, z; m): the feature
+/// points (the disk's chord ends, the ball arc's centre, the edge point, the plane line's ends)
+/// and the points on the specimen's surface they were found from (the disk's face, the ball's
+/// arc, the bar's top face, the plane's line).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ProfileFeature {
+    pub features: Vec<nalgebra::Vector2<f64>>,
+    pub surface: Vec<nalgebra::Vector2<f64>>,
 }
 
 /// A specimen method's plan on one rig: shared by every trial of a grid point.

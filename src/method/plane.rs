@@ -85,6 +85,39 @@ impl Method for PlaneMethod {
         calibrate(c, sensor)
     }
 
+    fn profile_features(
+        &self,
+        c: &Captures,
+        sensor: &SensorModel,
+    ) -> Vec<Option<super::ProfileFeature>> {
+        let cfg = SplitMerge::for_sensor(sensor);
+        c.profiles
+            .iter()
+            .map(|p| {
+                let g = c.groups.iter().find(|g| g.id == p.group)?;
+                let (centroid, dir, points) = line_of(g, &p.data, &cfg).ok()?;
+                // The line's ends: its first and last points projected onto it.
+                let end = |q: &Vector2<f64>| centroid + dir * (q - centroid).dot(&dir);
+                let features = match (points.first(), points.last()) {
+                    (Some(a), Some(b)) => vec![end(a), end(b)],
+                    _ => Vec::new(),
+                };
+                Some(super::ProfileFeature {
+                    features,
+                    surface: points,
+                })
+            })
+            .collect()
+    }
+
+    fn fit_mapped(
+        &self,
+        features: &[Vec<Point3<f64>>],
+        surface: &[Vec<Point3<f64>>],
+    ) -> Option<super::view::Fitted> {
+        super::view::fit_flat(features, surface)
+    }
+
     fn needs_radius(&self) -> bool {
         false
     }
@@ -166,25 +199,16 @@ fn line_of(
             need: "raw points (points_mm)",
         });
     };
-    let pts = features::valid_points(prof);
     let too_few = |n: usize| {
         CaptureError::from(features::FeatureError::TooFewPoints {
             found: n,
             need: MIN_POINTS,
         })
     };
-    if pts.len() < MIN_POINTS {
-        return Err(too_few(pts.len()));
+    let points = features::largest_segment(prof, cfg);
+    if points.len() < MIN_POINTS {
+        return Err(too_few(points.len()));
     }
-    let segs = features::split_and_merge(&pts, cfg);
-    let s = segs
-        .iter()
-        .max_by_key(|s| s.last - s.first)
-        .ok_or_else(|| too_few(0))?;
-    if s.last + 1 - s.first < MIN_POINTS {
-        return Err(too_few(s.last + 1 - s.first));
-    }
-    let points: Vec<Vector2<f64>> = pts[s.first..=s.last].iter().map(|p| p.1).collect();
     let centroid = points.iter().sum::<Vector2<f64>>() / points.len() as f64;
     let line = features::Line2::fit(&points).ok_or_else(|| too_few(points.len()))?;
     Ok((centroid, line.dir.normalize(), points))

@@ -38,6 +38,13 @@ pub struct Args {
     /// The sensor frame's name in the exports
     #[arg(long, default_value = "laser_sensor")]
     child_frame: String,
+    /// Record the result into a Rerun .rrd file: every profile mapped into the base frame with
+    /// the recovered transform, coloured by its distance from the specimen fitted there
+    #[arg(long)]
+    rerun: Option<PathBuf>,
+    /// Open a Rerun viewer and stream the same recording to it
+    #[arg(long)]
+    spawn: bool,
 }
 
 /// Exit status of a calibration judged suspect (docs: README, "Exit codes").
@@ -211,9 +218,65 @@ pub fn run(a: Args) -> Result<i32> {
     if a.ros2 {
         say!("{}", lasercal::io::export::ros2_command(&exported));
     }
+    if a.rerun.is_some() || a.spawn {
+        let mut line = format!(
+            "{} profiles, {} without the feature",
+            caps.profiles.len(),
+            cal.missed
+        );
+        if let Some(t) = &caps.truth {
+            let e = PoseError::between(&cal.flange_to_sensor, t);
+            line += &format!(
+                "; against the file's truth: rotation error {:.6} deg, translation error {:.6} mm",
+                e.rotation_error_deg, e.translation_error_mm
+            );
+        }
+        let summary = super::common::summary_text(
+            &format!("{name}: {} captures", caps.method),
+            method,
+            &judged,
+            &line,
+            &cal.flange_to_sensor,
+        );
+        record(&a, &caps, &sensor, &cal.flange_to_sensor, &summary)?;
+    }
     Ok(if judged.verdict == verdict::Verdict::Suspect {
         SUSPECT
     } else {
         0
     })
+}
+
+#[cfg(feature = "rerun")]
+fn record(
+    a: &Args,
+    caps: &lasercal::captures::Captures,
+    sensor: &lasercal::sensor::SensorModel,
+    flange_to_sensor: &nalgebra::Isometry3<f64>,
+    summary: &str,
+) -> Result<()> {
+    let what = lasercal::io::rerun::Recorded {
+        robot: None,
+        scene: None,
+        sensor,
+        truth: caps.truth,
+        summary,
+    };
+    for r in super::common::open_recorders(a.rerun.as_deref(), a.spawn)? {
+        r.log_captures(&what, caps, flange_to_sensor)?;
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "rerun"))]
+fn record(
+    _: &Args,
+    _: &lasercal::captures::Captures,
+    _: &lasercal::sensor::SensorModel,
+    _: &nalgebra::Isometry3<f64>,
+    _: &str,
+) -> Result<()> {
+    bail!(
+        "this lasercal was built without the `rerun` feature: rebuild with default features for --rerun/--spawn"
+    )
 }

@@ -261,3 +261,71 @@ pub fn verdict_text(
         })),
     }))
 }
+
+/// The recordings asked for: an .rrd file, a spawned viewer, or both.
+#[cfg(feature = "rerun")]
+pub fn open_recorders(
+    rerun: Option<&Path>,
+    spawn: bool,
+) -> Result<Vec<lasercal::io::rerun::Recorder>> {
+    use lasercal::io::rerun::Recorder;
+    let mut recorders = Vec::new();
+    if let Some(p) = rerun {
+        recorders.push(Recorder::save(p)?);
+    }
+    if spawn {
+        // Without a display the viewer cannot start and the recording waits for it to connect:
+        // fail at once with what to do instead.
+        let display = ["DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"]
+            .iter()
+            .any(|v| std::env::var_os(v).is_some_and(|x| !x.is_empty()));
+        if cfg!(target_os = "linux") && !display {
+            anyhow::bail!(
+                "--spawn needs a display (DISPLAY and WAYLAND_DISPLAY are not set): record with \
+                 --rerun run.rrd and open it with `rerun run.rrd` where there is one"
+            );
+        }
+        recorders.push(Recorder::spawn()?);
+    }
+    Ok(recorders)
+}
+
+/// After recording: name the URDF mesh visuals the recording could not show.
+#[cfg(feature = "rerun")]
+pub fn warn_skipped_meshes(recorders: &[lasercal::io::rerun::Recorder]) {
+    if let Some(r) = recorders.first() {
+        let meshes = r.skipped_meshes();
+        if !meshes.is_empty() {
+            eprintln!(
+                "warning: the robot's {} mesh visual(s) are not shown ({}); boxes, cylinders and \
+                 spheres are",
+                meshes.len(),
+                meshes.join(", ")
+            );
+        }
+    }
+}
+
+/// The text a recording's summary view shows: what was calibrated, the verdict and its
+/// reasons, the error bound, the result line and the recovered matrix.
+pub fn summary_text(
+    header: &str,
+    method: lasercal::method::MethodId,
+    j: &lasercal::method::verdict::Judged,
+    line: &str,
+    flange_to_sensor: &nalgebra::Isometry3<f64>,
+) -> String {
+    let (br, bt) = j.quality.error_bound();
+    let mut s = format!("{header}\n\n{method}: verdict {}\n", j.verdict);
+    for r in &j.reasons {
+        s += &format!("  - {r}\n");
+    }
+    s += &format!("error bound {br:.4} deg / {bt:.4} mm");
+    if let Some(n) = j.quality.noise_ratio {
+        s += &format!(", residual {n:.2} x the stated noise");
+    }
+    format!(
+        "{s}\n\n{line}\n\nrecovered flange_to_sensor (mm):\n{}",
+        matrix_text(&lasercal::math::pose_to_rows_mm(flange_to_sensor))
+    )
+}

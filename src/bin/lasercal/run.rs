@@ -37,47 +37,19 @@ fn record(
     setup: &lasercal::scenario::Setup,
     methods: &[MethodId],
     seed: u64,
-    estimates: &[(MethodId, nalgebra::Isometry3<f64>)],
+    estimates: &[(MethodId, nalgebra::Isometry3<f64>, String)],
 ) -> Result<()> {
-    use lasercal::io::rerun::Recorder;
     let method = a.rerun_method.unwrap_or(methods[0]);
-    let Some((_, est)) = estimates.iter().find(|(m, _)| *m == method) else {
+    let Some((_, est, summary)) = estimates.iter().find(|(m, _, _)| *m == method) else {
         bail!("--rerun-method {method}: no calibration of that method in this run");
     };
     let (caps, _) = lasercal::trial::trial_captures(setup, method.kind, seed, a.trial);
     let caps = caps?;
-    let mut recorders = Vec::new();
-    if let Some(p) = &a.rerun {
-        recorders.push(Recorder::save(p)?);
-    }
-    if a.spawn {
-        // Without a display the viewer cannot start and the recording waits for it to connect:
-        // fail at once with what to do instead.
-        let display = ["DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"]
-            .iter()
-            .any(|v| std::env::var_os(v).is_some_and(|x| !x.is_empty()));
-        if cfg!(target_os = "linux") && !display {
-            bail!(
-                "--spawn needs a display (DISPLAY and WAYLAND_DISPLAY are not set): record with \
-                 --rerun run.rrd and open it with `rerun run.rrd` where there is one"
-            );
-        }
-        recorders.push(Recorder::spawn()?);
-    }
+    let recorders = super::common::open_recorders(a.rerun.as_deref(), a.spawn)?;
     for r in &recorders {
-        r.log_run(setup, &caps, est)?;
+        r.log_run(setup, &caps, est, summary)?;
     }
-    if let Some(r) = recorders.first() {
-        let meshes = r.skipped_meshes();
-        if !meshes.is_empty() {
-            eprintln!(
-                "warning: the robot's {} mesh visual(s) are not shown ({}); boxes, cylinders and \
-                 spheres are",
-                meshes.len(),
-                meshes.join(", ")
-            );
-        }
-    }
+    super::common::warn_skipped_meshes(&recorders);
     Ok(())
 }
 
@@ -87,7 +59,7 @@ fn record(
     _: &lasercal::scenario::Setup,
     _: &[MethodId],
     _: u64,
-    _: &[(MethodId, nalgebra::Isometry3<f64>)],
+    _: &[(MethodId, nalgebra::Isometry3<f64>, String)],
 ) -> Result<()> {
     bail!(
         "this lasercal was built without the `rerun` feature: rebuild with default features for --rerun/--spawn"
@@ -110,7 +82,6 @@ pub fn run(a: Args) -> Result<()> {
         match &out.result {
             Ok(s) => {
                 let error = s.error();
-                estimates.push((method, s.estimate));
                 let est = pose_to_rows_mm(&s.estimate);
                 say!(
                     "\n{method}: recovered flange_to_sensor (mm):\n{}",
@@ -141,6 +112,17 @@ pub fn run(a: Args) -> Result<()> {
                 say!("{line}");
                 let refined = s.refined.as_ref().map(refinement);
                 let quality = verdict_text(method, &s.judged, None)?;
+                estimates.push((
+                    method,
+                    s.estimate,
+                    super::common::summary_text(
+                        &format!("scenario {} (seed {seed}, trial {})", sc.name, a.trial),
+                        method,
+                        &s.judged,
+                        &line,
+                        &s.estimate,
+                    ),
+                ));
                 let mut doc = serde_json::json!({
                     "refinement": refined,
                     "quality": quality,
