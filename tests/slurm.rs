@@ -16,10 +16,16 @@ fn slurm_up() -> bool {
             "`sinfo` failed: {}",
             String::from_utf8_lossy(&o.stderr).trim()
         ),
-        Ok(o) if !String::from_utf8_lossy(&o.stdout).lines().any(|l| l == "idle") => format!(
-            "no idle node: {}",
-            String::from_utf8_lossy(&o.stdout).trim()
-        ),
+        Ok(o)
+            if !String::from_utf8_lossy(&o.stdout)
+                .lines()
+                .any(|l| l == "idle") =>
+        {
+            format!(
+                "no idle node: {}",
+                String::from_utf8_lossy(&o.stdout).trim()
+            )
+        }
         Ok(_) => return true,
     };
     assert!(
@@ -70,7 +76,11 @@ fn the_readme_job_array_runs_on_slurm_and_merges_to_the_unsharded_bytes() {
     let script = readme_job_script();
     std::fs::write(dir.path().join("job.sh"), &script).unwrap();
     let bin = Path::new(env!("CARGO_BIN_EXE_lasercal")).parent().unwrap();
-    let path = format!("{}:{}", bin.display(), std::env::var("PATH").unwrap_or_default());
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
     // The array as written, but one CPU a task (the machine has two) and 40 trials in all (two a
     // task): `--wait` returns when every task has ended, with the worst task's exit status.
     run(
@@ -78,12 +88,17 @@ fn the_readme_job_array_runs_on_slurm_and_merges_to_the_unsharded_bytes() {
         &path,
         "timeout 900 sbatch --wait --quiet --cpus-per-task=1 --time=10 job.sh",
     );
-    let tasks = std::fs::read_dir(dir.path().join("shards")).unwrap().count();
+    let tasks = std::fs::read_dir(dir.path().join("shards"))
+        .unwrap()
+        .count();
     assert_eq!(tasks, 20, "one shard folder per array task");
     // The README's merge command (a comment in the script), then the unsharded sweep.
     let merge = script
         .lines()
-        .find_map(|l| l.trim_start_matches(['#', ' ']).strip_prefix("lasercal merge"))
+        .find_map(|l| {
+            l.trim_start_matches(['#', ' '])
+                .strip_prefix("lasercal merge")
+        })
         .expect("the script names its merge command");
     run(dir.path(), &path, &format!("lasercal merge{merge}"));
     let sweep = script
@@ -102,10 +117,19 @@ fn the_readme_job_array_runs_on_slurm_and_merges_to_the_unsharded_bytes() {
         &format!("lasercal sweep {scenario} --trials {trials} --out unsharded"),
     );
     let merged = merge.split("--out ").nth(1).unwrap().trim();
-    for f in ["trials.csv", "summary.csv", "plot.svg", "plot.png", "report.md"] {
+    for f in [
+        "trials.csv",
+        "summary.csv",
+        "plot.svg",
+        "plot.png",
+        "report.md",
+    ] {
         let a = std::fs::read(dir.path().join("unsharded").join(f)).unwrap();
         let b = std::fs::read(dir.path().join(merged).join(f)).unwrap();
-        assert!(a == b, "{f}: the merged shards differ from the unsharded sweep");
+        assert!(
+            a == b,
+            "{f}: the merged shards differ from the unsharded sweep"
+        );
     }
     let rows = std::fs::read_to_string(dir.path().join("unsharded/trials.csv")).unwrap();
     assert!(rows.lines().count() > 40, "{rows}");

@@ -79,7 +79,8 @@ impl View {
 
 /// The view of `caps` calibrated as `flange_to_sensor`.
 pub fn view(caps: &Captures, sensor: &SensorModel, flange_to_sensor: &Isometry3<f64>) -> View {
-    let features = super::method(caps.method).profile_features(caps, sensor);
+    let features =
+        super::method(caps.method).profile_features(caps, &super::extraction_sensor(caps, sensor));
     let mut profiles: Vec<ProfileView> = caps
         .profiles
         .iter()
