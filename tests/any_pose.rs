@@ -1226,8 +1226,26 @@ fn the_view_fits_the_specimen_on_profiles_lasercal_did_not_make() {
             );
             let good = rms(&v);
             assert!(good < 4.0 * sigma, "{kind} {seed}: residual RMS {good}");
-            if let Some(Fitted::Sphere { radius, .. }) = v.fitted {
-                assert!((radius - RADIUS).abs() < 0.1e-3, "{seed}: radius {radius}");
+            // The fitted shape is the true one: the ball's radius, the plane's or bar face's normal.
+            let up = s.face * Vector3::z();
+            let off_deg = |n: &Vector3<f64>| n.dot(&up).abs().min(1.0).acos().to_degrees();
+            match &v.fitted {
+                Some(Fitted::Sphere { radius, .. }) => {
+                    assert!((radius - RADIUS).abs() < 0.1e-3, "{seed}: radius {radius}")
+                }
+                Some(Fitted::Plane { normal, .. }) => {
+                    assert!(
+                        off_deg(normal) < 0.1,
+                        "{seed}: plane {} deg off",
+                        off_deg(normal)
+                    )
+                }
+                Some(Fitted::Edge {
+                    face: Some((_, n)), ..
+                }) => {
+                    assert!(off_deg(n) < 0.1, "{seed}: face {} deg off", off_deg(n))
+                }
+                _ => {}
             }
             assert!(v.fitted.is_some(), "{kind} {seed}: nothing fitted");
             let wrong = s.truth

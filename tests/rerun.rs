@@ -3,6 +3,8 @@
 //! command the test says so and passes, except under CI, where it is required.
 #![cfg(feature = "rerun")]
 
+mod common;
+
 use std::collections::BTreeMap;
 use std::process::Command;
 
@@ -128,31 +130,20 @@ fn calibrate_records_a_capture_file_mapped_with_the_recovered_transform() {
     let dir = tempfile::tempdir().unwrap();
     let caps = dir.path().join("ball.json");
     let rrd = dir.path().join("cal.rrd");
-    let lasercal = env!("CARGO_BIN_EXE_lasercal");
-    let scen = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/ball-free.toml");
-    let out = Command::new(lasercal)
-        .args(["simulate", scen, "--out", caps.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let out = Command::new(lasercal)
-        .args([
-            "calibrate",
-            caps.to_str().unwrap(),
-            "--rerun",
-            rrd.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let (code, _, err) = common::lasercal(&[
+        "simulate",
+        &common::scen("ball-free.toml"),
+        "--out",
+        caps.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let (code, _, err) = common::lasercal(&[
+        "calibrate",
+        caps.to_str().unwrap(),
+        "--rerun",
+        rrd.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
     let m = rows(&rrd, &cli);
     // 15 free poses; no arm or scene (a capture file has neither); the file's truth shows the error.
     for e in [

@@ -181,28 +181,24 @@ impl Method for Ball {
         sensor: &SensorModel,
     ) -> Vec<Option<super::ProfileFeature>> {
         let cfg = SplitMerge::for_sensor(sensor);
-        c.profiles
-            .iter()
-            .map(|p| {
-                let g = c.groups.iter().find(|g| g.id == p.group)?;
-                let circle = circle_of(g, p, c.specimen_radius?, &cfg).ok()?;
-                let surface = match &p.data {
-                    ProfileData::Raw(prof) => features::arc_points(prof, &circle),
-                    ProfileData::Arc(a) => a.clone(),
-                    // A circle given as such: the laser plane's whole section of the sphere.
-                    _ => (0..72)
-                        .map(|k| {
-                            let t = k as f64 * std::f64::consts::TAU / 72.0;
-                            circle.centre + circle.radius * nalgebra::Vector2::new(t.cos(), t.sin())
-                        })
-                        .collect(),
-                };
-                Some(super::ProfileFeature {
-                    features: vec![circle.centre],
-                    surface,
-                })
+        super::each_profile(c, |g, p| {
+            let circle = circle_of(g, p, c.specimen_radius?, &cfg).ok()?;
+            let surface = match &p.data {
+                ProfileData::Raw(prof) => features::arc_points(prof, &circle),
+                ProfileData::Arc(a) => a.clone(),
+                // A circle given as such: the laser plane's whole section of the sphere.
+                _ => (0..72)
+                    .map(|k| {
+                        let t = k as f64 * std::f64::consts::TAU / 72.0;
+                        circle.centre + circle.radius * nalgebra::Vector2::new(t.cos(), t.sin())
+                    })
+                    .collect(),
+            };
+            Some(super::ProfileFeature {
+                features: vec![circle.centre],
+                surface,
             })
-            .collect()
+        })
     }
 
     fn fit_mapped(

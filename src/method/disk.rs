@@ -201,35 +201,31 @@ impl Method for Disk {
         sensor: &SensorModel,
     ) -> Vec<Option<super::ProfileFeature>> {
         let cfg = SplitMerge::for_sensor(sensor);
-        c.profiles
-            .iter()
-            .map(|p| {
-                let g = c.groups.iter().find(|g| g.id == p.group)?;
-                let radius = c.specimen_radius?;
-                // The closed form's chord, else the any-pose estimator's reading (free poses).
-                let (ch, face) = match (chord_of(c, g, p, sensor, radius, &cfg), &p.data) {
-                    (Ok(Ok(found)), _) => found,
-                    (_, ProfileData::Raw(prof)) if c.specimen_kind != SpecimenType::DiskPaper => {
-                        match features::disk_profile(prof, sensor, radius, &cfg) {
-                            Ok(d) => (d.chord, d.face),
-                            // The face alone (the rim out of view): its line, no feature.
-                            Err(_) => {
-                                let face = features::largest_segment(prof, &cfg);
-                                return (face.len() >= 3).then_some(super::ProfileFeature {
-                                    features: Vec::new(),
-                                    surface: face,
-                                });
-                            }
+        super::each_profile(c, |g, p| {
+            let radius = c.specimen_radius?;
+            // The closed form's chord, else the any-pose estimator's reading (free poses).
+            let (ch, face) = match (chord_of(c, g, p, sensor, radius, &cfg), &p.data) {
+                (Ok(Ok(found)), _) => found,
+                (_, ProfileData::Raw(prof)) if c.specimen_kind != SpecimenType::DiskPaper => {
+                    match features::disk_profile(prof, sensor, radius, &cfg) {
+                        Ok(d) => (d.chord, d.face),
+                        // The face alone (the rim out of view): its line, no feature.
+                        Err(_) => {
+                            let face = features::largest_segment(prof, &cfg);
+                            return (face.len() >= 3).then_some(super::ProfileFeature {
+                                features: Vec::new(),
+                                surface: face,
+                            });
                         }
                     }
-                    _ => return None,
-                };
-                Some(super::ProfileFeature {
-                    features: vec![ch.a, ch.b],
-                    surface: face,
-                })
+                }
+                _ => return None,
+            };
+            Some(super::ProfileFeature {
+                features: vec![ch.a, ch.b],
+                surface: face,
             })
-            .collect()
+        })
     }
 
     fn fit_mapped(

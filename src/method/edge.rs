@@ -180,29 +180,23 @@ impl Method for Edge {
         // With the sense recorded, the closed form's edge point; without it (free poses, real
         // files), the any-pose estimator's reading: the top face and its edges in both senses.
         let cfg = edge_config(sensor);
-        c.profiles
-            .iter()
-            .map(|p| {
-                let g = c.groups.iter().find(|g| g.id == p.group)?;
-                match (&p.data, c.edge_sense) {
-                    (ProfileData::Raw(prof), None) => {
-                        let bar = features::bar_profile(prof, sensor, &cfg).ok()?;
-                        Some(super::ProfileFeature {
-                            features: bar.edges.iter().map(|e| e.point).collect(),
-                            surface: bar.face,
-                        })
-                    }
-                    (data, sense) => {
-                        let sense = sense.unwrap_or(EdgeSense::Falling);
-                        let (q, face) = point_of(g, data, sensor, sense, &cfg).ok()?.ok()?;
-                        Some(super::ProfileFeature {
-                            features: vec![q],
-                            surface: face,
-                        })
-                    }
-                }
-            })
-            .collect()
+        super::each_profile(c, |g, p| match (&p.data, c.edge_sense) {
+            (ProfileData::Raw(prof), None) => {
+                let bar = features::bar_profile(prof, sensor, &cfg).ok()?;
+                Some(super::ProfileFeature {
+                    features: bar.edges.iter().map(|e| e.point).collect(),
+                    surface: bar.face,
+                })
+            }
+            (data, sense) => {
+                let sense = sense.unwrap_or(EdgeSense::Falling);
+                let (q, face) = point_of(g, data, sensor, sense, &cfg).ok()?.ok()?;
+                Some(super::ProfileFeature {
+                    features: vec![q],
+                    surface: face,
+                })
+            }
+        })
     }
 
     fn fit_mapped(

@@ -132,6 +132,18 @@ pub struct ProfileFeature {
     pub surface: Vec<nalgebra::Vector2<f64>>,
 }
 
+/// Each profile with its group through `f`, in profile order: `Method::profile_features`' walk
+/// (None where the profile's group is not in the file or `f` finds nothing).
+pub(crate) fn each_profile(
+    c: &Captures,
+    f: impl Fn(&crate::captures::Group, &crate::captures::CaptureProfile) -> Option<ProfileFeature>,
+) -> Vec<Option<ProfileFeature>> {
+    c.profiles
+        .iter()
+        .map(|p| f(c.groups.iter().find(|g| g.id == p.group)?, p))
+        .collect()
+}
+
 /// A specimen method's plan on one rig: shared by every trial of a grid point.
 pub trait Plan: Send + Sync + fmt::Debug {
     /// The concrete plan (for tools and tests that need the method's own data).

@@ -91,23 +91,19 @@ impl Method for PlaneMethod {
         sensor: &SensorModel,
     ) -> Vec<Option<super::ProfileFeature>> {
         let cfg = SplitMerge::for_sensor(sensor);
-        c.profiles
-            .iter()
-            .map(|p| {
-                let g = c.groups.iter().find(|g| g.id == p.group)?;
-                let (centroid, dir, points) = line_of(g, &p.data, &cfg).ok()?;
-                // The line's ends: its first and last points projected onto it.
-                let end = |q: &Vector2<f64>| centroid + dir * (q - centroid).dot(&dir);
-                let features = match (points.first(), points.last()) {
-                    (Some(a), Some(b)) => vec![end(a), end(b)],
-                    _ => Vec::new(),
-                };
-                Some(super::ProfileFeature {
-                    features,
-                    surface: points,
-                })
+        super::each_profile(c, |g, p| {
+            let (centroid, dir, points) = line_of(g, &p.data, &cfg).ok()?;
+            // The line's ends: its first and last points projected onto it.
+            let end = |q: &Vector2<f64>| centroid + dir * (q - centroid).dot(&dir);
+            let features = match (points.first(), points.last()) {
+                (Some(a), Some(b)) => vec![end(a), end(b)],
+                _ => Vec::new(),
+            };
+            Some(super::ProfileFeature {
+                features,
+                surface: points,
             })
-            .collect()
+        })
     }
 
     fn fit_mapped(
