@@ -246,3 +246,38 @@ fn mesh_visuals_that_cannot_be_shown_are_named() {
         "{err}"
     );
 }
+
+#[test]
+fn a_recording_that_cannot_be_written_fails_before_the_work() {
+    // The .rrd is opened first: a bad path is named at once, not after the calibration ran.
+    let dir = tempfile::tempdir().unwrap();
+    let caps = dir.path().join("ball.json");
+    let (code, _, err) = common::lasercal(&[
+        "simulate",
+        &common::scen("ball-free.toml"),
+        "--out",
+        caps.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let bad = dir.path().join("no/such/dir/x.rrd");
+    let (code, out, err) = common::lasercal(&[
+        "calibrate",
+        caps.to_str().unwrap(),
+        "--rerun",
+        bad.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 2, "{out}{err}");
+    assert!(err.contains("no/such/dir/x.rrd"), "{err}");
+    assert!(!out.contains("verdict"), "the calibration ran first: {out}");
+    let (code, out, err) = common::lasercal(&[
+        "run",
+        &common::scen("chen2018-disk.toml"),
+        "--rerun-method",
+        "ball",
+        "--rerun",
+        dir.path().join("r.rrd").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 2, "{out}{err}");
+    assert!(err.contains("--rerun-method ball") && err.contains("disk"), "{err}");
+    assert!(!out.contains("recovered"), "the run went first: {out}");
+}

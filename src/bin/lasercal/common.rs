@@ -262,7 +262,23 @@ pub fn verdict_text(
     }))
 }
 
-/// The recordings asked for: an .rrd file, a spawned viewer, or both.
+/// The recordings asked for, opened before any work so that a bad path or a missing viewer
+/// fails at once: an .rrd file, a spawned viewer, or both (none when neither is asked for).
+#[cfg(feature = "rerun")]
+pub type Recorders = Vec<lasercal::io::rerun::Recorder>;
+#[cfg(not(feature = "rerun"))]
+pub type Recorders = Vec<()>;
+
+#[cfg(not(feature = "rerun"))]
+pub fn open_recorders(rerun: Option<&Path>, spawn: bool) -> Result<Recorders> {
+    if rerun.is_some() || spawn {
+        anyhow::bail!(
+            "this lasercal was built without the `rerun` feature: rebuild with default features for --rerun/--spawn"
+        );
+    }
+    Ok(Vec::new())
+}
+
 #[cfg(feature = "rerun")]
 pub fn open_recorders(
     rerun: Option<&Path>,

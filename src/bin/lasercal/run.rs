@@ -34,6 +34,7 @@ pub struct Args {
 #[cfg(feature = "rerun")]
 fn record(
     a: &Args,
+    recorders: &super::common::Recorders,
     setup: &lasercal::scenario::Setup,
     methods: &[MethodId],
     seed: u64,
@@ -45,31 +46,42 @@ fn record(
     };
     let (caps, _) = lasercal::trial::trial_captures(setup, method.kind, seed, a.trial);
     let caps = caps?;
-    let recorders = super::common::open_recorders(a.rerun.as_deref(), a.spawn)?;
-    for r in &recorders {
+    for r in recorders {
         r.log_run(setup, &caps, est, summary)?;
     }
-    super::common::warn_skipped_meshes(&recorders);
+    super::common::warn_skipped_meshes(recorders);
     Ok(())
 }
 
 #[cfg(not(feature = "rerun"))]
 fn record(
     _: &Args,
+    _: &super::common::Recorders,
     _: &lasercal::scenario::Setup,
     _: &[MethodId],
     _: u64,
     _: &[(MethodId, nalgebra::Isometry3<f64>, String)],
 ) -> Result<()> {
-    bail!(
-        "this lasercal was built without the `rerun` feature: rebuild with default features for --rerun/--spawn"
-    )
+    Ok(())
 }
 
 pub fn run(a: Args) -> Result<()> {
     let sf = load_scenario(&a.scenario)?;
     let sc = &sf.scenario;
     let setup = sc.build(&sf.file)?;
+    if let Some(m) = a.rerun_method
+        && !sc.methods.contains(&m)
+    {
+        bail!(
+            "--rerun-method {m}: the scenario runs {}; record one of those",
+            sc.methods
+                .iter()
+                .map(|m| m.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    let recorders = super::common::open_recorders(a.rerun.as_deref(), a.spawn)?;
     let seed = a.seed.unwrap_or(sc.seed);
     let truth = pose_to_rows_mm(&setup.rig.flange_to_sensor);
     say!("scenario {} (seed {seed}, trial {})", sc.name, a.trial);
@@ -159,8 +171,8 @@ pub fn run(a: Args) -> Result<()> {
         };
         lasercal::io::write(path, serde_json::to_string_pretty(&doc)?.as_bytes())?;
     }
-    if a.rerun.is_some() || a.spawn {
-        record(&a, &setup, &sc.methods, seed, &estimates)?;
+    if !recorders.is_empty() {
+        record(&a, &recorders, &setup, &sc.methods, seed, &estimates)?;
     }
     if failed {
         bail!("at least one method failed");
