@@ -251,14 +251,7 @@ fn mesh_visuals_that_cannot_be_shown_are_named() {
 fn a_recording_that_cannot_be_written_fails_before_the_work() {
     // The .rrd is opened first: a bad path is named at once, not after the calibration ran.
     let dir = tempfile::tempdir().unwrap();
-    let caps = dir.path().join("ball.json");
-    let (code, _, err) = common::lasercal(&[
-        "simulate",
-        &common::scen("ball-free.toml"),
-        "--out",
-        caps.to_str().unwrap(),
-    ]);
-    assert_eq!(code, 0, "{err}");
+    let caps = ball_capture(dir.path());
     let bad = dir.path().join("no/such/dir/x.rrd");
     let (code, out, err) = common::lasercal(&[
         "calibrate",
@@ -278,6 +271,22 @@ fn a_recording_that_cannot_be_written_fails_before_the_work() {
         dir.path().join("r.rrd").to_str().unwrap(),
     ]);
     assert_eq!(code, 2, "{out}{err}");
-    assert!(err.contains("--rerun-method ball") && err.contains("disk"), "{err}");
+    assert!(
+        err.contains("--rerun-method ball") && err.contains("disk"),
+        "{err}"
+    );
     assert!(!out.contains("recovered"), "the run went first: {out}");
+}
+
+/// The ball-free scenario's captures written to `dir`/ball.json (15 free poses, the truth in it).
+fn ball_capture(dir: &std::path::Path) -> std::path::PathBuf {
+    let caps = dir.join("ball.json");
+    let (code, _, err) = common::lasercal(&[
+        "simulate",
+        &common::scen("ball-free.toml"),
+        "--out",
+        caps.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    caps
 }

@@ -204,10 +204,28 @@ pub fn run(a: Args) -> Result<i32> {
     if let Some(p) = &a.json {
         lasercal::io::write(p, serde_json::to_string_pretty(&doc)?.as_bytes())?;
     }
+    export(&a, &cal.flange_to_sensor, &judged)?;
+    if !recorders.is_empty() {
+        let summary = summary(&name, &caps, method, cal, &judged);
+        record(&recorders, &caps, &sensor, &cal.flange_to_sensor, &summary)?;
+    }
+    Ok(if judged.verdict == verdict::Verdict::Suspect {
+        SUSPECT
+    } else {
+        0
+    })
+}
+
+/// The transform out as the flags ask: YAML, a URDF fragment, the ROS 2 command.
+fn export(
+    a: &Args,
+    flange_to_sensor: &nalgebra::Isometry3<f64>,
+    judged: &verdict::Judged,
+) -> Result<()> {
     let exported = lasercal::io::export::Exported {
         parent_frame: a.parent_frame.clone(),
         child_frame: a.child_frame.clone(),
-        flange_to_sensor: cal.flange_to_sensor,
+        flange_to_sensor: *flange_to_sensor,
         covariance: judged.quality.covariance,
     };
     if let Some(p) = &a.yaml {
@@ -219,33 +237,37 @@ pub fn run(a: Args) -> Result<i32> {
     if a.ros2 {
         say!("{}", lasercal::io::export::ros2_command(&exported));
     }
-    if !recorders.is_empty() {
-        let mut line = format!(
-            "{} profiles, {} without the feature",
-            caps.profiles.len(),
-            cal.missed
+    Ok(())
+}
+
+/// The recording's summary text: the file, the verdict, the profiles used and, where the file
+/// has the truth, the error against it.
+fn summary(
+    name: &str,
+    caps: &lasercal::captures::Captures,
+    method: MethodId,
+    cal: &lasercal::method::Calibration,
+    judged: &verdict::Judged,
+) -> String {
+    let mut line = format!(
+        "{} profiles, {} without the feature",
+        caps.profiles.len(),
+        cal.missed
+    );
+    if let Some(t) = &caps.truth {
+        let e = PoseError::between(&cal.flange_to_sensor, t);
+        line += &format!(
+            "; against the file's truth: rotation error {:.6} deg, translation error {:.6} mm",
+            e.rotation_error_deg, e.translation_error_mm
         );
-        if let Some(t) = &caps.truth {
-            let e = PoseError::between(&cal.flange_to_sensor, t);
-            line += &format!(
-                "; against the file's truth: rotation error {:.6} deg, translation error {:.6} mm",
-                e.rotation_error_deg, e.translation_error_mm
-            );
-        }
-        let summary = super::common::summary_text(
-            &format!("{name}: {} captures", caps.method),
-            method,
-            &judged,
-            &line,
-            &cal.flange_to_sensor,
-        );
-        record(&recorders, &caps, &sensor, &cal.flange_to_sensor, &summary)?;
     }
-    Ok(if judged.verdict == verdict::Verdict::Suspect {
-        SUSPECT
-    } else {
-        0
-    })
+    super::common::summary_text(
+        &format!("{name}: {} captures", caps.method),
+        method,
+        judged,
+        &line,
+        &cal.flange_to_sensor,
+    )
 }
 
 #[cfg(feature = "rerun")]
