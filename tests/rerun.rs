@@ -83,39 +83,43 @@ fn run_records_a_verifiable_rrd_with_every_entity() {
     let m = rows(&rrd, &cli);
     // 4 scans x 100 profiles: one row per capture for the moving entities, the profile and its
     // feature in the sensor frame and in the laser plane's 2D view, the error and residual.
-    for e in [
-        "/world/sensor",
-        "/world/flange",
-        "/world/truth/sensor",
-        "/world/truth/sensor/error_arrow",
-        "/world/sensor/profile",
-        "/world/sensor/features",
-        "/laser_plane/profile",
-        "/laser_plane/features",
-        "/error/rotation_deg",
-        "/error/sensor_origin_mm",
-        "/residual/rms_mm",
-        "/world/arm/link_3",
-        "/world/arm/tool0",
-    ] {
-        assert_eq!(m.get(e).copied(), Some(400), "{e}: {m:?}");
-    }
+    expect_rows(
+        &m,
+        &[
+            "/world/sensor",
+            "/world/flange",
+            "/world/truth/sensor",
+            "/world/truth/sensor/error_arrow",
+            "/world/sensor/profile",
+            "/world/sensor/features",
+            "/laser_plane/profile",
+            "/laser_plane/features",
+            "/error/rotation_deg",
+            "/error/sensor_origin_mm",
+            "/residual/rms_mm",
+            "/world/arm/link_3",
+            "/world/arm/tool0",
+        ],
+        400,
+    );
     // Static geometry and the mapped profiles once.
-    for e in [
-        "/world",
-        "/summary",
-        "/world/table",
-        "/world/specimen/0/part_0",
-        "/world/sensor/fan",
-        "/world/sensor/body",
-        "/world/arm/link_2/visual_0",
-        "/world/truth/sensor/axes",
-        "/world/mapped/profiles",
-        "/world/mapped/features",
-        "/world/mapped/fitted_specimen",
-    ] {
-        assert_eq!(m.get(e).copied(), Some(1), "{e}: {m:?}");
-    }
+    expect_rows(
+        &m,
+        &[
+            "/world",
+            "/summary",
+            "/world/table",
+            "/world/specimen/0/part_0",
+            "/world/sensor/fan",
+            "/world/sensor/body",
+            "/world/arm/link_2/visual_0",
+            "/world/truth/sensor/axes",
+            "/world/mapped/profiles",
+            "/world/mapped/features",
+            "/world/mapped/fitted_specimen",
+        ],
+        1,
+    );
     // The layout: views (blueprint entities) come with the recording.
     assert!(
         m.keys().any(|k| k.starts_with("/view/")),
@@ -146,22 +150,26 @@ fn calibrate_records_a_capture_file_mapped_with_the_recovered_transform() {
     assert_eq!(code, 0, "{err}");
     let m = rows(&rrd, &cli);
     // 15 free poses; no arm or scene (a capture file has neither); the file's truth shows the error.
-    for e in [
-        "/world/sensor",
-        "/world/sensor/profile",
-        "/laser_plane/features",
-        "/residual/rms_mm",
-        "/error/rotation_deg",
-    ] {
-        assert_eq!(m.get(e).copied(), Some(15), "{e}: {m:?}");
-    }
-    for e in [
-        "/world/mapped/profiles",
-        "/world/mapped/fitted_specimen",
-        "/summary",
-    ] {
-        assert_eq!(m.get(e).copied(), Some(1), "{e}: {m:?}");
-    }
+    expect_rows(
+        &m,
+        &[
+            "/world/sensor",
+            "/world/sensor/profile",
+            "/laser_plane/features",
+            "/residual/rms_mm",
+            "/error/rotation_deg",
+        ],
+        15,
+    );
+    expect_rows(
+        &m,
+        &[
+            "/world/mapped/profiles",
+            "/world/mapped/fitted_specimen",
+            "/summary",
+        ],
+        1,
+    );
     assert!(!m.keys().any(|k| k.starts_with("/world/arm")), "{m:?}");
 }
 
@@ -289,4 +297,11 @@ fn ball_capture(dir: &std::path::Path) -> std::path::PathBuf {
     ]);
     assert_eq!(code, 0, "{err}");
     caps
+}
+
+/// Each of `entities` has `n` rows in the recording.
+fn expect_rows(m: &BTreeMap<String, usize>, entities: &[&str], n: usize) {
+    for e in entities {
+        assert_eq!(m.get(*e).copied(), Some(n), "{e}: {m:?}");
+    }
 }

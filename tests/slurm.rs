@@ -4,6 +4,8 @@
 //! byte for byte the unsharded sweep. Under CI a Slurm that is not up fails the test with the
 //! reason; elsewhere the test says it was skipped.
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 
@@ -117,20 +119,11 @@ fn the_readme_job_array_runs_on_slurm_and_merges_to_the_unsharded_bytes() {
         &format!("lasercal sweep {scenario} --trials {trials} --out unsharded"),
     );
     let merged = merge.split("--out ").nth(1).unwrap().trim();
-    for f in [
-        "trials.csv",
-        "summary.csv",
-        "plot.svg",
-        "plot.png",
-        "report.md",
-    ] {
-        let a = std::fs::read(dir.path().join("unsharded").join(f)).unwrap();
-        let b = std::fs::read(dir.path().join(merged).join(f)).unwrap();
-        assert!(
-            a == b,
-            "{f}: the merged shards differ from the unsharded sweep"
-        );
-    }
+    common::assert_same_sweep_outputs(
+        &dir.path().join("unsharded"),
+        &dir.path().join(merged),
+        "the README's job array, merged",
+    );
     let rows = std::fs::read_to_string(dir.path().join("unsharded/trials.csv")).unwrap();
     assert!(rows.lines().count() > 40, "{rows}");
 }

@@ -150,19 +150,7 @@ fn sharded_sweep_merges_to_the_same_bytes() {
         let (code, _, err) =
             lasercal(&["merge", &d("s1"), &d("s2"), &d("s3"), "--out", &d("merged")]);
         assert_eq!(code, 0, "{err}");
-        for f in [
-            "trials.csv",
-            "summary.csv",
-            "plot.svg",
-            "plot.png",
-            "report.md",
-        ] {
-            assert_eq!(
-                read(&dir.path().join("full").join(f)),
-                read(&dir.path().join("merged").join(f)),
-                "{s}: {f} differs"
-            );
-        }
+        common::assert_same_sweep_outputs(&dir.path().join("full"), &dir.path().join("merged"), s);
         let report = String::from_utf8(read(&dir.path().join("full/report.md"))).unwrap();
         assert!(
             report.contains("seed:")

@@ -76,3 +76,27 @@ pub fn simulated_capture(
     let doc = serde_json::from_str(&std::fs::read_to_string(&caps).unwrap()).unwrap();
     (caps, doc)
 }
+
+/// A sweep's outputs that a merge of its shards must reproduce byte for byte.
+pub const SWEEP_OUTPUTS: [&str; 5] = [
+    "trials.csv",
+    "summary.csv",
+    "plot.svg",
+    "plot.png",
+    "report.md",
+];
+
+/// The sweep outputs in folders `a` and `b` are byte for byte the same (`what` names the case).
+pub fn assert_same_sweep_outputs(a: &std::path::Path, b: &std::path::Path, what: &str) {
+    for f in SWEEP_OUTPUTS {
+        let read = |d: &std::path::Path| {
+            std::fs::read(d.join(f)).unwrap_or_else(|e| panic!("{}: {e}", d.join(f).display()))
+        };
+        assert!(
+            read(a) == read(b),
+            "{what}: {f} differs between {} and {}",
+            a.display(),
+            b.display()
+        );
+    }
+}
