@@ -1,6 +1,7 @@
-//! Issue 14, item 2: `disk-full` refines over the disk's face points (up to 64 per profile, their
-//! distance from the plane) besides the chord ends; `edge-full` over the bar's face points besides
-//! the edge points.
+//! Issue 14, item 2: `disk-full` refines over the disk's face points (up to 512 per profile, their
+//! distance from the plane) and the cylinder's wall points (their distance from the wall) besides
+//! the chord ends where no wall shows; `edge-full` over the bar's face points besides the edge
+//! points.
 
 mod common;
 
@@ -9,8 +10,6 @@ use lasercal::calib::refine::Options;
 use lasercal::method::{Estimator, Kind, MethodId, calibrate, estimate};
 use lasercal::scenario::{ScenarioFile, Setup};
 use nalgebra::{DVector, Isometry3, UnitQuaternion, Vector3};
-
-const FULL: MethodId = MethodId::new(Kind::Disk, Estimator::FullProfile);
 
 fn comparison() -> Setup {
     let text = std::fs::read_to_string(common::scen("comparison.toml")).unwrap();
@@ -96,19 +95,27 @@ fn the_full_profile_refinement_reaches_one_minimum() {
     }
 }
 
-#[test]
-fn full_profile_against_chord_ends_on_the_comparison_rig() {
-    // Median over 30 trials (the comparison rig: Gocator 2340, z noise 0.02-0.06 mm, quantised).
-    let s = comparison();
-    let refined = MethodId::new(Kind::Disk, Estimator::Refined);
-    let (mut a, mut b) = (Vec::new(), Vec::new());
-    for trial in 0..30 {
-        let caps = lasercal::trial::trial_captures(&s, Kind::Disk, 1, trial)
+/// Median rotation (deg) and translation (mm) errors of the feature refinement and the
+/// full-profile refinement of `kind` over `trials` captures, each made by `make` from lasercal's
+/// own capture of that trial.
+fn medians(
+    s: &Setup,
+    kind: Kind,
+    trials: u64,
+    sensor: &lasercal::sensor::SensorModel,
+    make: &dyn Fn(lasercal::captures::Captures, u64) -> lasercal::captures::Captures,
+) -> [(f64, f64); 2] {
+    let refined = MethodId::new(kind, Estimator::Refined);
+    let full = MethodId::new(kind, Estimator::FullProfile);
+    let mut errors = [Vec::new(), Vec::new()];
+    for trial in 0..trials {
+        let caps = lasercal::trial::trial_captures(s, kind, 1, trial)
             .0
             .unwrap();
-        for (id, out) in [(refined, &mut a), (FULL, &mut b)] {
-            let (cal, _) = estimate(id, &caps, &s.rig.sensor).unwrap();
-            out.push(PoseError::between(
+        let caps = make(caps, trial);
+        for (id, out) in [(refined, 0), (full, 1)] {
+            let (cal, _) = estimate(id, &caps, sensor).unwrap();
+            errors[out].push(PoseError::between(
                 &cal.flange_to_sensor,
                 &s.rig.flange_to_sensor,
             ));
@@ -119,19 +126,98 @@ fn full_profile_against_chord_ends_on_the_comparison_rig() {
         x.sort_by(f64::total_cmp);
         x[x.len() / 2]
     };
-    let (ra, ta) = (
-        median(&a, |e| e.rotation_error_deg),
-        median(&a, |e| e.translation_error_mm),
-    );
-    let (rb, tb) = (
-        median(&b, |e| e.rotation_error_deg),
-        median(&b, |e| e.translation_error_mm),
-    );
+    errors.map(|e| {
+        (
+            median(&e, |e| e.rotation_error_deg),
+            median(&e, |e| e.translation_error_mm),
+        )
+    })
+}
+
+#[test]
+fn full_profile_halves_the_chord_ends_error_on_the_comparison_rig() {
+    // Issue 14's acceptance: at least 2x better than the feature refinement. The comparison rig
+    // (Gocator 2340, quantised) at far z noise 0.12 mm, 30 trials; 200 trials per noise give
+    // 2.1-6x (README).
+    let text = std::fs::read_to_string(common::scen("comparison.toml"))
+        .unwrap()
+        .replace("z_sigma_far_mm = 0.06", "z_sigma_far_mm = 0.12");
+    let sf = ScenarioFile::parse(&text, "comparison.toml").unwrap();
+    let s = sf.scenario.build(&sf.file).unwrap();
+    let [(ra, ta), (rb, tb)] = medians(&s, Kind::Disk, 30, &s.rig.sensor, &|c, _| c);
     eprintln!(
         "disk-refined {ra:.4} deg / {ta:.4} mm, disk-full {rb:.4} deg / {tb:.4} mm (medians)"
     );
     assert!(
-        tb < ta && rb < ra,
-        "disk-full is no better: {rb} / {tb} against {ra} / {ta}"
+        2.0 * rb <= ra && 2.0 * tb <= ta,
+        "disk-full is not 2x better: {rb} / {tb} against {ra} / {ta}"
+    );
+}
+
+#[test]
+fn full_profile_beats_chord_ends_on_profiles_lasercal_did_not_make() {
+    // The comparison rig's poses, every profile from the independent generator (its own ray
+    // caster, cylinder wall and camera occlusion), z noise 0.1 mm; 20 trials. Its camera sees
+    // the wall beyond fewer ends, and the chord ends of its unquantised equal-angle rays are
+    // better to start with: measured 3.0x in rotation, 1.7x in translation.
+    use lasercal::testkit::fan::{Fan, Noise, Solid};
+    let s = comparison();
+    let fan = Fan {
+        apex_z: 0.295,
+        dir_z: -1.0,
+        half_angle: 14f64.to_radians(),
+        columns: 1280,
+        equal_angle: true,
+        reversed: false,
+        z_range: (-0.105, 0.105),
+        camera: nalgebra::Point3::new(0.0, 0.120, 0.295),
+    };
+    let mut sensor = common::declared(&fan, "fan-295");
+    sensor.noise.z_sigma_near = 0.1e-3;
+    sensor.noise.z_sigma_far = 0.1e-3;
+    let solids = [
+        Solid::DiskOnCylinder {
+            frame: s.base_to_specimen,
+            radius: 0.050,
+            height: 0.020,
+        },
+        Solid::Table { height: -0.00852 },
+    ];
+    let noise = Noise {
+        sigma_z: 0.1e-3,
+        dropout: 0.0,
+    };
+    let [(ra, ta), (rb, tb)] = medians(&s, Kind::Disk, 20, &sensor, &|c, trial| {
+        common::regenerate(&c, &s, &fan, &solids, noise, 100 + trial)
+    });
+    eprintln!(
+        "independent profiles: disk-refined {ra:.4} deg / {ta:.4} mm, disk-full {rb:.4} deg / \
+         {tb:.4} mm (medians)"
+    );
+    assert!(
+        2.0 * rb <= ra && 1.3 * tb <= ta,
+        "disk-full is not 2x / 1.3x better: {rb} / {tb} against {ra} / {ta}"
+    );
+}
+
+#[test]
+fn edge_full_on_the_comparison_rig() {
+    // The comparison rig's bar (25 x 10 grouped poses on its riser), uniform z noise 0.1 mm, 30
+    // trials. Measured over 40: rotation 2.6x better than edge-refined, translation 1.4x (the face
+    // fixes the rotation; across the edge, the side wall's points where it shows, else the edge
+    // points as edge-refined has them).
+    let text = std::fs::read_to_string(common::scen("comparison.toml"))
+        .unwrap()
+        .replace("z_sigma_near_mm = 0.02", "z_sigma_near_mm = 0.1")
+        .replace("z_sigma_far_mm = 0.06", "z_sigma_far_mm = 0.1");
+    let sf = ScenarioFile::parse(&text, "comparison.toml").unwrap();
+    let s = sf.scenario.build(&sf.file).unwrap();
+    let [(ra, ta), (rb, tb)] = medians(&s, Kind::Edge, 30, &s.rig.sensor, &|c, _| c);
+    eprintln!(
+        "edge-refined {ra:.4} deg / {ta:.4} mm, edge-full {rb:.4} deg / {tb:.4} mm (medians)"
+    );
+    assert!(
+        2.0 * rb <= ra && 1.1 * tb <= ta,
+        "edge-full: {rb} / {tb} against edge-refined's {ra} / {ta}"
     );
 }

@@ -11,7 +11,7 @@ mod common;
 use lasercal::captures::{Captures, ProfileData};
 use lasercal::method::Kind;
 use lasercal::scenario::{ScenarioFile, Setup};
-use lasercal::sensor::{Profile, ProfilePoint, SensorModel};
+use lasercal::sensor::SensorModel;
 use lasercal::testkit::fan::{Fan, Noise, Solid, profile};
 use lasercal::trial::trial_captures;
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion};
@@ -24,35 +24,7 @@ fn with_sigma(sensor: &SensorModel, sigma_mm: f64) -> SensorModel {
     s
 }
 
-/// Replace every profile of `caps` by the generator's, seen from the true mounting.
-fn regenerate(
-    caps: &Captures,
-    s: &Setup,
-    fan: &Fan,
-    solids: &[Solid],
-    noise: Noise,
-    seed: u64,
-) -> Captures {
-    let mut rng = lasercal::testkit::rng(seed);
-    let mut out = caps.clone();
-    for p in &mut out.profiles {
-        let base_to_sensor = p.base_to_flange * s.rig.flange_to_sensor;
-        let pts = profile(fan, solids, &base_to_sensor, noise, &mut rng);
-        p.data = ProfileData::Raw(Profile {
-            points: pts
-                .into_iter()
-                .map(|q| {
-                    q.map(|(x, z)| ProfilePoint {
-                        x,
-                        z,
-                        intensity: 1.0,
-                    })
-                })
-                .collect(),
-        });
-    }
-    out
-}
+use common::regenerate;
 
 fn scenario(name: &str, edit: &dyn Fn(String) -> String) -> Setup {
     let text = edit(std::fs::read_to_string(common::scen(name)).unwrap());

@@ -102,6 +102,7 @@ fn with_edges(
             })
             .collect(),
         n_edges,
+        walls: Vec::new(),
     };
     // Offsets along the frame's y = n x dir, which is the search's across direction.
     let bar = Bar {

@@ -78,6 +78,8 @@ pub fn solve(
             })
             .collect(),
         rims,
+        end_weights: Vec::new(),
+        walls: Vec::new(),
     };
     let disk = DiskPose::new(Point3::from(centre), &n);
     // Censored rims: once but not twice differentiable at an interval's end (see `calib::bar`).

@@ -287,7 +287,14 @@ pub struct DiskProfile {
     pub chord: Chord,
     pub face: Vec<Vector2<f64>>,
     pub rim: [(Vector2<f64>, Vector2<f64>); 2],
+    /// The valid points beyond each end of the face (toward the chord's `a`, then `b`), nearest
+    /// first, at most `BEYOND` each: where the cylinder's wall shows, if it does (the
+    /// full-profile refinement tells wall from table with its estimate of the disk).
+    pub beyond: [Vec<Vector2<f64>>; 2],
 }
+
+/// Points beyond each end of a disk's face that `disk_profile` keeps.
+pub const BEYOND: usize = 128;
 
 pub fn disk_profile(
     profile: &Profile,
@@ -373,10 +380,23 @@ pub fn disk_profile(
         Ok((point, interval))
     };
     let (low, high) = (end(first, false)?, end(last, true)?);
+    let before: Vec<Vector2<f64>> = pts[..first]
+        .iter()
+        .rev()
+        .take(BEYOND)
+        .map(|p| p.1)
+        .collect();
+    let after: Vec<Vector2<f64>> = pts[last + 1..].iter().take(BEYOND).map(|p| p.1).collect();
+    let beyond = if sensor.x_reversed {
+        [after, before]
+    } else {
+        [before, after]
+    };
     Ok(DiskProfile {
         chord: Chord::by_x(low.0, high.0, sensor),
         face: pts[first..=last].iter().map(|p| p.1).collect(),
         rim: [low.1, high.1],
+        beyond,
     })
 }
 
@@ -528,7 +548,7 @@ pub fn edge_point(
     sense: EdgeSense,
     cfg: &SplitMerge,
 ) -> Result<Vector2<f64>, FeatureError> {
-    edge_point_and_face(profile, sensor, sense, cfg).map(|(p, _)| p)
+    edge_point_and_face(profile, sensor, sense, cfg).map(|e| e.point)
 }
 
 /// `edge_point` with the points of the top face it walked from (what `edge-full` fits too).
@@ -537,14 +557,31 @@ pub fn edge_point_and_face(
     sensor: &SensorModel,
     sense: EdgeSense,
     cfg: &SplitMerge,
-) -> Result<(Vector2<f64>, Vec<Vector2<f64>>), FeatureError> {
+) -> Result<EdgeProfile, FeatureError> {
     let (pts, segs) = segments(profile, cfg)?;
     let mut first_err = None;
     for i in top_face_candidates(&pts, &segs, sensor, cfg) {
         match walk_to_edge(&pts, &segs, i, sensor, sense, cfg) {
-            Ok(e) => {
+            Ok((e, next)) => {
                 let (first, last, _) = tighten(&pts, &segs[i], cfg.split_tol, sensor);
-                return Ok((e.point, pts[first..=last].iter().map(|p| p.1).collect()));
+                let forward = (sense == EdgeSense::Falling) != sensor.x_reversed;
+                let beyond: Vec<Vector2<f64>> = if next >= pts.len() {
+                    Vec::new()
+                } else if forward {
+                    pts[next..].iter().take(BEYOND).map(|p| p.1).collect()
+                } else {
+                    pts[..=next]
+                        .iter()
+                        .rev()
+                        .take(BEYOND)
+                        .map(|p| p.1)
+                        .collect()
+                };
+                return Ok(EdgeProfile {
+                    point: e.point,
+                    face: pts[first..=last].iter().map(|p| p.1).collect(),
+                    beyond,
+                });
             }
             Err(e) => {
                 first_err.get_or_insert(e);
@@ -624,6 +661,15 @@ pub struct EdgeEnd {
     pub to: Vector2<f64>,
 }
 
+/// The edge point of one profile, the top face's points it was walked from, and the valid points
+/// beyond the face's end at the edge, nearest first, at most `BEYOND` (the wall, where it shows).
+#[derive(Debug, Clone, PartialEq)]
+pub struct EdgeProfile {
+    pub point: Vector2<f64>,
+    pub face: Vec<Vector2<f64>>,
+    pub beyond: Vec<Vector2<f64>>,
+}
+
 /// A bar (or plate) seen from any pose: its top face's points and every end of the face that is an
 /// edge (one or both; which edge each is, the caller infers from where they lie).
 #[derive(Debug, Clone, PartialEq)]
@@ -651,7 +697,7 @@ pub fn bar_profile(
         let mut edges = Vec::new();
         for sense in [EdgeSense::Falling, EdgeSense::Rising] {
             match walk_to_edge(&pts, &segs, i, sensor, sense, cfg) {
-                Ok(e) => edges.push(e),
+                Ok((e, _)) => edges.push(e),
                 Err(e) => {
                     first_err.get_or_insert(e);
                 }
@@ -693,6 +739,7 @@ pub fn bar_profile(
 /// From face `i`, walk toward the edge in `sense` over shallow bevels to the corner with a steep
 /// wall falling away from the sensor, or to the face's end halfway to the next column when what
 /// lies beyond is farther from the sensor (or nothing). Anything else is not the specimen's edge.
+/// With the edge, the index of the first point beyond the face's end (out of range if none).
 fn walk_to_edge(
     pts: &[(usize, Vector2<f64>)],
     segs: &[Segment],
@@ -700,7 +747,7 @@ fn walk_to_edge(
     sensor: &SensorModel,
     sense: EdgeSense,
     cfg: &SplitMerge,
-) -> Result<EdgeEnd, FeatureError> {
+) -> Result<(EdgeEnd, usize), FeatureError> {
     // The sense is a direction in x; the walk goes by column, which runs the other way on a
     // sensor whose column 0 is at +x.
     let forward = (sense == EdgeSense::Falling) != sensor.x_reversed;
@@ -733,11 +780,14 @@ fn walk_to_edge(
                 let corner = line.intersect(&line2).ok_or_else(|| FeatureError::NoEdge {
                     reason: "parallel faces".into(),
                 })?;
-                return Ok(EdgeEnd {
-                    point: corner,
-                    from: corner,
-                    to: corner,
-                });
+                return Ok((
+                    EdgeEnd {
+                        point: corner,
+                        from: corner,
+                        to: corner,
+                    },
+                    next,
+                ));
             }
             if angle > 0.02 && angle <= std::f64::consts::FRAC_PI_4 {
                 i = j;
@@ -775,11 +825,14 @@ fn walk_to_edge(
             line.intersect(&column_line(sensor, u as f64))
                 .ok_or_else(parallel)
         };
-        return Ok(EdgeEnd {
-            point: end_between(sensor, &line, k, k2).ok_or_else(parallel)?,
-            from: on(k)?,
-            to: on(k2)?,
-        });
+        return Ok((
+            EdgeEnd {
+                point: end_between(sensor, &line, k, k2).ok_or_else(parallel)?,
+                from: on(k)?,
+                to: on(k2)?,
+            },
+            next,
+        ));
     }
 }
 

@@ -205,7 +205,7 @@ impl Method for Disk {
             let radius = c.specimen_radius?;
             // The closed form's chord, else the any-pose estimator's reading (free poses).
             let (ch, face) = match (chord_of(c, g, p, sensor, radius, &cfg), &p.data) {
-                (Ok(Ok(found)), _) => found,
+                (Ok(Ok(found)), _) => (found.chord, found.face),
                 (_, ProfileData::Raw(prof)) if c.specimen_kind != SpecimenType::DiskPaper => {
                     match features::disk_profile(prof, sensor, radius, &cfg) {
                         Ok(d) => (d.chord, d.face),
@@ -416,11 +416,83 @@ fn plane_normal(
     if n.z < 0.0 { -n } else { n }
 }
 
-/// Face points per profile the full-profile refinement keeps.
-const FACE_POINTS: usize = 64;
+/// The full-profile refinement's rim and its weights (residuals scaled to the face points' noise).
+#[derive(Debug, Default)]
+struct Rim {
+    ends: Vec<(Isometry3<f64>, Vector2<f64>)>,
+    end_weights: Vec<f64>,
+    walls: Vec<(Isometry3<f64>, Vector2<f64>, f64)>,
+}
 
-/// The chord of one capture (with the face points it was fitted to, from a raw profile): given, or
-/// extracted from the raw profile.
+/// Beyond each chord end, the points of the cylinder's wall (`super::wall_points`); where at least
+/// `WALL_MIN_POINTS` show, they replace the end. An end that stays is weighted by the face's z sigma at its depth
+/// over its own spread: the rim lies anywhere between the last column on the face and the next,
+/// uniformly, so the end's distance from the rim spreads by the column step (times the cosine
+/// between chord and radius, at least 0.3) over sqrt(12), whatever the noise (the face's line is
+/// fitted to hundreds of points); at least 0.25.
+fn rim_of(
+    ends: &[(Isometry3<f64>, Vector2<f64>)],
+    beyond: &[[Vec<Vector2<f64>>; 2]],
+    flange_to_sensor: &Isometry3<f64>,
+    disk: &DiskPose,
+    radius: f64,
+    sensor: &SensorModel,
+) -> Rim {
+    let n = disk.normal();
+    let mut rim = Rim::default();
+    let in_disk = |base_to_sensor: &Isometry3<f64>, p: &Vector2<f64>| {
+        let v = (base_to_sensor * Point3::new(p.x, 0.0, p.y)).coords - disk.centre;
+        let h = n.dot(&v);
+        (h, v - n * h)
+    };
+    for (k, (flange, end)) in ends.iter().enumerate() {
+        let base_to_sensor = flange * flange_to_sensor;
+        let past = beyond.get(k / 2).map_or(&[][..], |b| &b[k % 2][..]);
+        let wall = super::wall_points(past, &base_to_sensor, |q| {
+            let v = q - disk.centre;
+            let h = n.dot(&v);
+            let w = v - n * h;
+            (h, w.norm() - radius, w.normalize())
+        });
+        if wall.len() >= super::WALL_MIN_POINTS {
+            rim.walls
+                .extend(wall.into_iter().map(|(p, wt)| (*flange, p, wt)));
+            continue;
+        }
+        // The chord's direction at this end (toward the other end) against the radius.
+        let other = ends[k ^ 1].1;
+        let along = base_to_sensor.rotation
+            * Vector3::new(other.x - end.x, 0.0, other.y - end.y).normalize();
+        let (_, w) = in_disk(&base_to_sensor, end);
+        let cos = (w.normalize().dot(&along)).abs().max(0.3);
+        let depth = sensor.depth(&Point3::new(end.x, 0.0, end.y));
+        let spread = sensor.x_step_at_depth(depth) * cos / 12f64.sqrt();
+        let sigma = sensor.noise.z_sigma_at(sensor, depth);
+        rim.ends.push((*flange, *end));
+        rim.end_weights.push((sigma / spread).max(0.25));
+    }
+    rim
+}
+
+/// A chord with, from a raw profile of a disk on a cylinder, the face points it was fitted to and
+/// the points beyond its ends (`features::DiskProfile::beyond`).
+struct Found {
+    chord: features::Chord,
+    face: Vec<Vector2<f64>>,
+    beyond: [Vec<Vector2<f64>>; 2],
+}
+
+impl Found {
+    fn chord(chord: features::Chord) -> Found {
+        Found {
+            chord,
+            face: Vec::new(),
+            beyond: [Vec::new(), Vec::new()],
+        }
+    }
+}
+
+/// The chord of one capture: given, or extracted from the raw profile.
 fn chord_of(
     c: &Captures,
     g: &Group,
@@ -428,7 +500,7 @@ fn chord_of(
     sensor: &SensorModel,
     radius: f64,
     cfg: &SplitMerge,
-) -> Result<Result<(features::Chord, Vec<Vector2<f64>>), features::FeatureError>, CaptureError> {
+) -> Result<Result<Found, features::FeatureError>, CaptureError> {
     Ok(match &p.data {
         // A chord of no length says nothing about the disk (a recording error): left out.
         ProfileData::Chord { a, b } if (b - a).norm() <= 1e-9 * radius => {
@@ -436,13 +508,16 @@ fn chord_of(
                 reason: "the chord has zero length".into(),
             })
         }
-        ProfileData::Chord { a, b } => Ok((features::Chord { a: *a, b: *b }, Vec::new())),
+        ProfileData::Chord { a, b } => Ok(Found::chord(features::Chord { a: *a, b: *b })),
         ProfileData::Raw(prof) => {
             if c.specimen_kind == SpecimenType::DiskPaper {
-                features::disk_chord_intensity(prof, sensor, cfg.min_points)
-                    .map(|ch| (ch, Vec::new()))
+                features::disk_chord_intensity(prof, sensor, cfg.min_points).map(Found::chord)
             } else {
-                features::disk_chord_and_face(prof, sensor, radius, cfg)
+                features::disk_profile(prof, sensor, radius, cfg).map(|d| Found {
+                    chord: d.chord,
+                    face: d.face,
+                    beyond: d.beyond,
+                })
             }
         }
         _ => {
@@ -536,7 +611,8 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             last.base_to_flange.translation.vector,
         );
         let span = t1 - t0;
-        let (mut chords, mut ends, mut face) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut chords, mut ends, mut face, mut beyond) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut report = super::GroupReport::new(g.id);
         for p in &ps {
             let flange = p.base_to_flange;
@@ -548,11 +624,16 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             let chord = chord_of(c, g, p, sensor, radius, &cfg)?;
             report.count(&chord);
             match chord {
-                Ok((ch, points)) => {
+                Ok(Found {
+                    chord: ch,
+                    face: points,
+                    beyond: past,
+                }) => {
                     // The full-profile refinement's face points: up to 64 per profile, spread
                     // over the chord (more cost than information beyond that).
-                    let stride = points.len().div_ceil(FACE_POINTS).max(1);
+                    let stride = points.len().div_ceil(super::FACE_POINTS).max(1);
                     face.extend(points.into_iter().step_by(stride).map(|q| (flange, q)));
+                    beyond.push(past);
                     ends.push((flange, ch.a));
                     ends.push((flange, ch.b));
                     chords.push(DiskChord {
@@ -571,17 +652,19 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             s: g.sign,
             chords,
         };
-        per_scan.push((scan, ends, face));
+        per_scan.push((scan, ends, face, beyond));
         reports.push(report);
     }
     // A scan with fewer than 3 chords cannot give its ellipse: left out, if 4 scans remain.
     super::leave_out_thin_groups(&mut reports, 3, 4, Kind::Disk)?;
-    let (mut scans, mut ends, mut face) = (Vec::new(), Vec::new(), Vec::new());
-    for ((scan, e, f), r) in per_scan.into_iter().zip(&reports) {
+    let (mut scans, mut ends, mut face, mut beyond) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for ((scan, e, f, b), r) in per_scan.into_iter().zip(&reports) {
         if !r.left_out {
             scans.push(scan);
             ends.extend(e);
             face.extend(f);
+            beyond.extend(b);
         }
     }
     let mut problem = DiskProblem::new(radius, scans);
@@ -590,11 +673,21 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     let normal = plane_normal(&ends, &sol.flange_to_sensor);
     let specimen = DiskPose::new(sol.centre_in_base.into(), &normal);
     let full_profile = (!face.is_empty()).then(|| {
+        let rim = rim_of(
+            &ends,
+            &beyond,
+            &sol.flange_to_sensor,
+            &specimen,
+            radius,
+            sensor,
+        );
         std::sync::Arc::new(Problem {
             model: DiskModel {
                 rims: Vec::new(),
+                walls: rim.walls,
+                end_weights: rim.end_weights,
                 radius,
-                ends: ends.clone(),
+                ends: rim.ends,
                 face,
             },
             specimen,
@@ -604,6 +697,8 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         refinable: Some(std::sync::Arc::new(Problem {
             model: DiskModel {
                 rims: Vec::new(),
+                walls: Vec::new(),
+                end_weights: Vec::new(),
                 radius,
                 ends,
                 face: Vec::new(),

@@ -13,6 +13,7 @@ use crate::error::Error;
 use crate::features::{self, EdgeSense, SplitMerge};
 use crate::metrics::{Metric, Metrics};
 use crate::rng::{self, tag};
+use crate::scene::SpecimenType;
 use crate::scene::{FormError, FormTolerance, Scene};
 use crate::schema::{Common, Scenario, ScenarioError, Source, Validator};
 use crate::sensor::SensorModel;
@@ -190,10 +191,10 @@ impl Method for Edge {
             }
             (data, sense) => {
                 let sense = sense.unwrap_or(EdgeSense::Falling);
-                let (q, face) = point_of(g, data, sensor, sense, &cfg).ok()?.ok()?;
+                let e = point_of(g, data, sensor, sense, &cfg).ok()?.ok()?;
                 Some(super::ProfileFeature {
-                    features: vec![q],
-                    surface: face,
+                    features: vec![e.point],
+                    surface: e.face,
                 })
             }
         })
@@ -348,7 +349,7 @@ impl Plan for EdgePlan {
 
 /// The edge point of one capture: given, or extracted from the raw profile.
 /// With a raw profile, also the top face's points (for `edge-full`).
-type EdgeFeature = (Vector2<f64>, Vec<Vector2<f64>>);
+type EdgeFeature = features::EdgeProfile;
 
 fn point_of(
     g: &Group,
@@ -358,7 +359,11 @@ fn point_of(
     cfg: &SplitMerge,
 ) -> Result<Result<EdgeFeature, features::FeatureError>, CaptureError> {
     match data {
-        ProfileData::EdgePoint(q) => Ok(Ok((*q, Vec::new()))),
+        ProfileData::EdgePoint(q) => Ok(Ok(features::EdgeProfile {
+            point: *q,
+            face: Vec::new(),
+            beyond: Vec::new(),
+        })),
         ProfileData::Raw(prof) => Ok(features::edge_point_and_face(prof, sensor, sense, cfg)),
         _ => Err(CaptureError::WrongData {
             group: g.id,
@@ -424,6 +429,7 @@ fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, R
 fn full_profile(
     sol: &crate::calib::edge::EdgeSolution,
     points: &[(Isometry3<f64>, Vector2<f64>)],
+    beyond: &[Vec<Vector2<f64>>],
     face: Vec<(Isometry3<f64>, Vector2<f64>)>,
 ) -> Option<std::sync::Arc<dyn crate::calib::refine::Refinable>> {
     use crate::calib::refine::bar::{Bar, BarModel, EdgeSeen};
@@ -454,23 +460,37 @@ fn full_profile(
         n,
     ]));
     let across = n.cross(&dir);
-    let model = BarModel {
-        face,
-        edges: points
-            .iter()
-            .map(|(f, q)| EdgeSeen {
-                base_to_flange: *f,
-                from: *q,
-                to: *q,
-                edge: 0,
-            })
-            .collect(),
-        n_edges: 1,
-    };
     let specimen = Bar {
         frame,
         offset: n.dot(&centroid),
         edge_offsets: [across.dot(&sol.edge_point); 2],
+    };
+    let (mut edges, mut walls) = (Vec::new(), Vec::new());
+    for (k, (f, q)) in points.iter().enumerate() {
+        let past = beyond.get(k).map_or(&[][..], |b| &b[..]);
+        let wall = super::wall_points(past, &(f * sol.flange_to_sensor), |p| {
+            (
+                n.dot(p) - specimen.offset,
+                across.dot(p) - specimen.edge_offsets[0],
+                across,
+            )
+        });
+        if wall.len() >= super::WALL_MIN_POINTS {
+            walls.extend(wall.into_iter().map(|(p, w)| (*f, p, w)));
+        } else {
+            edges.push(EdgeSeen {
+                base_to_flange: *f,
+                from: *q,
+                to: *q,
+                edge: 0,
+            });
+        }
+    }
+    let model = BarModel {
+        face,
+        edges,
+        n_edges: 1,
+        walls,
     };
     Some(std::sync::Arc::new(Problem { model, specimen }))
 }
@@ -483,15 +503,21 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     let mut missed = 0;
     let (mut per_group, mut reports) = (Vec::new(), Vec::new());
     for g in &c.groups {
-        let (mut caps, mut pts, mut face) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut caps, mut pts, mut face, mut beyond) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut report = super::GroupReport::new(g.id);
         for p in c.group_profiles(g.id) {
             let point = point_of(g, &p.data, sensor, sense, &cfg)?;
             report.count(&point);
             match point {
-                Ok((q, points)) => {
-                    // Up to 64 face points per profile for edge-full, as disk-full keeps.
-                    let stride = points.len().div_ceil(64).max(1);
+                Ok(features::EdgeProfile {
+                    point: q,
+                    face: points,
+                    beyond: past,
+                }) => {
+                    // Face points for edge-full, as many per profile as disk-full keeps (64 gave
+                    // 1.6-2x the rotation error on the comparison rig's bar).
+                    let stride = points.len().div_ceil(super::FACE_POINTS).max(1);
                     face.extend(
                         points
                             .into_iter()
@@ -499,6 +525,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                             .map(|f| (p.base_to_flange, f)),
                     );
                     pts.push((p.base_to_flange, q));
+                    beyond.push(past);
                     caps.push(EdgeCapture {
                         r_tcp: p.base_to_flange.rotation.to_rotation_matrix(),
                         t_tcp: p.base_to_flange.translation.vector,
@@ -508,25 +535,35 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                 Err(_) => missed += 1,
             }
         }
-        per_group.push((caps, pts, face));
+        per_group.push((caps, pts, face, beyond));
         reports.push(report);
     }
     // A group with fewer than 3 edge points gives no rotation equations: left out, if 2 remain.
     super::leave_out_thin_groups(&mut reports, 3, 2, Kind::Edge)?;
-    let (mut groups, mut points, mut face) = (Vec::new(), Vec::new(), Vec::new());
-    for ((caps, pts, f), r) in per_group.into_iter().zip(&reports) {
+    let (mut groups, mut points, mut face, mut beyond) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for ((caps, pts, f, b), r) in per_group.into_iter().zip(&reports) {
         if !r.left_out {
             groups.push(caps);
             points.extend(pts);
             face.extend(f);
+            beyond.extend(b);
         }
+    }
+    // The side wall is the plane through the edge perpendicular to the face on a bar or a
+    // plate, not on a knife's bevel.
+    if !matches!(
+        c.specimen_kind,
+        SpecimenType::ParallelBar | SpecimenType::Scale
+    ) {
+        beyond.clear();
     }
     let sol = crate::calib::edge::solve(&EdgeProblem {
         groups,
         orientation_tolerance_deg: c.orientation_tolerance_deg,
     })?;
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
-    let full_profile = full_profile(&sol, &points, face);
+    let full_profile = full_profile(&sol, &points, &beyond, face);
     Ok(super::Calibration {
         full_profile,
         refinable: Some(std::sync::Arc::new(Problem {

@@ -100,3 +100,35 @@ pub fn assert_same_sweep_outputs(a: &std::path::Path, b: &std::path::Path, what:
         );
     }
 }
+
+/// Replace every profile of `caps` by the independent generator's (`testkit::fan`), seen from the
+/// true mounting.
+pub fn regenerate(
+    caps: &lasercal::captures::Captures,
+    s: &lasercal::scenario::Setup,
+    fan: &lasercal::testkit::fan::Fan,
+    solids: &[lasercal::testkit::fan::Solid],
+    noise: lasercal::testkit::fan::Noise,
+    seed: u64,
+) -> lasercal::captures::Captures {
+    use lasercal::sensor::{Profile, ProfilePoint};
+    let mut rng = lasercal::testkit::rng(seed);
+    let mut out = caps.clone();
+    for p in &mut out.profiles {
+        let base_to_sensor = p.base_to_flange * s.rig.flange_to_sensor;
+        let pts = lasercal::testkit::fan::profile(fan, solids, &base_to_sensor, noise, &mut rng);
+        p.data = lasercal::captures::ProfileData::Raw(Profile {
+            points: pts
+                .into_iter()
+                .map(|q| {
+                    q.map(|(x, z)| ProfilePoint {
+                        x,
+                        z,
+                        intensity: 1.0,
+                    })
+                })
+                .collect(),
+        });
+    }
+    out
+}

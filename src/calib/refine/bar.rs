@@ -29,6 +29,9 @@ pub struct BarModel {
     pub edges: Vec<EdgeSeen>,
     /// How many distinct edges the profiles cross (1 or 2).
     pub n_edges: usize,
+    /// Points of the side wall below edge 0 (`edge-full`), each with its weight: the wall is the
+    /// plane through the edge perpendicular to the face, a point's residual its distance from it.
+    pub walls: Vec<(Isometry3<f64>, Vector2<f64>, f64)>,
 }
 
 /// The bar: its frame (x along the edges, z the face's normal), the face's offset and the edges'.
@@ -49,7 +52,7 @@ impl Model for BarModel {
         4 + self.n_edges
     }
     fn n_features(&self) -> usize {
-        self.face.len() + self.edges.len()
+        self.face.len() + self.edges.len() + self.walls.len()
     }
     fn residuals_per_feature(&self) -> usize {
         1
@@ -103,6 +106,18 @@ impl Model for BarModel {
                 j[(row, 6)] = ez.dot(&qb);
                 j[(row, 8)] = -ex.dot(&qb);
                 j[(row, 10 + e.edge)] = -1.0;
+            }
+        }
+        let n = n + self.edges.len();
+        for (i, (f, p, w)) in self.walls.iter().enumerate() {
+            let row = n + i;
+            let (qb, dq_dw, dq_dt) = x.point_in_base(f, p, jac);
+            r[row] = w * (ey.dot(&qb) - s.edge_offsets[0]);
+            if let Some(j) = j.as_deref_mut() {
+                transform_columns(j, row, &(ey * *w), &dq_dw, &dq_dt);
+                j[(row, 6)] = w * ez.dot(&qb);
+                j[(row, 8)] = -w * ex.dot(&qb);
+                j[(row, 10)] = -w;
             }
         }
     }

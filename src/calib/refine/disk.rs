@@ -3,10 +3,13 @@
 //! Specimen parameters: centre c (3) and normal n = Q z, Q <- Q exp([d1, d2, 0]) (2). Residuals per
 //! chord end q: its distance from the plane n.(q - c), and from the rim |w| - r with
 //! w = (q - c) - (n.(q - c)) n. Full profile (issue 14): every face point's distance from the
-//! plane too (along the normal), after the chord ends.
+//! plane too (along the normal), after the chord ends, and every point of the cylinder's wall seen
+//! below the rim: its distance from the wall, |w| - r (along the wall's normal). Ends and wall
+//! points may carry weights (residual and Jacobian row scaled): their spread differs from the
+//! face points'.
 
 use super::{Model, Transform, exp, frame_with, transform_columns};
-use nalgebra::{DMatrix, DVector, Isometry3, Point3, Rotation3, Vector2, Vector3};
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Point3, Rotation3, Vector2, Vector3};
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct DiskModel {
@@ -19,6 +22,11 @@ pub struct DiskModel {
     /// residual while the rim passes between them, else the nearer one's distance from the rim
     /// (censored, as `refine::bar`'s edges).
     pub rims: Vec<(Isometry3<f64>, Vector2<f64>, Vector2<f64>)>,
+    /// Each end's weight on its distance from the rim (empty: all 1).
+    pub end_weights: Vec<f64>,
+    /// Points of the cylinder's wall (a disk on a cylinder of its radius; full profile), each
+    /// with its weight.
+    pub walls: Vec<(Isometry3<f64>, Vector2<f64>, f64)>,
 }
 
 /// The disk's centre and orientation (normal = q z).
@@ -41,6 +49,80 @@ impl DiskPose {
     }
 }
 
+/// A base-frame point with its derivatives (`Transform::point_in_base`).
+type Seen = (Vector3<f64>, Matrix3<f64>, Matrix3<f64>);
+
+/// The disk's plane and axis at the current estimate, with the normal's derivatives.
+struct Geometry {
+    centre: Vector3<f64>,
+    n: Vector3<f64>,
+    dn: [Vector3<f64>; 2],
+}
+
+impl Geometry {
+    fn of(s: &DiskPose) -> Geometry {
+        Geometry {
+            centre: s.centre,
+            n: s.q * Vector3::z(),
+            dn: [-(s.q * Vector3::y()), s.q * Vector3::x()],
+        }
+    }
+
+    /// Height above the plane and the in-plane offset from the axis.
+    fn split(&self, q: &Vector3<f64>) -> (Vector3<f64>, f64, Vector3<f64>) {
+        let v = q - self.centre;
+        let h = self.n.dot(&v);
+        (v, h, v - self.n * h)
+    }
+
+    /// Distance from the axis less the radius.
+    fn past_rim(&self, radius: f64, q: &Vector3<f64>) -> f64 {
+        self.split(q).2.norm() - radius
+    }
+
+    /// Row k: the point's distance from the plane.
+    fn plane_row(&self, r: &mut DVector<f64>, j: Option<&mut DMatrix<f64>>, k: usize, p: &Seen) {
+        let (v, h, _) = self.split(&p.0);
+        r[k] = h;
+        if let Some(j) = j {
+            transform_columns(j, k, &self.n, &p.1, &p.2);
+            for c in 0..3 {
+                j[(k, 6 + c)] = -self.n[c];
+            }
+            j[(k, 9)] = v.dot(&self.dn[0]);
+            j[(k, 10)] = v.dot(&self.dn[1]);
+        }
+    }
+
+    /// Row k: the point's distance from the axis less the radius, times `weight`.
+    fn rim_row(
+        &self,
+        radius: f64,
+        r: &mut DVector<f64>,
+        j: Option<&mut DMatrix<f64>>,
+        k: usize,
+        p: &Seen,
+        weight: f64,
+    ) {
+        let (_, h, w) = self.split(&p.0);
+        let wn = w.norm();
+        r[k] = weight * (wn - radius);
+        if let Some(j) = j {
+            let g = if wn > 0.0 {
+                (w / wn) * weight
+            } else {
+                Vector3::zeros()
+            };
+            transform_columns(j, k, &g, &p.1, &p.2);
+            for c in 0..3 {
+                j[(k, 6 + c)] = -g[c];
+            }
+            j[(k, 9)] = -h * g.dot(&self.dn[0]);
+            j[(k, 10)] = -h * g.dot(&self.dn[1]);
+        }
+    }
+}
+
 impl Model for DiskModel {
     type Specimen = DiskPose;
 
@@ -57,7 +139,7 @@ impl Model for DiskModel {
         2
     }
     fn n_residuals(&self) -> usize {
-        2 * self.ends.len() + self.face.len() + self.rims.len()
+        2 * self.ends.len() + self.face.len() + self.rims.len() + self.walls.len()
     }
 
     fn eval(
@@ -68,75 +150,35 @@ impl Model for DiskModel {
         r: &mut DVector<f64>,
         mut j: Option<&mut DMatrix<f64>>,
     ) {
-        let nrm = s.q * Vector3::z();
-        let (dn1, dn2) = (-(s.q * Vector3::y()), s.q * Vector3::x());
+        let disk = Geometry::of(s);
         for (i, (f, p)) in self.ends.iter().enumerate() {
-            let (qb, dq_dw, dq_dt) = x.point_in_base(f, p, j.is_some());
-            let v = qb - s.centre;
-            let h = nrm.dot(&v);
-            let w = v - nrm * h;
-            let wn = w.norm();
-            r[2 * i] = h;
-            r[2 * i + 1] = wn - self.radius;
-            if let Some(j) = j.as_deref_mut() {
-                let wh = if wn > 0.0 { w / wn } else { Vector3::zeros() };
-                for (k, g, dd) in [
-                    (2 * i, nrm, [v.dot(&dn1), v.dot(&dn2)]),
-                    (2 * i + 1, wh, [-h * wh.dot(&dn1), -h * wh.dot(&dn2)]),
-                ] {
-                    transform_columns(j, k, &g, &dq_dw, &dq_dt);
-                    for c in 0..3 {
-                        j[(k, 6 + c)] = -g[c];
-                    }
-                    j[(k, 9)] = dd[0];
-                    j[(k, 10)] = dd[1];
-                }
-            }
+            let weight = self.end_weights.get(i).copied().unwrap_or(1.0);
+            let point = x.point_in_base(f, p, j.is_some());
+            disk.plane_row(r, j.as_deref_mut(), 2 * i, &point);
+            disk.rim_row(self.radius, r, j.as_deref_mut(), 2 * i + 1, &point, weight);
         }
         let base = 2 * self.ends.len();
         for (i, (f, p)) in self.face.iter().enumerate() {
-            let k = base + i;
-            let (qb, dq_dw, dq_dt) = x.point_in_base(f, p, j.is_some());
-            let v = qb - s.centre;
-            r[k] = nrm.dot(&v);
-            if let Some(j) = j.as_deref_mut() {
-                transform_columns(j, k, &nrm, &dq_dw, &dq_dt);
-                for c in 0..3 {
-                    j[(k, 6 + c)] = -nrm[c];
-                }
-                j[(k, 9)] = v.dot(&dn1);
-                j[(k, 10)] = v.dot(&dn2);
-            }
+            let point = x.point_in_base(f, p, j.is_some());
+            disk.plane_row(r, j.as_deref_mut(), base + i, &point);
         }
         let base = base + self.face.len();
-        let rim_of = |qb: &Vector3<f64>| {
-            let v = qb - s.centre;
-            let h = nrm.dot(&v);
-            let w = v - nrm * h;
-            (w.norm() - self.radius, h, w)
-        };
         for (i, (f, a, b)) in self.rims.iter().enumerate() {
             let k = base + i;
-            let ra = rim_of(&x.point_in_base(f, a, false).0).0;
-            let rb = rim_of(&x.point_in_base(f, b, false).0).0;
+            let ra = disk.past_rim(self.radius, &x.point_in_base(f, a, false).0);
+            let rb = disk.past_rim(self.radius, &x.point_in_base(f, b, false).0);
             if ra * rb <= 0.0 {
                 r[k] = 0.0;
                 continue;
             }
             let p = if ra.abs() <= rb.abs() { a } else { b };
-            let (qb, dq_dw, dq_dt) = x.point_in_base(f, p, j.is_some());
-            let (res, h, w) = rim_of(&qb);
-            r[k] = res;
-            if let Some(j) = j.as_deref_mut() {
-                let wn = w.norm();
-                let wh = if wn > 0.0 { w / wn } else { Vector3::zeros() };
-                transform_columns(j, k, &wh, &dq_dw, &dq_dt);
-                for c in 0..3 {
-                    j[(k, 6 + c)] = -wh[c];
-                }
-                j[(k, 9)] = -h * wh.dot(&dn1);
-                j[(k, 10)] = -h * wh.dot(&dn2);
-            }
+            let point = x.point_in_base(f, p, j.is_some());
+            disk.rim_row(self.radius, r, j.as_deref_mut(), k, &point, 1.0);
+        }
+        let base = base + self.rims.len();
+        for (i, (f, p, weight)) in self.walls.iter().enumerate() {
+            let point = x.point_in_base(f, p, j.is_some());
+            disk.rim_row(self.radius, r, j.as_deref_mut(), base + i, &point, *weight);
         }
     }
 
