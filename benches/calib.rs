@@ -58,6 +58,25 @@ fn bench(c: &mut Criterion) {
         });
     }
 
+    // Issue 14: the full-profile refinements from the closed form on the comparison rig's
+    // ray-cast captures (the disk: 4 scans x 100 profiles, up to 512 face points each and the
+    // wall; the bar: 25 x 10 profiles).
+    let sf = ScenarioFile::load(std::path::Path::new(&format!(
+        "{dir}/scenarios/comparison.toml"
+    )))
+    .unwrap();
+    let setup = sf.scenario.build(&sf.file).unwrap();
+    for method in ["disk-refined", "disk-full", "edge-refined", "edge-full"] {
+        let id: lasercal::method::MethodId = method.parse().unwrap();
+        let caps = lasercal::trial::trial_captures(&setup, id.kind, 1, 0)
+            .0
+            .unwrap();
+        let sensor = &setup.rig.sensor;
+        c.bench_function(&format!("full_profile/{method}_comparison"), |b| {
+            b.iter(|| black_box(lasercal::method::estimate(id, black_box(&caps), sensor)))
+        });
+    }
+
     for (scen, method) in [
         ("chen2018-disk.toml", "disk"),
         ("chen2018-ball.toml", "ball"),

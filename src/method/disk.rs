@@ -629,7 +629,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                     face: points,
                     beyond: past,
                 }) => {
-                    // The full-profile refinement's face points: up to 64 per profile, spread
+                    // The full-profile refinement's face points: up to FACE_POINTS per profile, spread
                     // over the chord (more cost than information beyond that).
                     let stride = points.len().div_ceil(super::FACE_POINTS).max(1);
                     face.extend(points.into_iter().step_by(stride).map(|q| (flange, q)));
