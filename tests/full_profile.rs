@@ -160,18 +160,9 @@ fn full_profile_beats_chord_ends_on_profiles_lasercal_did_not_make() {
     // caster, cylinder wall and camera occlusion), z noise 0.1 mm; 20 trials. Its camera sees
     // the wall beyond fewer ends, and the chord ends of its unquantised equal-angle rays are
     // better to start with: measured 3.0x in rotation, 1.7x in translation.
-    use lasercal::testkit::fan::{Fan, Noise, Solid};
+    use lasercal::testkit::fan::{Noise, Solid};
     let s = comparison();
-    let fan = Fan {
-        apex_z: 0.295,
-        dir_z: -1.0,
-        half_angle: 14f64.to_radians(),
-        columns: 1280,
-        equal_angle: true,
-        reversed: false,
-        z_range: (-0.105, 0.105),
-        camera: nalgebra::Point3::new(0.0, 0.120, 0.295),
-    };
+    let fan = common::fan_295();
     let mut sensor = common::declared(&fan, "fan-295");
     sensor.noise.z_sigma_near = 0.1e-3;
     sensor.noise.z_sigma_far = 0.1e-3;

@@ -34,16 +34,7 @@ fn scenario(name: &str, edit: &dyn Fn(String) -> String) -> Setup {
 
 /// The disk paper's disk on its cylinder, scanned along the sensor's y (as the ray-cast tests).
 fn disk_case() -> (Setup, Fan, Vec<Solid>) {
-    disk_case_with(Fan {
-        apex_z: 0.295,
-        dir_z: -1.0,
-        half_angle: 14f64.to_radians(),
-        columns: 1280,
-        equal_angle: true,
-        reversed: false,
-        z_range: (-0.105, 0.105),
-        camera: Point3::new(0.0, 0.120, 0.295),
-    })
+    disk_case_with(common::fan_295())
 }
 
 /// The disk case seen by any fan whose frame is the Gocator's (origin at the range centre, z

@@ -132,3 +132,18 @@ pub fn regenerate(
     }
     out
 }
+
+/// The independent generator's fan like the Gocator 2340's (apex 295 mm, +-14 deg, 1280 rays
+/// equal in angle, the camera 120 mm off the laser plane): the disk's independent profiles.
+pub fn fan_295() -> lasercal::testkit::fan::Fan {
+    lasercal::testkit::fan::Fan {
+        apex_z: 0.295,
+        dir_z: -1.0,
+        half_angle: 14f64.to_radians(),
+        columns: 1280,
+        equal_angle: true,
+        reversed: false,
+        z_range: (-0.105, 0.105),
+        camera: nalgebra::Point3::new(0.0, 0.120, 0.295),
+    }
+}
