@@ -19,12 +19,18 @@ fn comparison() -> Setup {
 
 #[test]
 fn the_full_profile_jacobian_matches_finite_differences() {
-    // disk-full (chord ends and face points) and edge-full (edge points and the bar's face) on
-    // the comparison rig's ray-cast captures, away from the optimum.
+    // disk-full (chord ends, walls and face points; 11 parameters) and edge-full (the bar's face,
+    // both edges or their walls; 12) on the comparison rig's ray-cast captures, away from the
+    // optimum.
     let s = comparison();
-    for (kind, min_rows_per_profile, step) in [
-        (Kind::Disk, 4, [1e-3, 2e-3, -1e-3, 0.02, -0.01]),
-        (Kind::Edge, 1, [0.01, -0.02, 0.015, 1e-3, -2e-3]),
+    for (kind, min_rows_per_profile, params, step) in [
+        (Kind::Disk, 4, 11, &[1e-3, 2e-3, -1e-3, 0.02, -0.01][..]),
+        (
+            Kind::Edge,
+            2,
+            12,
+            &[0.01, -0.02, 0.015, 1e-3, -2e-3, 1.5e-3][..],
+        ),
     ] {
         let caps = lasercal::trial::trial_captures(&s, kind, 1, 0).0.unwrap();
         let cal = calibrate(&caps, &s.rig.sensor).unwrap();
@@ -32,15 +38,20 @@ fn the_full_profile_jacobian_matches_finite_differences() {
             .full_profile
             .clone()
             .expect("ray-cast captures have face points");
-        assert!(p.n_params() == 11, "{kind}");
-        let p = p.with_specimen_step(&step);
+        assert!(
+            p.n_params() == params,
+            "{kind}: {} parameters",
+            p.n_params()
+        );
+        let p = p.with_specimen_step(step);
         let x = cal.flange_to_sensor
             * Isometry3::from_parts(
                 Vector3::new(1e-3, -2e-3, 1.5e-3).into(),
                 UnitQuaternion::from_scaled_axis(Vector3::new(0.01, -0.02, 0.015)),
             );
         let (r0, j) = p.residuals_and_jacobian(&x);
-        // Features (chord ends: two residuals each; edge points: one) and face points (one each).
+        // Features (chord ends: two residuals each; edges: one per edge, or a wall's points) and face
+        // points (one each).
         let feature_rows = min_rows_per_profile * caps.profiles.len();
         assert!(
             r0.len() > feature_rows + 1000,
@@ -194,9 +205,9 @@ fn full_profile_beats_chord_ends_on_profiles_lasercal_did_not_make() {
 #[test]
 fn edge_full_on_the_comparison_rig() {
     // The comparison rig's bar (25 x 10 grouped poses on its riser), uniform z noise 0.1 mm, 30
-    // trials. Measured over 40: rotation 2.6x better than edge-refined, translation 1.4x (the face
-    // fixes the rotation; across the edge, the side wall's points where it shows, else the edge
-    // points as edge-refined has them).
+    // trials (3.9x / 2.5x here). Measured over 200: rotation 3.9x better than edge-refined,
+    // translation 2.3x (the face fixes the rotation; across the edges, the side walls' points
+    // where they show, else the edges as censored intervals).
     let text = std::fs::read_to_string(common::scen("comparison.toml"))
         .unwrap()
         .replace("z_sigma_near_mm = 0.02", "z_sigma_near_mm = 0.1")
@@ -208,8 +219,8 @@ fn edge_full_on_the_comparison_rig() {
         "edge-refined {ra:.4} deg / {ta:.4} mm, edge-full {rb:.4} deg / {tb:.4} mm (medians)"
     );
     assert!(
-        2.0 * rb <= ra && 1.1 * tb <= ta,
-        "edge-full: {rb} / {tb} against edge-refined's {ra} / {ta}"
+        2.0 * rb <= ra && 2.0 * tb <= ta,
+        "edge-full is not 2x better: {rb} / {tb} against edge-refined's {ra} / {ta}"
     );
 }
 

@@ -548,7 +548,7 @@ pub fn edge_point(
     sense: EdgeSense,
     cfg: &SplitMerge,
 ) -> Result<Vector2<f64>, FeatureError> {
-    edge_point_and_face(profile, sensor, sense, cfg).map(|e| e.point)
+    edge_point_and_face(profile, sensor, sense, cfg).map(|e| e.end.point)
 }
 
 /// `edge_point` with the points of the top face it walked from (what `edge-full` fits too).
@@ -564,23 +564,34 @@ pub fn edge_point_and_face(
         match walk_to_edge(&pts, &segs, i, sensor, sense, cfg) {
             Ok((e, next)) => {
                 let (first, last, _) = tighten(&pts, &segs[i], cfg.split_tol, sensor);
-                let forward = (sense == EdgeSense::Falling) != sensor.x_reversed;
-                let beyond: Vec<Vector2<f64>> = if next >= pts.len() {
-                    Vec::new()
-                } else if forward {
-                    pts[next..].iter().take(BEYOND).map(|p| p.1).collect()
-                } else {
-                    pts[..=next]
-                        .iter()
-                        .rev()
-                        .take(BEYOND)
-                        .map(|p| p.1)
-                        .collect()
+                // Points beyond index `next` of the walk toward `sense`, nearest first.
+                let beyond = |next: usize, sense: EdgeSense| -> Vec<Vector2<f64>> {
+                    let forward = (sense == EdgeSense::Falling) != sensor.x_reversed;
+                    if next >= pts.len() {
+                        Vec::new()
+                    } else if forward {
+                        pts[next..].iter().take(BEYOND).map(|p| p.1).collect()
+                    } else {
+                        pts[..=next]
+                            .iter()
+                            .rev()
+                            .take(BEYOND)
+                            .map(|p| p.1)
+                            .collect()
+                    }
                 };
+                let back = match sense {
+                    EdgeSense::Falling => EdgeSense::Rising,
+                    EdgeSense::Rising => EdgeSense::Falling,
+                };
+                let other = walk_to_edge(&pts, &segs, i, sensor, back, cfg)
+                    .ok()
+                    .map(|(o, next)| (o, beyond(next, back)));
                 return Ok(EdgeProfile {
-                    point: e.point,
+                    end: e,
                     face: pts[first..=last].iter().map(|p| p.1).collect(),
-                    beyond,
+                    beyond: beyond(next, sense),
+                    other,
                 });
             }
             Err(e) => {
@@ -661,13 +672,17 @@ pub struct EdgeEnd {
     pub to: Vector2<f64>,
 }
 
-/// The edge point of one profile, the top face's points it was walked from, and the valid points
-/// beyond the face's end at the edge, nearest first, at most `BEYOND` (the wall, where it shows).
+/// The edge of one profile (its point, and the interval between columns it lies in where the face
+/// just stops), the top face's points it was walked from, and the valid points beyond the face's
+/// end at the edge, nearest first, at most `BEYOND` (the wall, where it shows).
 #[derive(Debug, Clone, PartialEq)]
 pub struct EdgeProfile {
-    pub point: Vector2<f64>,
+    pub end: EdgeEnd,
     pub face: Vec<Vector2<f64>>,
     pub beyond: Vec<Vector2<f64>>,
+    /// The face's other end, walked to the other way, where it is an edge too (a bar seen across
+    /// its width), with the points beyond it.
+    pub other: Option<(EdgeEnd, Vec<Vector2<f64>>)>,
 }
 
 /// A bar (or plate) seen from any pose: its top face's points and every end of the face that is an

@@ -400,6 +400,7 @@ impl Plan for DiskPlan {
 fn plane_normal(
     ends: &[(Isometry3<f64>, Vector2<f64>)],
     flange_to_sensor: &Isometry3<f64>,
+    apex: &Point3<f64>,
 ) -> Vector3<f64> {
     let pts: Vec<Vector3<f64>> = ends
         .iter()
@@ -412,8 +413,13 @@ fn plane_normal(
         .sum::<nalgebra::Matrix3<f64>>();
     let eig = nalgebra::SymmetricEigen::new(cov);
     let k = eig.eigenvalues.imin();
-    let n: Vector3<f64> = eig.eigenvectors.column(k).into_owned();
-    if n.z < 0.0 { -n } else { n }
+    super::toward_sensors(
+        eig.eigenvectors.column(k).into_owned(),
+        &mean,
+        ends.iter().map(|(f, _)| *f),
+        flange_to_sensor,
+        apex,
+    )
 }
 
 /// The full-profile refinement's rim and its weights (residuals scaled to the face points' noise).
@@ -670,7 +676,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     let mut problem = DiskProblem::new(radius, scans);
     problem.min_scan_angle = 0.5f64.to_radians();
     let sol = crate::calib::disk::solve(&problem)?;
-    let normal = plane_normal(&ends, &sol.flange_to_sensor);
+    let normal = plane_normal(&ends, &sol.flange_to_sensor, &sensor.apex());
     let specimen = DiskPose::new(sol.centre_in_base.into(), &normal);
     let full_profile = (!face.is_empty()).then(|| {
         let rim = rim_of(

@@ -193,7 +193,7 @@ impl Method for Edge {
                 let sense = sense.unwrap_or(EdgeSense::Falling);
                 let e = point_of(g, data, sensor, sense, &cfg).ok()?.ok()?;
                 Some(super::ProfileFeature {
-                    features: vec![e.point],
+                    features: vec![e.end.point],
                     surface: e.face,
                 })
             }
@@ -360,9 +360,14 @@ fn point_of(
 ) -> Result<Result<EdgeFeature, features::FeatureError>, CaptureError> {
     match data {
         ProfileData::EdgePoint(q) => Ok(Ok(features::EdgeProfile {
-            point: *q,
+            end: features::EdgeEnd {
+                point: *q,
+                from: *q,
+                to: *q,
+            },
             face: Vec::new(),
             beyond: Vec::new(),
+            other: None,
         })),
         ProfileData::Raw(prof) => Ok(features::edge_point_and_face(prof, sensor, sense, cfg)),
         _ => Err(CaptureError::WrongData {
@@ -422,35 +427,49 @@ fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, R
     Ok((cal, sol.refined))
 }
 
-/// `edge-full`: the edge points and the top face's points against the bar (`refine::bar`, one
-/// edge), from the closed form: the face's plane fitted to its points mapped with the closed
-/// form's transform, the edge's line the closed form's. None without face points (a file of
-/// edge points).
+/// `edge-full`: the top face's points, and per profile and edge the side wall's points below it
+/// (`super::wall_points`) or else the edge itself, against the bar (`refine::bar`), from the
+/// closed form: the face's plane fitted to its points mapped with the closed form's transform, the
+/// edge's line the closed form's. The face's other end, where profiles show it as an edge (at
+/// least 3 within `WALL_TOL` of their median), is the bar's second edge, with its own offset: it
+/// adds the wall the first edge's tilt hides. An edge where the face just stops is its censored
+/// interval between columns (as `edge-any-pose`'s): the mid-column point drifted with the noise
+/// (t_z off by 0.003-0.007 mm at z noise 0.05-0.2 mm when weighted by its spread). None without
+/// face points (a file of edge points).
 fn full_profile(
     sol: &crate::calib::edge::EdgeSolution,
-    points: &[(Isometry3<f64>, Vector2<f64>)],
-    beyond: &[Vec<Vector2<f64>>],
+    profiles: &[(Isometry3<f64>, features::EdgeProfile)],
     face: Vec<(Isometry3<f64>, Vector2<f64>)>,
+    apex: &Point3<f64>,
 ) -> Option<std::sync::Arc<dyn crate::calib::refine::Refinable>> {
-    use crate::calib::refine::bar::{Bar, BarModel, EdgeSeen};
+    use crate::calib::refine::bar::{Bar, BarModel, EdgeSeen, WallSeen};
     if face.len() < 3 {
         return None;
     }
-    let in_base: Vec<Vector3<f64>> = face
+    let x = sol.flange_to_sensor;
+    let in_base = |f: &Isometry3<f64>, p: &Vector2<f64>| {
+        (f * x).transform_point(&Point3::new(p.x, 0.0, p.y)).coords
+    };
+    let centroid = face
+        .iter()
+        .map(|(f, p)| in_base(f, p))
+        .sum::<Vector3<f64>>()
+        / face.len() as f64;
+    let scatter: nalgebra::Matrix3<f64> = face
         .iter()
         .map(|(f, p)| {
-            (f * sol.flange_to_sensor)
-                .transform_point(&Point3::new(p.x, 0.0, p.y))
-                .coords
+            let d = in_base(f, p) - centroid;
+            d * d.transpose()
         })
-        .collect();
-    let centroid = in_base.iter().sum::<Vector3<f64>>() / in_base.len() as f64;
-    let scatter: nalgebra::Matrix3<f64> = in_base
-        .iter()
-        .map(|q| (q - centroid) * (q - centroid).transpose())
         .sum();
     let eig = scatter.symmetric_eigen();
-    let mut n: Vector3<f64> = eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned();
+    let mut n = super::toward_sensors(
+        eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned(),
+        &centroid,
+        profiles.iter().map(|(f, _)| *f),
+        &x,
+        apex,
+    );
     // The edge's direction made exactly perpendicular to the normal.
     let dir = (sol.edge_direction - n * n.dot(&sol.edge_direction)).try_normalize(1e-9)?;
     n = (n - dir * n.dot(&dir)).normalize();
@@ -460,36 +479,71 @@ fn full_profile(
         n,
     ]));
     let across = n.cross(&dir);
+    let first = across.dot(&sol.edge_point);
+    // The second edge: the median of the other ends' offsets, and the ends near it.
+    let mut others: Vec<f64> = profiles
+        .iter()
+        .filter_map(|(f, e)| {
+            e.other
+                .as_ref()
+                .map(|(o, _)| across.dot(&in_base(f, &o.point)))
+        })
+        .collect();
+    others.sort_by(f64::total_cmp);
+    let second = others.get(others.len() / 2).copied().filter(|o| {
+        (o - first).abs() > super::WALL_TOL
+            && others
+                .iter()
+                .filter(|p| (*p - o).abs() <= super::WALL_TOL)
+                .count()
+                >= 3
+    });
     let specimen = Bar {
         frame,
         offset: n.dot(&centroid),
-        edge_offsets: [across.dot(&sol.edge_point); 2],
+        edge_offsets: [first, second.unwrap_or(first)],
     };
     let (mut edges, mut walls) = (Vec::new(), Vec::new());
-    for (k, (f, q)) in points.iter().enumerate() {
-        let past = beyond.get(k).map_or(&[][..], |b| &b[..]);
-        let wall = super::wall_points(past, &(f * sol.flange_to_sensor), |p| {
-            (
-                n.dot(p) - specimen.offset,
-                across.dot(p) - specimen.edge_offsets[0],
-                across,
-            )
-        });
-        if wall.len() >= super::WALL_MIN_POINTS {
-            walls.extend(wall.into_iter().map(|(p, w)| (*f, p, w)));
-        } else {
-            edges.push(EdgeSeen {
-                base_to_flange: *f,
-                from: *q,
-                to: *q,
-                edge: 0,
+    for (f, e) in profiles {
+        let base_to_sensor = f * x;
+        let other = e
+            .other
+            .as_ref()
+            .filter(|(o, _)| {
+                second.is_some_and(|s| {
+                    (across.dot(&in_base(f, &o.point)) - s).abs() <= super::WALL_TOL
+                })
+            })
+            .map(|(o, past)| (1, o, past));
+        for (edge, end, past) in std::iter::once((0, &e.end, &e.beyond)).chain(other) {
+            let wall = super::wall_points(past, &base_to_sensor, |p| {
+                (
+                    n.dot(p) - specimen.offset,
+                    across.dot(p) - specimen.edge_offsets[edge],
+                    across,
+                )
             });
+            if wall.len() >= super::WALL_MIN_POINTS {
+                walls.extend(wall.into_iter().map(|(point, weight)| WallSeen {
+                    base_to_flange: *f,
+                    point,
+                    weight,
+                    edge,
+                }));
+            } else {
+                edges.push(EdgeSeen {
+                    base_to_flange: *f,
+                    from: end.from,
+                    to: end.to,
+                    edge,
+                });
+            }
         }
     }
     let model = BarModel {
         face,
         edges,
-        n_edges: 1,
+        n_edges: if second.is_some() { 2 } else { 1 },
         walls,
     };
     Some(std::sync::Arc::new(Problem { model, specimen }))
@@ -503,18 +557,16 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     let mut missed = 0;
     let (mut per_group, mut reports) = (Vec::new(), Vec::new());
     for g in &c.groups {
-        let (mut caps, mut pts, mut face, mut beyond) =
+        let (mut caps, mut pts, mut profiles, mut face) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut report = super::GroupReport::new(g.id);
         for p in c.group_profiles(g.id) {
             let point = point_of(g, &p.data, sensor, sense, &cfg)?;
             report.count(&point);
             match point {
-                Ok(features::EdgeProfile {
-                    point: q,
-                    face: points,
-                    beyond: past,
-                }) => {
+                Ok(mut seen) => {
+                    let q = seen.end.point;
+                    let points = std::mem::take(&mut seen.face);
                     // Face points for edge-full, as many per profile as disk-full keeps (64 gave
                     // 1.6-2x the rotation error on the comparison rig's bar).
                     let stride = points.len().div_ceil(super::FACE_POINTS).max(1);
@@ -525,7 +577,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                             .map(|f| (p.base_to_flange, f)),
                     );
                     pts.push((p.base_to_flange, q));
-                    beyond.push(past);
+                    profiles.push((p.base_to_flange, seen));
                     caps.push(EdgeCapture {
                         r_tcp: p.base_to_flange.rotation.to_rotation_matrix(),
                         t_tcp: p.base_to_flange.translation.vector,
@@ -535,35 +587,38 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                 Err(_) => missed += 1,
             }
         }
-        per_group.push((caps, pts, face, beyond));
+        per_group.push((caps, pts, profiles, face));
         reports.push(report);
     }
     // A group with fewer than 3 edge points gives no rotation equations: left out, if 2 remain.
     super::leave_out_thin_groups(&mut reports, 3, 2, Kind::Edge)?;
-    let (mut groups, mut points, mut face, mut beyond) =
+    let (mut groups, mut points, mut profiles, mut face) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    for ((caps, pts, f, b), r) in per_group.into_iter().zip(&reports) {
+    for ((caps, pts, e, f), r) in per_group.into_iter().zip(&reports) {
         if !r.left_out {
             groups.push(caps);
             points.extend(pts);
+            profiles.extend(e);
             face.extend(f);
-            beyond.extend(b);
         }
     }
     // The side wall is the plane through the edge perpendicular to the face on a bar or a
-    // plate, not on a knife's bevel.
+    // plate, not on a knife's bevel, whose back is no second edge either.
     if !matches!(
         c.specimen_kind,
         SpecimenType::ParallelBar | SpecimenType::Scale
     ) {
-        beyond.clear();
+        for (_, e) in &mut profiles {
+            e.beyond.clear();
+            e.other = None;
+        }
     }
     let sol = crate::calib::edge::solve(&EdgeProblem {
         groups,
         orientation_tolerance_deg: c.orientation_tolerance_deg,
     })?;
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
-    let full_profile = full_profile(&sol, &points, &beyond, face);
+    let full_profile = full_profile(&sol, &profiles, face, &sensor.apex());
     Ok(super::Calibration {
         full_profile,
         refinable: Some(std::sync::Arc::new(Problem {

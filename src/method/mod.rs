@@ -385,6 +385,23 @@ fn wall_points(
         .collect()
 }
 
+/// A face's normal `n` (of either sign, as an eigenvector comes) turned toward the laser's apex
+/// (`apex`, sensor frame; a sensor's origin may lie mid-range) as seen from `flanges`: the
+/// specimen's walls are then at negative heights (`wall_points`). A normal that came out
+/// pointing into the specimen lost every wall.
+fn toward_sensors(
+    n: Vector3<f64>,
+    on_face: &Vector3<f64>,
+    flanges: impl Iterator<Item = Isometry3<f64>>,
+    flange_to_sensor: &Isometry3<f64>,
+    apex: &Point3<f64>,
+) -> Vector3<f64> {
+    let side: f64 = flanges
+        .map(|f| n.dot(&((f * flange_to_sensor * apex).coords - on_face)))
+        .sum();
+    if side < 0.0 { -n } else { n }
+}
+
 /// Fewest points on a profile's face for the edge's and disk's any-pose estimators.
 pub const ANY_POSE_FACE_POINTS: usize = 10;
 

@@ -22,6 +22,16 @@ pub struct EdgeSeen {
     pub edge: usize,
 }
 
+/// A point of the side wall below edge `edge` (`edge-full`): the wall is the plane through the
+/// edge perpendicular to the face, the point's residual its distance from it times `weight`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WallSeen {
+    pub base_to_flange: Isometry3<f64>,
+    pub point: Vector2<f64>,
+    pub weight: f64,
+    pub edge: usize,
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct BarModel {
     /// Top-face points (sensor x, z) with the flange pose each was seen from.
@@ -29,9 +39,8 @@ pub struct BarModel {
     pub edges: Vec<EdgeSeen>,
     /// How many distinct edges the profiles cross (1 or 2).
     pub n_edges: usize,
-    /// Points of the side wall below edge 0 (`edge-full`), each with its weight: the wall is the
-    /// plane through the edge perpendicular to the face, a point's residual its distance from it.
-    pub walls: Vec<(Isometry3<f64>, Vector2<f64>, f64)>,
+    /// Points of the side walls (`edge-full`).
+    pub walls: Vec<WallSeen>,
 }
 
 /// The bar: its frame (x along the edges, z the face's normal), the face's offset and the edges'.
@@ -109,15 +118,15 @@ impl Model for BarModel {
             }
         }
         let n = n + self.edges.len();
-        for (i, (f, p, w)) in self.walls.iter().enumerate() {
-            let row = n + i;
-            let (qb, dq_dw, dq_dt) = x.point_in_base(f, p, jac);
-            r[row] = w * (ey.dot(&qb) - s.edge_offsets[0]);
+        for (i, wall) in self.walls.iter().enumerate() {
+            let (row, w) = (n + i, wall.weight);
+            let (qb, dq_dw, dq_dt) = x.point_in_base(&wall.base_to_flange, &wall.point, jac);
+            r[row] = w * (ey.dot(&qb) - s.edge_offsets[wall.edge]);
             if let Some(j) = j.as_deref_mut() {
-                transform_columns(j, row, &(ey * *w), &dq_dw, &dq_dt);
+                transform_columns(j, row, &(ey * w), &dq_dw, &dq_dt);
                 j[(row, 6)] = w * ez.dot(&qb);
                 j[(row, 8)] = -w * ex.dot(&qb);
-                j[(row, 10)] = -w;
+                j[(row, 10 + wall.edge)] = -w;
             }
         }
     }
