@@ -217,25 +217,12 @@ fn edge_full_beats_edge_points_on_profiles_lasercal_did_not_make() {
         .iter()
         .find(|(b, _)| matches!(b.kind, lasercal::scene::SpecimenKind::ParallelBar { .. }))
         .expect("the comparison rig has a parallel bar");
-    let lasercal::scene::SpecimenKind::ParallelBar {
-        length,
-        width,
-        height,
-    } = bar.kind
-    else {
-        unreachable!()
-    };
     let fan = common::fan_295();
     let mut sensor = common::declared(&fan, "fan-295");
     sensor.noise.z_sigma_near = 0.1e-3;
     sensor.noise.z_sigma_far = 0.1e-3;
     let solids = [
-        Solid::Bar {
-            frame: *pose,
-            lx: length,
-            ly: width,
-            lz: height,
-        },
+        common::bar_solid(bar, *pose),
         Solid::Table { height: -0.00852 },
     ];
     let noise = Noise {

@@ -82,21 +82,8 @@ fn edge_case_with(fan: Fan) -> (Setup, Fan, Vec<Solid>) {
         t.replace("source = \"analytic\"", "source = \"raycast\"")
     });
     let (bar, pose) = (&s.scene.specimens[0].0, s.scene.specimens[0].1);
-    let lasercal::scene::SpecimenKind::ParallelBar {
-        length,
-        width,
-        height,
-    } = bar.kind
-    else {
-        panic!("xu2021-edge uses the parallel bar");
-    };
     let solids = vec![
-        Solid::Bar {
-            frame: pose,
-            lx: length,
-            ly: width,
-            lz: height,
-        },
+        common::bar_solid(bar, pose),
         Solid::Table {
             height: s.scene.table.map(|t| t.height_m).unwrap_or(-10.0),
         },

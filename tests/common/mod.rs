@@ -147,3 +147,24 @@ pub fn fan_295() -> lasercal::testkit::fan::Fan {
         camera: nalgebra::Point3::new(0.0, 0.120, 0.295),
     }
 }
+
+/// The independent generator's box for a parallel bar of lasercal's scene at `pose`.
+pub fn bar_solid(
+    bar: &lasercal::scene::Specimen,
+    pose: nalgebra::Isometry3<f64>,
+) -> lasercal::testkit::fan::Solid {
+    let lasercal::scene::SpecimenKind::ParallelBar {
+        length,
+        width,
+        height,
+    } = bar.kind
+    else {
+        panic!("a parallel bar was expected, not {:?}", bar.kind);
+    };
+    lasercal::testkit::fan::Solid::Bar {
+        frame: pose,
+        lx: length,
+        ly: width,
+        lz: height,
+    }
+}
