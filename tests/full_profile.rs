@@ -165,18 +165,37 @@ fn full_profile_halves_the_chord_ends_error_on_the_comparison_rig() {
     );
 }
 
+/// `medians` on the comparison rig's poses with every profile from the independent generator
+/// (`common::fan_295`, its own ray caster and camera occlusion) seeing `solids`, z noise 0.1 mm,
+/// declared as such; trial `t`'s profiles are drawn with seed `seed + t`.
+fn independent_medians(
+    s: &Setup,
+    kind: Kind,
+    trials: u64,
+    solids: &[lasercal::testkit::fan::Solid],
+    seed: u64,
+) -> [(f64, f64); 2] {
+    let fan = common::fan_295();
+    let mut sensor = common::declared(&fan, "fan-295");
+    sensor.noise.z_sigma_near = 0.1e-3;
+    sensor.noise.z_sigma_far = 0.1e-3;
+    let noise = lasercal::testkit::fan::Noise {
+        sigma_z: 0.1e-3,
+        dropout: 0.0,
+    };
+    medians(s, kind, trials, &sensor, &|c, trial| {
+        common::regenerate(&c, s, &fan, solids, noise, seed + trial)
+    })
+}
+
 #[test]
 fn full_profile_beats_chord_ends_on_profiles_lasercal_did_not_make() {
     // The comparison rig's poses, every profile from the independent generator (its own ray
     // caster, cylinder wall and camera occlusion), z noise 0.1 mm; 20 trials. Its camera sees
     // the wall beyond fewer ends, and the chord ends of its unquantised equal-angle rays are
     // better to start with: measured 3.0x in rotation, 1.7x in translation.
-    use lasercal::testkit::fan::{Noise, Solid};
+    use lasercal::testkit::fan::Solid;
     let s = comparison();
-    let fan = common::fan_295();
-    let mut sensor = common::declared(&fan, "fan-295");
-    sensor.noise.z_sigma_near = 0.1e-3;
-    sensor.noise.z_sigma_far = 0.1e-3;
     let solids = [
         Solid::DiskOnCylinder {
             frame: s.base_to_specimen,
@@ -185,13 +204,7 @@ fn full_profile_beats_chord_ends_on_profiles_lasercal_did_not_make() {
         },
         Solid::Table { height: -0.00852 },
     ];
-    let noise = Noise {
-        sigma_z: 0.1e-3,
-        dropout: 0.0,
-    };
-    let [(ra, ta), (rb, tb)] = medians(&s, Kind::Disk, 20, &sensor, &|c, trial| {
-        common::regenerate(&c, &s, &fan, &solids, noise, 100 + trial)
-    });
+    let [(ra, ta), (rb, tb)] = independent_medians(&s, Kind::Disk, 20, &solids, 100);
     eprintln!(
         "independent profiles: disk-refined {ra:.4} deg / {ta:.4} mm, disk-full {rb:.4} deg / \
          {tb:.4} mm (medians)"
@@ -207,7 +220,7 @@ fn edge_full_beats_edge_points_on_profiles_lasercal_did_not_make() {
     // The comparison rig's bar poses, every profile from the independent generator (its own ray
     // caster, box and camera occlusion), z noise 0.1 mm; 20 trials: measured 2.7x in rotation and
     // in translation.
-    use lasercal::testkit::fan::{Noise, Solid};
+    use lasercal::testkit::fan::Solid;
     let s = comparison();
     let (bar, pose) = s
         .plan(Kind::Edge)
@@ -217,21 +230,11 @@ fn edge_full_beats_edge_points_on_profiles_lasercal_did_not_make() {
         .iter()
         .find(|(b, _)| matches!(b.kind, lasercal::scene::SpecimenKind::ParallelBar { .. }))
         .expect("the comparison rig has a parallel bar");
-    let fan = common::fan_295();
-    let mut sensor = common::declared(&fan, "fan-295");
-    sensor.noise.z_sigma_near = 0.1e-3;
-    sensor.noise.z_sigma_far = 0.1e-3;
     let solids = [
         common::bar_solid(bar, *pose),
         Solid::Table { height: -0.00852 },
     ];
-    let noise = Noise {
-        sigma_z: 0.1e-3,
-        dropout: 0.0,
-    };
-    let [(ra, ta), (rb, tb)] = medians(&s, Kind::Edge, 20, &sensor, &|c, trial| {
-        common::regenerate(&c, &s, &fan, &solids, noise, 300 + trial)
-    });
+    let [(ra, ta), (rb, tb)] = independent_medians(&s, Kind::Edge, 20, &solids, 300);
     eprintln!(
         "independent profiles: edge-refined {ra:.4} deg / {ta:.4} mm, edge-full {rb:.4} deg / \
          {tb:.4} mm (medians)"
