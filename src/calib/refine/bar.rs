@@ -75,6 +75,7 @@ impl Model for BarModel {
         r: &mut DVector<f64>,
         mut j: Option<&mut DMatrix<f64>>,
     ) {
+        let mut seer = x.seer();
         let (ex, ey, ez) = (
             s.frame * Vector3::x(),
             s.frame * Vector3::y(),
@@ -82,7 +83,7 @@ impl Model for BarModel {
         );
         let jac = j.is_some();
         for (i, (f, p)) in self.face.iter().enumerate() {
-            let (qb, dq_dw, dq_dt) = x.point_in_base(f, p, jac);
+            let (qb, dq_dw, dq_dt) = seer.point(f, p, jac);
             r[i] = ez.dot(&qb) - s.offset;
             if let Some(j) = j.as_deref_mut() {
                 transform_columns(j, i, &ez, &dq_dw, &dq_dt);
@@ -96,8 +97,8 @@ impl Model for BarModel {
         for (i, e) in self.edges.iter().enumerate() {
             let row = n + i;
             let o = s.edge_offsets[e.edge];
-            let across = |p: &Vector2<f64>| {
-                let (qb, _, _) = x.point_in_base(&e.base_to_flange, p, false);
+            let mut across = |p: &Vector2<f64>| {
+                let (qb, _, _) = seer.point(&e.base_to_flange, p, false);
                 ey.dot(&qb) - o
             };
             let (sa, sb) = (across(&e.from), across(&e.to));
@@ -107,7 +108,7 @@ impl Model for BarModel {
                 continue;
             }
             let p = if sa.abs() <= sb.abs() { &e.from } else { &e.to };
-            let (qb, dq_dw, dq_dt) = x.point_in_base(&e.base_to_flange, p, jac);
+            let (qb, dq_dw, dq_dt) = seer.point(&e.base_to_flange, p, jac);
             r[row] = ey.dot(&qb) - o;
             if let Some(j) = j.as_deref_mut() {
                 transform_columns(j, row, &ey, &dq_dw, &dq_dt);
@@ -120,7 +121,7 @@ impl Model for BarModel {
         let n = n + self.edges.len();
         for (i, wall) in self.walls.iter().enumerate() {
             let (row, w) = (n + i, wall.weight);
-            let (qb, dq_dw, dq_dt) = x.point_in_base(&wall.base_to_flange, &wall.point, jac);
+            let (qb, dq_dw, dq_dt) = seer.point(&wall.base_to_flange, &wall.point, jac);
             r[row] = w * (ey.dot(&qb) - s.edge_offsets[wall.edge]);
             if let Some(j) = j.as_deref_mut() {
                 transform_columns(j, row, &(ey * w), &dq_dw, &dq_dt);

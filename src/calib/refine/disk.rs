@@ -150,34 +150,35 @@ impl Model for DiskModel {
         r: &mut DVector<f64>,
         mut j: Option<&mut DMatrix<f64>>,
     ) {
+        let mut seer = x.seer();
         let disk = Geometry::of(s);
         for (i, (f, p)) in self.ends.iter().enumerate() {
             let weight = self.end_weights.get(i).copied().unwrap_or(1.0);
-            let point = x.point_in_base(f, p, j.is_some());
+            let point = seer.point(f, p, j.is_some());
             disk.plane_row(r, j.as_deref_mut(), 2 * i, &point);
             disk.rim_row(self.radius, r, j.as_deref_mut(), 2 * i + 1, &point, weight);
         }
         let base = 2 * self.ends.len();
         for (i, (f, p)) in self.face.iter().enumerate() {
-            let point = x.point_in_base(f, p, j.is_some());
+            let point = seer.point(f, p, j.is_some());
             disk.plane_row(r, j.as_deref_mut(), base + i, &point);
         }
         let base = base + self.face.len();
         for (i, (f, a, b)) in self.rims.iter().enumerate() {
             let k = base + i;
-            let ra = disk.past_rim(self.radius, &x.point_in_base(f, a, false).0);
-            let rb = disk.past_rim(self.radius, &x.point_in_base(f, b, false).0);
+            let ra = disk.past_rim(self.radius, &seer.point(f, a, false).0);
+            let rb = disk.past_rim(self.radius, &seer.point(f, b, false).0);
             if ra * rb <= 0.0 {
                 r[k] = 0.0;
                 continue;
             }
             let p = if ra.abs() <= rb.abs() { a } else { b };
-            let point = x.point_in_base(f, p, j.is_some());
+            let point = seer.point(f, p, j.is_some());
             disk.rim_row(self.radius, r, j.as_deref_mut(), k, &point, 1.0);
         }
         let base = base + self.rims.len();
         for (i, (f, p, weight)) in self.walls.iter().enumerate() {
-            let point = x.point_in_base(f, p, j.is_some());
+            let point = seer.point(f, p, j.is_some());
             disk.rim_row(self.radius, r, j.as_deref_mut(), base + i, &point, *weight);
         }
     }

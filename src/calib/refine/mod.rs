@@ -68,6 +68,62 @@ impl Transform {
         }
         (q, -frr * skew(&ps), fr)
     }
+
+    /// `point_in_base` for many points from few flange poses (where each pose has one point,
+    /// `point_in_base` itself is cheaper: no comparison, no cache).
+    pub fn seer(&self) -> Seer<'_> {
+        Seer {
+            x: self,
+            pose: None,
+        }
+    }
+}
+
+/// `Transform::point_in_base` for point after point: what depends only on the flange pose (F_R,
+/// F_R R, F_R t) is formed once per run of points from one pose, not per point (a full profile
+/// holds hundreds per pose). The same products in the same order: the same bits.
+pub struct Seer<'a> {
+    x: &'a Transform,
+    pose: Option<PoseProducts>,
+}
+
+/// A flange pose F with F_R, F_R R and F_R t.
+struct PoseProducts {
+    flange: Isometry3<f64>,
+    fr: Matrix3<f64>,
+    frr: Matrix3<f64>,
+    frt: Vector3<f64>,
+}
+
+impl Seer<'_> {
+    pub fn point(
+        &mut self,
+        f: &Isometry3<f64>,
+        p: &Vector2<f64>,
+        jac: bool,
+    ) -> (Vector3<f64>, Matrix3<f64>, Matrix3<f64>) {
+        let (fr, frr, frt) = match &self.pose {
+            Some(k) if k.flange == *f => (k.fr, k.frr, k.frt),
+            _ => {
+                let fr = *f.rotation.to_rotation_matrix().matrix();
+                let frr = fr * self.x.rot.matrix();
+                let frt = fr * self.x.t;
+                self.pose = Some(PoseProducts {
+                    flange: *f,
+                    fr,
+                    frr,
+                    frt,
+                });
+                (fr, frr, frt)
+            }
+        };
+        let ps = Vector3::new(p.x, 0.0, p.y);
+        let q = frr * ps + frt + f.translation.vector;
+        if !jac {
+            return (q, Matrix3::zeros(), fr);
+        }
+        (q, -frr * skew(&ps), fr)
+    }
 }
 
 /// A specimen's residual model: what the generic Levenberg-Marquardt drives.
@@ -233,61 +289,78 @@ const LEVER: f64 = 0.1;
 /// Below this ratio of smallest to largest singular value a pose set is refused.
 const MIN_SINGULAR_RATIO: f64 = 1e-7;
 
-/// A^T B for tall A, B of the same shape whose product is symmetric (J^T W J): dot products of
-/// contiguous columns, the upper triangle mirrored (nalgebra's generic tr_mul was most of the
+/// J^T J: `gram` of J's columns with themselves (nalgebra's generic tr_mul was most of the
 /// refinement's time).
-fn ata(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
-    let (n, p) = a.shape();
-    let (sa, sb) = (a.as_slice(), b.as_slice());
-    let mut out = DMatrix::zeros(p, p);
-    for c in 0..p {
-        let ca = &sa[c * n..(c + 1) * n];
-        for d in c..p {
-            let cb = &sb[d * n..(d + 1) * n];
-            let v = dot(ca, cb);
-            out[(c, d)] = v;
-            out[(d, c)] = v;
-        }
-    }
-    out
+fn ata(j: &DMatrix<f64>) -> DMatrix<f64> {
+    atb_sym(j, j)
 }
 
-/// (J r)^T (J r) over the columns `cols` of J, each row scaled by its residual: the products
-/// `ata` of a scaled copy would form, in the same order (the same bits), without the copy.
+/// J^T B for B of J's shape whose product is symmetric (J^T W J, B = W J).
+fn atb_sym(j: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
+    let (cj, cb) = (columns(j, 0..j.ncols()), columns(b, 0..b.ncols()));
+    gram(&cj, &cb, j.as_slice(), |x, y, _| x * y)
+}
+
+/// (J r)^T (J r) over the columns `cols` of J, each row scaled by its residual, without the
+/// scaled copy.
 fn ata_scaled(j: &DMatrix<f64>, cols: &[usize], r: &DVector<f64>) -> DMatrix<f64> {
-    let n = j.nrows();
-    let (sj, sr) = (j.as_slice(), r.as_slice());
-    let p = cols.len();
-    let mut out = DMatrix::zeros(p, p);
-    for c in 0..p {
-        let ca = &sj[cols[c] * n..(cols[c] + 1) * n];
-        for d in c..p {
-            let cb = &sj[cols[d] * n..(cols[d] + 1) * n];
-            let v = dot_scaled(ca, cb, sr);
-            out[(c, d)] = v;
-            out[(d, c)] = v;
-        }
-    }
-    out
+    let cols = columns(j, cols.iter().copied());
+    gram(&cols, &cols, r.as_slice(), |x, y, s| (x * s) * (y * s))
 }
 
-/// `dot` of a and b each scaled element-wise by r, the products in `dot`'s order.
-fn dot_scaled(a: &[f64], b: &[f64], r: &[f64]) -> f64 {
-    let mut acc = [0.0; 8];
-    let (ca, cb, cr) = (a.chunks_exact(8), b.chunks_exact(8), r.chunks_exact(8));
-    let tail: f64 = ca
-        .remainder()
-        .iter()
-        .zip(cb.remainder())
-        .zip(cr.remainder())
-        .map(|((x, y), s)| (x * s) * (y * s))
-        .sum();
-    for ((x, y), s) in ca.zip(cb).zip(cr) {
-        for k in 0..8 {
-            acc[k] += (x[k] * s[k]) * (y[k] * s[k]);
+/// The columns `which` of J as contiguous slices.
+fn columns(j: &DMatrix<f64>, which: impl Iterator<Item = usize>) -> Vec<&[f64]> {
+    let n = j.nrows();
+    which.map(|c| &j.as_slice()[c * n..(c + 1) * n]).collect()
+}
+
+/// Rows per block of `gram`: twelve columns' blocks (48 kB) stay in cache for all 78 pairs.
+const GRAM_BLOCK: usize = 512;
+
+/// The symmetric matrix of sum_i prod(a_c[i], b_d[i], s[i]) over every pair of columns c <= d,
+/// mirrored. Blocked over rows, so a tall J is read from memory once rather than once per pair;
+/// each pair keeps eight partial sums, its remainder's sum and their order as `dot` has them
+/// (the same bits whatever the block size).
+fn gram(
+    a: &[&[f64]],
+    b: &[&[f64]],
+    s: &[f64],
+    prod: impl Fn(f64, f64, f64) -> f64,
+) -> DMatrix<f64> {
+    let p = a.len();
+    let n = a.first().map_or(0, |c| c.len());
+    let body = n - n % 8;
+    let pairs: Vec<(usize, usize)> = (0..p).flat_map(|c| (c..p).map(move |d| (c, d))).collect();
+    let mut acc = vec![[0.0f64; 8]; pairs.len()];
+    let mut from = 0;
+    while from < body {
+        let to = (from + GRAM_BLOCK).min(body);
+        let sb = &s[from..to];
+        for (acc, &(c, d)) in acc.iter_mut().zip(&pairs) {
+            let (ca, cb) = (&a[c][from..to], &b[d][from..to]);
+            // A local copy of the sums, which the compiler keeps in registers.
+            let mut sums = *acc;
+            for ((x, y), w) in ca
+                .chunks_exact(8)
+                .zip(cb.chunks_exact(8))
+                .zip(sb.chunks_exact(8))
+            {
+                for k in 0..8 {
+                    sums[k] += prod(x[k], y[k], w[k]);
+                }
+            }
+            *acc = sums;
         }
+        from = to;
     }
-    acc.iter().sum::<f64>() + tail
+    let mut out = DMatrix::zeros(p, p);
+    for (acc, &(c, d)) in acc.iter().zip(&pairs) {
+        let tail: f64 = (body..n).map(|i| prod(a[c][i], b[d][i], s[i])).sum();
+        let v = acc.iter().sum::<f64>() + tail;
+        out[(c, d)] = v;
+        out[(d, c)] = v;
+    }
+    out
 }
 
 /// A^T r by contiguous column dot products.
@@ -353,7 +426,28 @@ fn eval<M: Model>(
         m.eval(x, s, labels, &mut r, None);
         return (r, DMatrix::zeros(0, 0));
     }
-    let mut j = DMatrix::zeros(n, 6 + m.n_specimen_params());
+    eval_into(m, x, s, labels, None)
+}
+
+/// `eval` with the Jacobian, written into `spent` (a Jacobian of the same model no longer
+/// needed) when given: zeroed and reused, where a fresh tall allocation (its pages faulted in
+/// anew) cost a fifth of a full-profile refinement.
+fn eval_into<M: Model>(
+    m: &M,
+    x: &Transform,
+    s: &M::Specimen,
+    labels: &[f64],
+    spent: Option<DMatrix<f64>>,
+) -> (DVector<f64>, DMatrix<f64>) {
+    let (n, p) = (n_residuals(m), 6 + m.n_specimen_params());
+    let mut j = match spent {
+        Some(mut j) if j.shape() == (n, p) => {
+            j.as_mut_slice().fill(0.0);
+            j
+        }
+        _ => DMatrix::zeros(n, p),
+    };
+    let mut r = DVector::zeros(n);
     m.eval(x, s, labels, &mut r, Some(&mut j));
     (r, j)
 }
@@ -397,7 +491,7 @@ fn cost_of(r: &DVector<f64>, loss: Loss, scale: f64) -> f64 {
 }
 
 fn observability_of(j: &DMatrix<f64>) -> Observability {
-    observability_from(ata(j, j))
+    observability_from(ata(j))
 }
 
 /// The observability from J^T J.
@@ -507,7 +601,7 @@ pub fn refine<M: Model>(
                 1.0,
                 (r0.clone(), j0),
             );
-            let r = eval(model, &ls.x, &ls.s, &labels, true);
+            let r = eval_into(model, &ls.x, &ls.s, &labels, ls.last_j);
             let scale = mad(&r.0);
             (scale, minimise(model, ls.x, ls.s, &labels, opts, scale, r))
         }
@@ -555,7 +649,7 @@ pub fn refine<M: Model>(
 pub fn assess(p: &dyn Refinable, x: &Isometry3<f64>, status: Status) -> (Refined, Vector6<f64>) {
     let (r, j) = p.residuals_and_jacobian(x);
     // J^T J once: the covariance, the observability and the step all start from it.
-    let a = ata(&j, &j);
+    let a = ata(&j);
     (
         figures_of(&a, &r, &j, x, status),
         gauss_newton_step(&a, &r, &j),
@@ -644,21 +738,33 @@ fn minimise<M: Model>(
     let mut it = 0;
     let mut at = Some(at);
     let mut last_j = None;
+    let mut jw_buf: Option<DMatrix<f64>> = None;
     while it < opts.max_iterations {
         it += 1;
+        let spent = last_j.take();
         let (r, j) = at
             .take()
-            .unwrap_or_else(|| eval(model, &x, &s, labels, true));
+            .unwrap_or_else(|| eval_into(model, &x, &s, labels, spent));
         // Weighted normal equations J^T W J, J^T W r (column dot products: tr_mul).
         let (a, g) = if opts.loss == Loss::Squared {
-            (ata(&j, &j), atb(&j, &r))
+            (ata(&j), atb(&j, &r))
         } else {
             let w = robust_weights(&r, opts.loss, scale);
-            let mut jw = j.clone();
+            // W J in a buffer kept across iterations (a fresh tall copy each time faulted its
+            // pages in anew).
+            let mut jw = match jw_buf.take() {
+                Some(mut b) if b.shape() == j.shape() => {
+                    b.copy_from(&j);
+                    b
+                }
+                _ => j.clone(),
+            };
             for mut col in jw.column_iter_mut() {
                 col.component_mul_assign(&w);
             }
-            (ata(&j, &jw), atb(&jw, &r))
+            let ag = (atb_sym(&j, &jw), atb(&jw, &r));
+            jw_buf = Some(jw);
+            ag
         };
         if g.amax() <= 1e-15 * (1.0 + cost) {
             status = Status::Converged { iterations: it };
@@ -712,7 +818,7 @@ fn minimise<M: Model>(
 /// with the small-sample factor N / (N - p): consistent when residuals have unequal variances (a
 /// chord end's distance from the rim is noisier than its distance from the disk plane).
 fn covariance(r: &DVector<f64>, j: &DMatrix<f64>) -> Matrix6<f64> {
-    covariance_from(&ata(j, j), r, j)
+    covariance_from(&ata(j), r, j)
 }
 
 /// The parameters the residuals depend on: every transform one, and a specimen parameter only
@@ -757,5 +863,78 @@ pub fn transform_columns(
     for c in 0..3 {
         j[(k, c)] = gw[c];
         j[(k, 3 + c)] = gt[c];
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A tall matrix of awkward values (not a multiple of 8 rows, more than two blocks).
+    fn tall(n: usize, p: usize) -> DMatrix<f64> {
+        DMatrix::from_fn(n, p, |i, c| {
+            ((i * 7 + c * 13) as f64 * 0.377).sin() * 1e-3 + c as f64
+        })
+    }
+
+    #[test]
+    fn gram_has_the_bits_of_one_dot_per_pair() {
+        let (j, w) = (tall(2 * GRAM_BLOCK + 13, 11), tall(2 * GRAM_BLOCK + 13, 1));
+        let n = j.nrows();
+        let col = |m: &DMatrix<f64>, c: usize| m.as_slice()[c * n..(c + 1) * n].to_vec();
+        let mut jw = j.clone();
+        for mut c in jw.column_iter_mut() {
+            c.component_mul_assign(&w.column(0));
+        }
+        let (a, b) = (ata(&j), atb_sym(&j, &jw));
+        let cols: Vec<usize> = vec![0, 3, 4, 10];
+        let scaled = ata_scaled(&j, &cols, &w.column(0).into_owned());
+        for c in 0..j.ncols() {
+            for d in 0..j.ncols() {
+                let (lo, hi) = (c.min(d), c.max(d));
+                assert_eq!(
+                    a[(c, d)].to_bits(),
+                    dot(&col(&j, lo), &col(&j, hi)).to_bits()
+                );
+                assert_eq!(
+                    b[(c, d)].to_bits(),
+                    dot(&col(&j, lo), &col(&jw, hi)).to_bits()
+                );
+            }
+        }
+        for (x, &c) in cols.iter().enumerate() {
+            for (y, &d) in cols.iter().enumerate() {
+                let (lo, hi) = if x <= y { (c, d) } else { (d, c) };
+                let s = |k: usize| -> Vec<f64> {
+                    col(&j, k)
+                        .iter()
+                        .zip(w.as_slice())
+                        .map(|(v, s)| v * s)
+                        .collect()
+                };
+                assert_eq!(scaled[(x, y)].to_bits(), dot(&s(lo), &s(hi)).to_bits());
+            }
+        }
+    }
+
+    #[test]
+    fn a_seer_has_the_bits_of_point_in_base() {
+        let x = Transform {
+            rot: Rotation3::from_euler_angles(0.3, -1.1, 2.0),
+            t: Vector3::new(0.01, -0.05, 0.3),
+        };
+        let poses = [
+            Isometry3::new(Vector3::new(0.4, 0.1, 0.5), Vector3::new(3.0, 0.1, -0.2)),
+            Isometry3::new(Vector3::new(-0.2, 0.3, 0.6), Vector3::new(-2.9, 0.3, 1.0)),
+        ];
+        let mut seer = x.seer();
+        // Runs from one pose, back to an earlier one, with and without the Jacobian.
+        for (k, f) in [0, 0, 0, 1, 1, 0].iter().map(|&i| &poses[i]).enumerate() {
+            let p = Vector2::new(0.01 * k as f64 - 0.02, 0.1 + 0.003 * k as f64);
+            for jac in [false, true] {
+                let (a, b) = (seer.point(f, &p, jac), x.point_in_base(f, &p, jac));
+                assert_eq!(a, b);
+            }
+        }
     }
 }

@@ -57,10 +57,11 @@ impl Model for PlaneModel {
         r: &mut DVector<f64>,
         mut j: Option<&mut DMatrix<f64>>,
     ) {
+        let mut seer = x.seer();
         let n = s.normal();
         let (e1, e2) = (s.frame * Vector3::x(), s.frame * Vector3::y());
         for (i, (f, p)) in self.points.iter().enumerate() {
-            let (qb, dq_dw, dq_dt) = x.point_in_base(f, p, j.is_some());
+            let (qb, dq_dw, dq_dt) = seer.point(f, p, j.is_some());
             r[i] = n.dot(&qb) - s.offset;
             if let Some(j) = j.as_deref_mut() {
                 transform_columns(j, i, &n, &dq_dw, &dq_dt);
