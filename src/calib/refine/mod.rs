@@ -570,7 +570,9 @@ pub fn refine<M: Model>(
     let x0 = Transform::from_isometry(flange_to_sensor);
     let labels = model.labels(&x0, specimen);
     let (r0, j0) = eval(model, &x0, specimen, &labels, true);
-    let obs = observability_of(&j0);
+    // J^T J at the start: the observability's, and the first least-squares iteration's.
+    let a0 = ata(&j0);
+    let obs = observability_from(a0.clone());
     if !(obs.singular_values[5] > MIN_SINGULAR_RATIO * obs.singular_values[0]) {
         return Err(CalibError::Unobservable {
             method: model.name(),
@@ -583,7 +585,15 @@ pub fn refine<M: Model>(
         // The squared loss has no scale.
         Loss::Squared => (
             1.0,
-            minimise(model, x0, *specimen, &labels, opts, 1.0, (r0.clone(), j0)),
+            minimise(
+                model,
+                x0,
+                *specimen,
+                &labels,
+                opts,
+                1.0,
+                (r0.clone(), j0, Some(a0)),
+            ),
         ),
         Loss::Huber { .. } => {
             // The robust scale is the noise's, not the start's: 1.4826 MAD of the residuals at the
@@ -599,11 +609,14 @@ pub fn refine<M: Model>(
                 &labels,
                 &squared,
                 1.0,
-                (r0.clone(), j0),
+                (r0.clone(), j0, Some(a0)),
             );
-            let r = eval_into(model, &ls.x, &ls.s, &labels, ls.last_j);
-            let scale = mad(&r.0);
-            (scale, minimise(model, ls.x, ls.s, &labels, opts, scale, r))
+            let (r, j) = eval_into(model, &ls.x, &ls.s, &labels, ls.last_j);
+            let scale = mad(&r);
+            (
+                scale,
+                minimise(model, ls.x, ls.s, &labels, opts, scale, (r, j, None)),
+            )
         }
     };
     let Fit {
@@ -612,6 +625,7 @@ pub fn refine<M: Model>(
         status,
         cost,
         last_j,
+        last_ata,
     } = fit;
     // The covariance at the optimum: fresh residuals; the last Jacobian, computed at most one
     // (converged, hence negligible) step away.
@@ -620,7 +634,10 @@ pub fn refine<M: Model>(
         Some(j) => j,
         None => eval(model, &x, &s, &labels, true).1,
     };
-    let cov = covariance(&r, &j);
+    let cov = match last_ata {
+        Some(a) if a.nrows() == j.ncols() => covariance_from(&a, &r, &j),
+        _ => covariance(&r, &j),
+    };
     let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
     Ok((
         Refined {
@@ -716,10 +733,12 @@ struct Fit<S> {
     cost: f64,
     /// The Jacobian of the last iteration.
     last_j: Option<DMatrix<f64>>,
+    /// Its J^T J, when the loss was squared (the covariance's, not formed again).
+    last_ata: Option<DMatrix<f64>>,
 }
 
-/// Levenberg-Marquardt with Marquardt's diagonal scaling from (x, s), whose residuals and
-/// Jacobian are `at`, on the loss with robust scale `scale`.
+/// Levenberg-Marquardt with Marquardt's diagonal scaling from (x, s), whose residuals, Jacobian
+/// and (when known) J^T J are `at`, on the loss with robust scale `scale`.
 fn minimise<M: Model>(
     model: &M,
     mut x: Transform,
@@ -727,7 +746,7 @@ fn minimise<M: Model>(
     labels: &[f64],
     opts: &Options,
     scale: f64,
-    at: (DVector<f64>, DMatrix<f64>),
+    at: (DVector<f64>, DMatrix<f64>, Option<DMatrix<f64>>),
 ) -> Fit<M::Specimen> {
     let p = 6 + model.n_specimen_params();
     let mut cost = cost_of(&at.0, opts.loss, scale);
@@ -738,16 +757,19 @@ fn minimise<M: Model>(
     let mut it = 0;
     let mut at = Some(at);
     let mut last_j = None;
+    let mut last_ata = None;
     let mut jw_buf: Option<DMatrix<f64>> = None;
     while it < opts.max_iterations {
         it += 1;
         let spent = last_j.take();
-        let (r, j) = at
-            .take()
-            .unwrap_or_else(|| eval_into(model, &x, &s, labels, spent));
+        last_ata = None;
+        let (r, j, known) = at.take().unwrap_or_else(|| {
+            let (r, j) = eval_into(model, &x, &s, labels, spent);
+            (r, j, None)
+        });
         // Weighted normal equations J^T W J, J^T W r (column dot products: tr_mul).
         let (a, g) = if opts.loss == Loss::Squared {
-            (ata(&j), atb(&j, &r))
+            (known.unwrap_or_else(|| ata(&j)), atb(&j, &r))
         } else {
             let w = robust_weights(&r, opts.loss, scale);
             // W J in a buffer kept across iterations (a fresh tall copy each time faulted its
@@ -801,6 +823,9 @@ fn minimise<M: Model>(
             status = Status::Converged { iterations: it };
         }
         last_j = Some(j);
+        if opts.loss == Loss::Squared {
+            last_ata = Some(a);
+        }
         if matches!(status, Status::Converged { .. }) {
             break;
         }
@@ -811,6 +836,7 @@ fn minimise<M: Model>(
         status,
         cost,
         last_j,
+        last_ata,
     }
 }
 
