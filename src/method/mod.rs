@@ -352,16 +352,25 @@ const WALL_TOL: f64 = 1e-3;
 /// pass for the face's, a bias growing with the noise; the wall's own points carry none.
 const WALL_MIN_POINTS: usize = 3;
 
-/// Noise along the sensor's z (the declared model) moves a wall point mostly along the wall: its
-/// distance from the wall varies by sigma |normal . z| only, and its residual is weighted by
-/// 1 / |normal . z| (against the face points' 1), floored here: a sensor whose noise follows its
-/// camera's line of sight rather than z would otherwise be trusted too far along the wall.
-/// Measured on the comparison rig's disk: 0.3 keeps most of the gain, 1.3-1.5x in rotation over
-/// no weighting.
-const WALL_SLANT_FLOOR: f64 = 0.3;
+/// A wall point's weight before its residuals are read: noise along the sensor's z moves it
+/// mostly along the wall, so its distance from the wall spreads by sigma |normal . z| only; with
+/// |normal . z| floored at `KAPPA_START`, since a sensor whose noise follows its camera's line of
+/// sight would otherwise be trusted too far along the wall. `edge-full` then reads the floor from
+/// its residuals (`calib::refine::slant`). `disk-full` keeps this weight: read from the residuals
+/// the floor came out at its lower end, and the rotation at far z noise 0.12-0.25 mm came out
+/// worse (rms 0.0033 against 0.0028 deg over 100 trials at 0.25 mm, worse in 70 of them, while
+/// the predicted sd fell): its wall points carry an error growing with the noise that the weights
+/// do not model, most likely their selection by height (noise along z moves a point along the
+/// wall, in or out of the band taken for it).
+fn first_wall_weight(normal: &Vector3<f64>, z_sensor: &Vector3<f64>) -> f64 {
+    1.0 / normal
+        .dot(z_sensor)
+        .abs()
+        .max(crate::calib::refine::slant::KAPPA_START)
+}
 
 /// The points of `past` (sensor x, z, seen from `base_to_sensor`) on a specimen's wall, with
-/// their weights (`WALL_TOL`, `WALL_SLANT_FLOOR`). `place` gives a base-frame point's height
+/// their first weights (`WALL_TOL`, `first_wall_weight`). `place` gives a base-frame point's height
 /// above the face, its signed distance from the wall and the wall's normal there.
 fn wall_points(
     past: &[Vector2<f64>],
@@ -373,7 +382,7 @@ fn wall_points(
         .iter()
         .filter_map(|p| {
             let (h, d, normal) = place(&(base_to_sensor * Point3::new(p.x, 0.0, p.y)).coords);
-            let weight = 1.0 / normal.dot(&z_sensor).abs().max(WALL_SLANT_FLOOR);
+            let weight = first_wall_weight(&normal, &z_sensor);
             (d.abs() <= WALL_TOL && h < -0.5 * WALL_TOL).then_some((h, *p, weight))
         })
         .collect();

@@ -9,7 +9,8 @@
 //! between the two, else the nearer one's offset (a censored measurement: no bias from guessing
 //! where in the gap the edge is, so exact data give the exact answer).
 
-use super::{Model, Transform, exp, transform_columns};
+use super::slant::{self, Slanted, SlantNoise};
+use super::{Model, Transform, depth_in_base, exp, transform_columns};
 use nalgebra::{DMatrix, DVector, Isometry3, Rotation3, Vector2, Vector3};
 
 /// One edge seen in one profile: the flange pose, the edge's interval on the face (sensor x, z;
@@ -130,6 +131,42 @@ impl Model for BarModel {
                 j[(row, 10 + wall.edge)] = -w;
             }
         }
+    }
+
+    /// The walls' weights from the residuals: the face's points fix the noise, the walls' its
+    /// part across a wall (`slant`).
+    fn reweighted(&self, x: &Transform, s: &Bar) -> Option<(BarModel, SlantNoise)> {
+        if self.walls.len() < slant::MIN_WALL_POINTS {
+            return None;
+        }
+        let (ey, ez) = (s.frame * Vector3::y(), s.frame * Vector3::z());
+        let slanted = |f: &Isometry3<f64>, p: &Vector2<f64>, n: &Vector3<f64>, offset: f64| {
+            let (qb, _, _) = x.point_in_base(f, p, false);
+            Slanted {
+                residual: n.dot(&qb) - offset,
+                u: n.dot(&depth_in_base(x, f)).powi(2),
+            }
+        };
+        let face: Vec<Slanted> = self
+            .face
+            .iter()
+            .map(|(f, p)| slanted(f, p, &ez, s.offset))
+            .collect();
+        let walls: Vec<Slanted> = self
+            .walls
+            .iter()
+            .map(|w| slanted(&w.base_to_flange, &w.point, &ey, s.edge_offsets[w.edge]))
+            .collect();
+        let noise = slant::estimate(&face, &walls)?;
+        let mut model = self.clone();
+        model.walls = (self.walls.iter().zip(&walls))
+            .filter(|(_, sl)| noise.fits(sl))
+            .map(|(w, sl)| WallSeen {
+                weight: noise.weight(sl.u),
+                ..*w
+            })
+            .collect();
+        Some((model, noise))
     }
 
     fn step(&self, s: &Bar, dx: &[f64]) -> Bar {

@@ -14,6 +14,7 @@ pub mod bar;
 pub mod disk;
 pub mod edge;
 pub mod plane;
+pub mod slant;
 
 use super::{CalibError, Status};
 use nalgebra::{
@@ -167,6 +168,17 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
     fn centre(&self, _s: &Self::Specimen) -> Option<Point3<f64>> {
         None
     }
+
+    /// The same model with its points on slanted surfaces (walls) weighted by the noise the
+    /// residuals at (x, s) show (`slant`); None when it has no such points or too few to say.
+    fn reweighted(&self, _x: &Transform, _s: &Self::Specimen) -> Option<(Self, slant::SlantNoise)> {
+        None
+    }
+}
+
+/// The sensor's depth direction in the base frame when the flange is at `f`.
+pub(crate) fn depth_in_base(x: &Transform, f: &Isometry3<f64>) -> Vector3<f64> {
+    f.rotation * (x.rot * Vector3::z())
 }
 
 /// Loss on the residuals.
@@ -230,6 +242,9 @@ pub struct Refined {
     pub sd_rotation_deg: Vector3<f64>,
     pub sd_translation_mm: Vector3<f64>,
     pub observability: Observability,
+    /// The slanted points' noise as the residuals showed it (`slant`), when their weights came
+    /// from it.
+    pub slant: Option<slant::SlantNoise>,
 }
 
 /// A refinement problem whose specimen model is hidden: what a calibration carries so that the
@@ -256,8 +271,27 @@ pub struct Problem<M: Model> {
 }
 
 impl<M: Model + 'static> Refinable for Problem<M> {
+    /// `refine`; where the model has slanted points, once more from its result with their
+    /// weights read from its residuals (`slant`). The second fit replaces the first unless it
+    /// did not converge where the first did.
     fn refine(&self, start: &Isometry3<f64>, opts: &Options) -> Result<Refined, CalibError> {
-        refine(&self.model, start, &self.specimen, opts).map(|(r, _)| r)
+        let (first, s) = refine(&self.model, start, &self.specimen, opts)?;
+        let x = Transform::from_isometry(&first.flange_to_sensor);
+        let Some((model, noise)) = self.model.reweighted(&x, &s) else {
+            return Ok(first);
+        };
+        match refine(&model, &first.flange_to_sensor, &s, opts) {
+            Ok((second, _))
+                if matches!(second.status, Status::Converged { .. })
+                    || !matches!(first.status, Status::Converged { .. }) =>
+            {
+                Ok(Refined {
+                    slant: Some(noise),
+                    ..second
+                })
+            }
+            _ => Ok(first),
+        }
     }
     fn observability(&self, x: &Isometry3<f64>) -> Observability {
         observability_of(&self.residuals_and_jacobian(x).1)
@@ -653,6 +687,7 @@ pub fn refine<M: Model>(
             sd_rotation_deg: Vector3::new(sd(0), sd(1), sd(2)).map(f64::to_degrees),
             sd_translation_mm: Vector3::new(sd(3), sd(4), sd(5)) * 1e3,
             observability: obs,
+            slant: None,
         },
         s,
     ))
@@ -715,6 +750,7 @@ fn figures_of(
         sd_rotation_deg: Vector3::new(sd(0), sd(1), sd(2)).map(f64::to_degrees),
         sd_translation_mm: Vector3::new(sd(3), sd(4), sd(5)) * 1e3,
         observability: observability_from(a.clone()),
+        slant: None,
     }
 }
 
