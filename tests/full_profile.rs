@@ -411,7 +411,11 @@ fn edge_full_reads_the_walls_noise_from_its_residuals() {
                 "x sigma {x_sigma_mm} mm, trial {trial}: kappa {} not in [{low}, {high}]",
                 noise.kappa
             );
-            assert!((noise.sigma / 0.05e-3 - 1.0).abs() < 0.05, "sigma {}", noise.sigma);
+            assert!(
+                (noise.sigma / 0.05e-3 - 1.0).abs() < 0.05,
+                "sigma {}",
+                noise.sigma
+            );
         }
     }
 }

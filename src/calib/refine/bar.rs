@@ -9,7 +9,7 @@
 //! between the two, else the nearer one's offset (a censored measurement: no bias from guessing
 //! where in the gap the edge is, so exact data give the exact answer).
 
-use super::slant::{self, Slanted, SlantNoise};
+use super::slant::{self, SlantNoise, Slanted};
 use super::{Model, Transform, depth_in_base, exp, transform_columns};
 use nalgebra::{DMatrix, DVector, Isometry3, Rotation3, Vector2, Vector3};
 

@@ -52,7 +52,8 @@ impl SlantNoise {
     /// the surface's (a face point taken for a wall's, a speck), and would pull with its full
     /// weight.
     pub fn fits(&self, s: &Slanted) -> bool {
-        s.residual * s.residual <= TRIM * TRIM * self.sigma * self.sigma * (s.u + self.kappa * self.kappa)
+        s.residual * s.residual
+            <= TRIM * TRIM * self.sigma * self.sigma * (s.u + self.kappa * self.kappa)
     }
 }
 
