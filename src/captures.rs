@@ -90,6 +90,39 @@ pub struct Captures {
     /// arc points, edge points of an analytic source or a file): what the verdict's residual
     /// test compares with. None for raw profiles, whose noise the sensor's model states.
     pub feature_sigma: Option<f64>,
+    /// What the verdict judges a result against (tolerance, the robot's accuracy).
+    pub judging: Judging,
+}
+
+/// What the verdict judges a result against: the user's tolerance on the 95 % error bound, and
+/// the robot's pose accuracy that the residual test allows beside the sensor's noise.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Judging {
+    /// Largest acceptable 95 % bound on the rotation (deg) and the translation (mm).
+    pub tolerance_deg: f64,
+    pub tolerance_mm: f64,
+    /// One standard deviation of a measured point's offset that the robot's pose error makes
+    /// (metres): what the residuals may show beyond the sensor's noise before the model is
+    /// called inconsistent with the data.
+    pub robot_accuracy: f64,
+}
+
+impl Judging {
+    /// Defaults: a tolerance of 0.5 deg / 0.5 mm; an industrial arm's absolute accuracy of
+    /// 0.5 mm where a file does not state its robot's (a simulated rig states its own).
+    pub const DEFAULT_TOLERANCE_DEG: f64 = 0.5;
+    pub const DEFAULT_TOLERANCE_MM: f64 = 0.5;
+    pub const DEFAULT_ROBOT_ACCURACY_MM: f64 = 0.5;
+}
+
+impl Default for Judging {
+    fn default() -> Judging {
+        Judging {
+            tolerance_deg: Judging::DEFAULT_TOLERANCE_DEG,
+            tolerance_mm: Judging::DEFAULT_TOLERANCE_MM,
+            robot_accuracy: Judging::DEFAULT_ROBOT_ACCURACY_MM * 1e-3,
+        }
+    }
 }
 
 impl Captures {

@@ -26,13 +26,21 @@ pub enum Metric {
     /// The largest predicted standard deviation of the rotation and of the translation.
     PredictedSdRotation,
     PredictedSdTranslation,
-    /// The verdict: 1 suspect, 0 ok (its mean over trials is the share called suspect).
+    /// The verdict: 1 suspect, 0 otherwise (its mean over trials is the share called suspect).
     Suspect,
+    /// The verdict's honest 95 % bound on the rotation and translation error; truth-free.
+    BoundRotation,
+    BoundTranslation,
+    /// The verdict: 1 imprecise (bound beyond the tolerance), 0 otherwise.
+    Imprecise,
+    /// 1 when both errors against the truth lie within their 95 % bounds (the mean over trials
+    /// is the bound's coverage; the truth is needed).
+    Covered,
 }
 
 impl Metric {
     /// Every metric, in the order of trials.csv's columns.
-    pub const ALL: [Metric; 12] = [
+    pub const ALL: [Metric; 16] = [
         Metric::RotationError,
         Metric::TranslationError,
         Metric::FrobeniusRotation,
@@ -45,10 +53,14 @@ impl Metric {
         Metric::PredictedSdRotation,
         Metric::PredictedSdTranslation,
         Metric::Suspect,
+        Metric::BoundRotation,
+        Metric::BoundTranslation,
+        Metric::Imprecise,
+        Metric::Covered,
     ];
 
     /// The metrics summarised per grid point and method, in summary.csv's order.
-    pub const SUMMARISED: [Metric; 8] = [
+    pub const SUMMARISED: [Metric; 10] = [
         Metric::CentreError,
         Metric::RotationError,
         Metric::TranslationError,
@@ -57,6 +69,8 @@ impl Metric {
         Metric::SphereRadius,
         Metric::NoiseRatio,
         Metric::Suspect,
+        Metric::Imprecise,
+        Metric::Covered,
     ];
 
     /// Column name (with its unit).
@@ -74,6 +88,10 @@ impl Metric {
             Metric::PredictedSdRotation => "predicted_sd_rotation_deg",
             Metric::PredictedSdTranslation => "predicted_sd_translation_mm",
             Metric::Suspect => "suspect",
+            Metric::BoundRotation => "bound_rotation_deg",
+            Metric::BoundTranslation => "bound_translation_mm",
+            Metric::Imprecise => "imprecise",
+            Metric::Covered => "covered",
         }
     }
 
@@ -92,14 +110,25 @@ impl Metric {
             Metric::PredictedSdRotation => "predicted rotation sd (largest axis)",
             Metric::PredictedSdTranslation => "predicted translation sd (largest axis)",
             Metric::Suspect => "share judged suspect",
+            Metric::BoundRotation => "95 % bound on the rotation error",
+            Metric::BoundTranslation => "95 % bound on the translation error",
+            Metric::Imprecise => "share judged imprecise",
+            Metric::Covered => "share of errors within their 95 % bounds",
         }
     }
 
     /// Unit for printing ("" when dimensionless).
     pub fn unit(self) -> &'static str {
         match self {
-            Metric::RotationError | Metric::EdgeAngleDev | Metric::PredictedSdRotation => "deg",
-            Metric::FrobeniusRotation | Metric::NoiseRatio | Metric::Suspect => "",
+            Metric::RotationError
+            | Metric::EdgeAngleDev
+            | Metric::PredictedSdRotation
+            | Metric::BoundRotation => "deg",
+            Metric::FrobeniusRotation
+            | Metric::NoiseRatio
+            | Metric::Suspect
+            | Metric::Imprecise
+            | Metric::Covered => "",
             _ => "mm",
         }
     }
@@ -116,7 +145,7 @@ impl Metric {
 
 /// A value per metric (absent where the method does not report it).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Metrics([Option<f64>; 12]);
+pub struct Metrics([Option<f64>; 16]);
 
 impl Metrics {
     pub fn get(&self, m: Metric) -> Option<f64> {

@@ -122,7 +122,7 @@ fn simulate(
     let mut specimen_rng = rng::stream(seed, &[tag::SPECIMEN, trial]);
     let radius_z = rng::gauss(&mut specimen_rng);
     let plan = setup.plan(kind)?;
-    plan.simulate(
+    let mut caps = plan.simulate(
         &setup.rig,
         &mut Sim {
             rng: r,
@@ -130,22 +130,47 @@ fn simulate(
             specimen_rng: &mut specimen_rng,
             radius_z,
         },
-    )
+    )?;
+    // The rig states its robot's accuracy as a real cell would (0 without robot error).
+    let (robot, vibration) = (
+        setup.robot_error.point_sd(&setup.rig.robot),
+        if setup.vibration.is_off() {
+            0.0
+        } else {
+            setup.vibration.amplitude_rms
+        },
+    );
+    caps.judging.robot_accuracy = robot.hypot(vibration);
+    Ok(caps)
 }
 
 /// The verdict's figures as metrics (trials.csv's columns).
 fn with_verdict(m: Metrics, j: &crate::method::verdict::Judged) -> Metrics {
+    use crate::method::verdict::Verdict;
     let (sr, st) = j.quality.worst_sd();
+    let (br, bt) = j.quality.error_bound();
     let finite = |v: f64| v.is_finite().then_some(v);
+    let covered = match (
+        m.get(Metric::RotationError),
+        m.get(Metric::TranslationError),
+    ) {
+        (Some(r), Some(t)) => Some(f64::from(r <= br && t <= bt)),
+        _ => None,
+    };
     m.with(Metric::NoiseRatio, j.quality.noise_ratio.and_then(finite))
         .with(Metric::PredictedSdRotation, finite(sr))
         .with(Metric::PredictedSdTranslation, finite(st))
         .with(
             Metric::Suspect,
-            Some(f64::from(
-                j.verdict == crate::method::verdict::Verdict::Suspect,
-            )),
+            Some(f64::from(j.verdict == Verdict::Suspect)),
         )
+        .with(Metric::BoundRotation, finite(br))
+        .with(Metric::BoundTranslation, finite(bt))
+        .with(
+            Metric::Imprecise,
+            Some(f64::from(j.verdict == Verdict::Imprecise)),
+        )
+        .with(Metric::Covered, covered)
 }
 
 /// Score a calibration of a specimen method against the scenario's truth.

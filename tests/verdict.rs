@@ -1,6 +1,7 @@
-//! The verdict (issue 15): on wrong inputs (a flipped group sign, a specimen radius 5 % off, the
+//! The verdict: on wrong inputs (a flipped group sign, a specimen radius 5 % off, the
 //! wrong edge sense, three edge groups) and on correct captures at the papers' noise levels, the
-//! verdict must flag the results that are off by more than 1 deg or 1 mm and pass the correct ones.
+//! verdict must flag (suspect or imprecise) the results that are off by more than 1 deg or 1 mm and
+//! call at most 1 % of the correct ones suspect (a correct but imprecise one is no false alarm).
 //! `LASERCAL_VERDICT_TRIALS` sets the trials per case (default 12); `--nocapture` prints the
 //! table the README quotes.
 
@@ -33,6 +34,8 @@ struct Tally {
     bad_flagged: usize,
     bad_passed: usize,
     good_flagged: usize,
+    /// Right answers judged imprecise: their bound exceeds the tolerance, no false alarm.
+    good_imprecise: usize,
     good_passed: usize,
     refused: usize,
 }
@@ -55,7 +58,8 @@ fn run_case(
         let j = judge(quality(&cal, refined.as_ref(), &caps, &s.rig.sensor));
         let e = PoseError::between(&cal.flange_to_sensor, &truth);
         let bad = !(e.rotation_error_deg <= 1.0 && e.translation_error_mm <= 1.0);
-        let flagged = j.verdict == Verdict::Suspect;
+        // Imprecise is no confident answer either: only `ok` passes.
+        let flagged = j.verdict != Verdict::Ok;
         match (bad, flagged) {
             (true, true) => tally.bad_flagged += 1,
             (true, false) => {
@@ -65,13 +69,15 @@ fn run_case(
                     e.rotation_error_deg, e.translation_error_mm, j.quality
                 ));
             }
+            (false, true) if j.verdict == Verdict::Imprecise => tally.good_imprecise += 1,
             (false, true) => {
                 tally.good_flagged += 1;
                 missed.push(format!(
-                    "{method} trial {t}: {:.4} deg / {:.4} mm off, judged suspect: {}",
+                    "{method} trial {t}: {:.4} deg / {:.4} mm off, judged {}: {}",
                     e.rotation_error_deg,
                     e.translation_error_mm,
-                    j.reasons.join(" | ")
+                    j.verdict,
+                    j.lines().cloned().collect::<Vec<_>>().join(" | ")
                 ));
             }
             (false, false) => tally.good_passed += 1,
@@ -254,12 +260,13 @@ fn table(cases: &[Case]) -> (Tally, Vec<String>) {
         let mut t = Tally::default();
         notes.extend(run_case(&s, *method, mutate, &mut t));
         println!(
-            "| {what} | {scenario} | {method} | {} | {} | {} | {} | {} |",
-            t.bad_flagged, t.bad_passed, t.good_flagged, t.good_passed, t.refused
+            "| {what} | {scenario} | {method} | {} | {} | {} | {} | {} | {} |",
+            t.bad_flagged, t.bad_passed, t.good_flagged, t.good_imprecise, t.good_passed, t.refused
         );
         total.bad_flagged += t.bad_flagged;
         total.bad_passed += t.bad_passed;
         total.good_flagged += t.good_flagged;
+        total.good_imprecise += t.good_imprecise;
         total.good_passed += t.good_passed;
         total.refused += t.refused;
     }
@@ -269,7 +276,7 @@ fn table(cases: &[Case]) -> (Tally, Vec<String>) {
 #[test]
 fn the_verdict_flags_wrong_inputs_that_give_wrong_answers() {
     println!(
-        "| input | scenario | method | off, flagged | off, passed | right, flagged | right, passed | refused |"
+        "| input | scenario | method | off, flagged | off, passed | right, suspect | right, imprecise | right, ok | refused |"
     );
     let (t, notes) = table(&wrong_cases());
     let bad = t.bad_flagged + t.bad_passed;
@@ -288,7 +295,7 @@ fn the_verdict_flags_wrong_inputs_that_give_wrong_answers() {
 #[test]
 fn the_verdict_passes_correct_captures() {
     let (t, notes) = table(&correct_cases());
-    let good = t.good_flagged + t.good_passed;
+    let good = t.good_flagged + t.good_imprecise + t.good_passed;
     assert!(good > 0);
     assert_eq!(t.bad_flagged + t.bad_passed, 0, "{}", notes.join("\n"));
     assert!(
@@ -376,10 +383,7 @@ fn calibrate_runs_every_variant_prints_the_verdict_and_exits_3_when_suspect() {
     let (_, out, _) = common::lasercal(&["calibrate", &flipped]);
     assert!(out.contains("sign of group 0 flipped"), "{out}");
     let (_, out, _) = common::lasercal(&["calibrate", &flipped, "--method", "disk"]);
-    assert!(
-        out.contains("the residuals do not fit the noise model"),
-        "{out}"
-    );
+    assert!(out.contains("the residuals do not fit the model"), "{out}");
 
     // A ball 5 % smaller than the file says: every variant's residuals say so.
     let radius = capture_file(dir.path(), "comparison", "ball", |d| {

@@ -2,7 +2,7 @@
 //! at the edge are the papers' (mm); inside, metres. Documented in docs/captures.md.
 
 use super::FormatError;
-use crate::captures::{CaptureProfile, Captures, Group, ProfileData, Role};
+use crate::captures::{CaptureProfile, Captures, Group, Judging, ProfileData, Role};
 use crate::features::{Circle, EdgeSense};
 use crate::method::{Kind, method};
 use crate::scene::SpecimenType;
@@ -35,6 +35,15 @@ struct FileV1 {
     /// circles' arc points, edge points); the verdict's residual test needs it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     feature_sigma_mm: Option<f64>,
+    /// The verdict's tolerance on the 95 % error bound (deg, mm; defaults 0.5 and 0.5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    tolerance_deg: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    tolerance_mm: Option<f64>,
+    /// The robot's pose accuracy (mm, one standard deviation of a point's offset) the residual
+    /// test allows beside the sensor noise (default 0.5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    robot_accuracy_mm: Option<f64>,
     groups: Vec<GroupV1>,
     profiles: Vec<ProfileV1>,
 }
@@ -118,6 +127,11 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
             != crate::calib::ORIENTATION_TOLERANCE_DEG)
             .then_some(c.orientation_tolerance_deg),
         feature_sigma_mm: c.feature_sigma.map(|s| s * 1e3),
+        tolerance_deg: (c.judging.tolerance_deg != Judging::DEFAULT_TOLERANCE_DEG)
+            .then_some(c.judging.tolerance_deg),
+        tolerance_mm: (c.judging.tolerance_mm != Judging::DEFAULT_TOLERANCE_MM)
+            .then_some(c.judging.tolerance_mm),
+        robot_accuracy_mm: Some(c.judging.robot_accuracy * 1e3),
         sensor: if sensor.is_preset() {
             SensorV1::Preset(sensor.name.clone())
         } else {
@@ -262,6 +276,7 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
         Captures {
             orientation_tolerance_deg: tolerance,
             feature_sigma,
+            judging: judging_of(&f, file)?,
             method: kind,
             sensor: sensor.name.clone(),
             specimen_kind: f.specimen.kind,
@@ -636,6 +651,53 @@ fn columns_on_rays(
 
 /// A user's orientation tolerance (deg), checked: finite, above 0 and at most 5 (beyond, "one
 /// orientation" means nothing the protocols rely on).
+/// The verdict's settings a file states, checked; the defaults for the rest.
+fn judging_of(f: &FileV1, file: &str) -> Result<Judging, FormatError> {
+    let d = Judging::default();
+    let or =
+        |v: Option<f64>, at: &str, default: f64| v.map_or(Ok(default), |v| tolerance(v, file, at));
+    Ok(Judging {
+        tolerance_deg: or(f.tolerance_deg, "tolerance_deg", d.tolerance_deg)?,
+        tolerance_mm: or(f.tolerance_mm, "tolerance_mm", d.tolerance_mm)?,
+        robot_accuracy: match f.robot_accuracy_mm {
+            None => d.robot_accuracy,
+            Some(a) => robot_accuracy(a, file, "robot_accuracy_mm")?,
+        },
+    })
+}
+
+/// A tolerance on the verdict's 95 % bound (deg or mm), checked.
+pub fn tolerance(v: f64, file: &str, at: &str) -> Result<f64, FormatError> {
+    if v.is_finite() && v > 0.0 && v <= 1000.0 {
+        Ok(v)
+    } else {
+        Err(err(
+            file,
+            at,
+            format!(
+                "{v}: give the largest acceptable 95 % error bound, above 0 and at most 1000 \
+                 (defaults: 0.5 deg, 0.5 mm)"
+            ),
+        ))
+    }
+}
+
+/// A robot's pose accuracy (mm in, metres out), checked.
+pub fn robot_accuracy(mm: f64, file: &str, at: &str) -> Result<f64, FormatError> {
+    if mm.is_finite() && (0.0..=100.0).contains(&mm) {
+        Ok(mm * 1e-3)
+    } else {
+        Err(err(
+            file,
+            at,
+            format!(
+                "{mm}: give one standard deviation of the robot's pose error at the specimen in \
+                 mm, from 0 to 100 (default 0.5; 0 for a simulated rig without robot error)"
+            ),
+        ))
+    }
+}
+
 pub fn orientation_tolerance(deg: f64, file: &str, at: &str) -> Result<f64, FormatError> {
     if deg.is_finite() && deg > 0.0 && deg <= 5.0 {
         Ok(deg)

@@ -353,6 +353,7 @@ impl Plan for BallPlanned {
         Ok(Captures {
             orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
             feature_sigma: (!self.raycast).then_some(self.sigma),
+            judging: crate::captures::Judging::default(),
             method: Kind::Ball,
             sensor: rig.sensor.name.clone(),
             specimen_kind: SpecimenType::Ball,

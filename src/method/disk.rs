@@ -384,6 +384,7 @@ impl Plan for DiskPlan {
         Ok(Captures {
             orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
             feature_sigma: (!self.raycast).then_some(self.sigma),
+            judging: crate::captures::Judging::default(),
             method: Kind::Disk,
             sensor: rig.sensor.name.clone(),
             specimen_kind: self.specimen.kind.specimen_type(),

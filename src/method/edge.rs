@@ -335,6 +335,7 @@ impl Plan for EdgePlan {
         Ok(Captures {
             orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
             feature_sigma: (!self.raycast).then_some(self.sigma),
+            judging: crate::captures::Judging::default(),
             method: Kind::Edge,
             sensor: rig.sensor.name.clone(),
             specimen_kind: spec.kind.specimen_type(),

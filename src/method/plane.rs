@@ -170,6 +170,7 @@ impl Plan for PlanePlan {
         Ok(Captures {
             orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
             feature_sigma: None,
+            judging: crate::captures::Judging::default(),
             method: Kind::Plane,
             sensor: rig.sensor.name.clone(),
             specimen_kind: SpecimenType::Plane,

@@ -1,17 +1,23 @@
-//! A verdict with every calibration: truth-free quality figures of the variant that produced the
-//! transform (its residuals at that transform, the predicted uncertainty, the conditioning, the
-//! profiles it could not use), and `ok` or `suspect` with the reasons.
+//! A verdict with every calibration, answering two questions apart (docs/verdict.md):
+//! - *Is the model consistent with the data?* A gross mistake (a wrong sign, size, unit or
+//!   pairing) leaves residuals no stated noise explains, or variants, groups and signs that
+//!   contradict each other beyond their honest uncertainty: `suspect`.
+//! - *How precise is the answer?* A 95 % bound per axis and overall from the honest covariance
+//!   (`calib::refine::honest`: the residual-level one and the one clustered by flange pose,
+//!   which holds robot pose error, vibration and form error), against the user's tolerance:
+//!   `ok`, or `imprecise` with what limits it.
 //!
-//! The residual test is chi-square-type: with residuals r_i of stated standard deviation sigma,
+//! The residual test is chi-square-type: with residuals r_i of standard deviation sigma,
 //! sum (r_i / sigma)^2 over the degrees of freedom has mean 1 and standard deviation
-//! sqrt(2 / dof). The stated noise of a real sensor is a data-sheet figure, not a measured one, so
-//! the test allows the noise to be `NOISE_FACTOR` times the statement before it calls the
+//! sqrt(2 / dof). sigma is the sensor's stated noise and the robot's stated accuracy together;
+//! both are data-sheet figures, so the test allows `NOISE_FACTOR` times them before it calls the
 //! residuals inconsistent.
 
 use super::Calibration;
 use crate::calib::Status;
 use crate::calib::refine::Refined;
-use crate::captures::{Captures, ProfileData};
+use crate::calib::refine::honest::Bounds;
+use crate::captures::{Captures, Judging, ProfileData};
 use crate::sensor::SensorModel;
 use nalgebra::Matrix6;
 
@@ -20,10 +26,12 @@ use nalgebra::Matrix6;
 pub const NOISE_FACTOR: f64 = 2.0;
 /// The chi-square test's one-sided 99.9 % normal quantile.
 const Z_999: f64 = 3.09;
-/// A predicted standard deviation beyond a third of these is suspect: the result could be this
-/// far off (deg, mm).
+/// The scale of a large error (deg, mm): leave-one-out moves are ranked in these units.
 pub const MAX_ERROR_DEG: f64 = 1.0;
 pub const MAX_ERROR_MM: f64 = 1.0;
+/// A flipped group sign is blamed only when the closed form's residual RMS falls at least this
+/// many times with it flipped: an imprecise closed form is no contradiction.
+pub const CLEARLY_BETTER: f64 = 2.0;
 /// The share of profiles whose feature may be rejected before the rest are not trusted.
 pub const MAX_REJECTED_SHARE: f64 = 0.5;
 /// The observability's condition (largest over smallest singular value, rotations scaled to
@@ -60,6 +68,14 @@ pub struct Quality {
     /// Profiles in the captures and those whose feature was rejected.
     pub profiles: usize,
     pub rejected: usize,
+    /// The honest 95 % bounds (`calib::refine::honest`), the flange poses they were clustered
+    /// by, and how much the scatter between poses widened them (a factor on the sd).
+    pub bounds: Option<Bounds>,
+    pub poses: usize,
+    pub inflation: Option<f64>,
+    /// The robot's stated accuracy (mm) the residual test allowed, and the tolerance judged
+    /// against.
+    pub judging: Judging,
 }
 
 impl Quality {
@@ -82,22 +98,32 @@ impl Quality {
         (m(&self.sd_rotation_deg), m(&self.sd_translation_mm))
     }
 
-    /// How far off the result could be (deg, mm): its distance from the fit of its own data plus
-    /// three predicted standard deviations of that fit.
+    /// The honest 95 % bound on the whole error (deg, mm): its distance from the fit of its own
+    /// data plus the fit's bound. Infinite where there is no covariance to bound it with.
     pub fn error_bound(&self) -> (f64, f64) {
-        let (sr, st) = self.worst_sd();
-        (
-            self.from_fit_deg.unwrap_or(0.0) + 3.0 * sr,
-            self.from_fit_mm.unwrap_or(0.0) + 3.0 * st,
-        )
+        match &self.bounds {
+            Some(b) => (
+                self.from_fit_deg.unwrap_or(0.0) + b.rotation_norm_deg,
+                self.from_fit_mm.unwrap_or(0.0) + b.translation_norm_mm,
+            ),
+            None => (f64::INFINITY, f64::INFINITY),
+        }
+    }
+
+    /// Whether the bound is within the tolerance.
+    pub fn within_tolerance(&self) -> bool {
+        let (r, t) = self.error_bound();
+        r <= self.judging.tolerance_deg && t <= self.judging.tolerance_mm
     }
 }
 
-/// `ok` or `suspect`.
+/// `ok`; `imprecise` (consistent, but its 95 % bound exceeds the tolerance); `suspect` (the
+/// model does not fit the data: a gross mistake is likely).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Verdict {
     Ok,
+    Imprecise,
     Suspect,
 }
 
@@ -105,6 +131,7 @@ impl std::fmt::Display for Verdict {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
             Verdict::Ok => "ok",
+            Verdict::Imprecise => "imprecise",
             Verdict::Suspect => "suspect",
         })
     }
@@ -115,8 +142,14 @@ impl std::fmt::Display for Verdict {
 pub struct Judged {
     pub quality: Quality,
     pub verdict: Verdict,
-    /// One sentence per reason, each saying what to check or collect; empty when `ok`.
+    /// Why the model does not fit the data, each saying what to check; empty unless `suspect`.
     pub reasons: Vec<String>,
+    /// Why the answer is not precise enough, each naming what limits it and what would tighten
+    /// it; may be non-empty while `suspect`.
+    pub precision: Vec<String>,
+    /// What the checks found that changes neither answer (a group that alone fixes a
+    /// direction, residuals above the sensor noise that the robot's accuracy explains).
+    pub notes: Vec<String>,
 }
 
 /// The noise a residual of these captures has, as the data state it (metres).
@@ -163,12 +196,18 @@ pub fn quality(
     let noise = stated_noise(caps, sensor).filter(|s| *s > 0.0);
     let rms = figures.map(|f| f.residual_rms);
     let dof = figures.map(|f| f.n_residuals.saturating_sub(f.n_params).max(1));
-    let bound = dof.map(|d| NOISE_FACTOR * (1.0 + Z_999 * (2.0 / d as f64).sqrt()).sqrt());
+    // The residual test allows the sensor's noise and the robot's accuracy together; the bound
+    // is stated as a multiple of the sensor's noise alone (the ratio printed beside it).
+    let robot = caps.judging.robot_accuracy;
+    let bound = dof.zip(noise).map(|(d, s)| {
+        NOISE_FACTOR * (1.0 + Z_999 * (2.0 / d as f64).sqrt()).sqrt() * s.hypot(robot) / s
+    });
+    let finite = figures.filter(|f| f.honest.covariance.iter().all(|v| v.is_finite()));
     Quality {
         residual_rms_mm: rms.map(|r| r * 1e3),
         stated_noise_mm: noise.map(|s| s * 1e3),
         noise_ratio: rms.zip(noise).map(|(r, s)| r / s),
-        noise_ratio_bound: bound.filter(|_| noise.is_some()),
+        noise_ratio_bound: bound,
         n_residuals: figures.map_or(0, |f| f.n_residuals),
         sd_rotation_deg: figures.map_or([f64::NAN; 3], |f| f.sd_rotation_deg.into()),
         sd_translation_mm: figures.map_or([f64::NAN; 3], |f| f.sd_translation_mm.into()),
@@ -180,51 +219,40 @@ pub fn quality(
         status: cal.status,
         profiles: caps.profiles.len(),
         rejected: cal.missed,
+        bounds: finite.map(|f| f.honest.bounds()),
+        poses: figures.map_or(0, |f| f.honest.clusters),
+        inflation: finite.map(|f| f.honest.inflation),
+        judging: caps.judging,
     }
 }
 
 /// Judge a result from its quality figures.
 pub fn judge(q: Quality) -> Judged {
     let mut reasons = Vec::new();
+    let mut notes = Vec::new();
     if let (Some(ratio), Some(bound), Some(rms), Some(noise)) = (
         q.noise_ratio,
         q.noise_ratio_bound,
         q.residual_rms_mm,
         q.stated_noise_mm,
-    ) && !(ratio <= bound)
-    {
-        reasons.push(format!(
-            "the residuals do not fit the noise model: RMS {rms:.4} mm is {ratio:.1} times the \
-             stated noise {noise:.4} mm (at most {bound:.2} passes); check the specimen's size, \
-             the group signs or edge sense, the sensor's noise figures and the robot's accuracy"
-        ));
-    }
-    if let Some(c) = q.condition
-        && !(c <= MAX_CONDITION)
-    {
-        reasons.push(format!(
-            "the pose set is near-degenerate (condition {c:.3e}, above {MAX_CONDITION:.0e}): the \
-             {} is barely determined; add poses that move it",
-            q.weakest.as_deref().unwrap_or("weakest direction")
-        ));
-    }
-    let (br, bt) = q.error_bound();
-    if q.covariance.is_some() && (!(br <= MAX_ERROR_DEG) || !(bt <= MAX_ERROR_MM)) {
-        let (sr, st) = q.worst_sd();
-        let mut why = format!(
-            "the result could be off by {br:.3} deg / {bt:.3} mm (more than {MAX_ERROR_DEG} deg \
-             or {MAX_ERROR_MM} mm): predicted sd up to {sr:.3} deg and {st:.3} mm"
-        );
-        match (q.from_fit_deg, q.from_fit_mm) {
-            (Some(d), Some(m)) if d > 3.0 * sr || m > 3.0 * st => {
-                why += &format!(
-                    ", and {d:.3} deg / {m:.3} mm from the least-squares fit of its own features \
-                     (use the refined or any-pose variant, or check the labels)"
-                );
-            }
-            _ => why += "; collect more or more varied poses",
+    ) {
+        let robot = q.judging.robot_accuracy * 1e3;
+        if !(ratio <= bound) {
+            reasons.push(format!(
+                "the residuals do not fit the model: RMS {rms:.4} mm is {ratio:.1} times the \
+                 sensor's stated noise {noise:.4} mm, more than it and the robot's stated accuracy \
+                 {robot:.3} mm explain (at most {bound:.1} times passes); check the specimen's \
+                 size and kind, the group signs or edge sense, the pairing of poses and profiles, \
+                 the units and rotation convention of the poses, or state the robot's accuracy \
+                 (robot_accuracy_mm)"
+            ));
+        } else if ratio > NOISE_FACTOR * 1.5 {
+            notes.push(format!(
+                "the residuals (RMS {rms:.4} mm) are {ratio:.1} times the sensor's stated noise: \
+                 within what the robot's stated accuracy ({robot:.3} mm) explains; the bounds \
+                 include that scatter"
+            ));
         }
-        reasons.push(why);
     }
     if q.profiles > 0 && q.rejected as f64 > MAX_REJECTED_SHARE * q.profiles as f64 {
         reasons.push(format!(
@@ -240,15 +268,76 @@ pub fn judge(q: Quality) -> Judged {
             "the refinement did not converge in {iterations} iterations"
         ));
     }
+    let precision = precision_reasons(&q);
+    let verdict = if !reasons.is_empty() {
+        Verdict::Suspect
+    } else if !precision.is_empty() {
+        Verdict::Imprecise
+    } else {
+        Verdict::Ok
+    };
     Judged {
-        verdict: if reasons.is_empty() {
-            Verdict::Ok
-        } else {
-            Verdict::Suspect
-        },
+        verdict,
         reasons,
+        precision,
+        notes,
         quality: q,
     }
+}
+
+/// Why the bound exceeds the tolerance, with what limits it and what would tighten it; empty
+/// when within (or when the captures give nothing to bound with: reduced features only).
+fn precision_reasons(q: &Quality) -> Vec<String> {
+    if q.covariance.is_none() || q.within_tolerance() {
+        return Vec::new();
+    }
+    let (br, bt) = q.error_bound();
+    let t = &q.judging;
+    let mut why = format!(
+        "the 95 % error bound is {br:.3} deg / {bt:.3} mm, beyond the tolerance {} deg / {} mm",
+        t.tolerance_deg, t.tolerance_mm
+    );
+    if let Some(b) = &q.bounds {
+        let f = |v: &[f64; 3]| v.map(|x| format!("{x:.3}")).join("/");
+        why += &format!(
+            " (per axis: rotation about the sensor's x/y/z {} deg, translation along the \
+             flange's x/y/z {} mm)",
+            f(&b.rotation_deg),
+            f(&b.translation_mm)
+        );
+    }
+    match (q.from_fit_deg, q.from_fit_mm, &q.bounds) {
+        (Some(d), Some(m), Some(b)) if d > b.rotation_norm_deg || m > b.translation_norm_mm => {
+            why += &format!(
+                "; most of it is the closed form's distance from the least-squares fit of its \
+                 own features ({d:.3} deg / {m:.3} mm): use the refined or any-pose variant"
+            );
+        }
+        _ => {
+            if let Some(w) = &q.weakest {
+                why += &format!("; the {w} is the least determined");
+            }
+            match q.condition {
+                Some(c) if !(c <= MAX_CONDITION) => {
+                    why += &format!(
+                        " and the pose set is near-degenerate (condition {c:.2e}): add poses \
+                         that move it"
+                    )
+                }
+                _ => match q.inflation {
+                    Some(f) if f > 2.0 => {
+                        why += &format!(
+                            "; the scatter between poses is {f:.1} times what the sensor's noise \
+                             explains (robot pose error, vibration or the specimen's form): more \
+                             poses, spread over more orientations, tighten it"
+                        )
+                    }
+                    _ => why += "; more poses, spread over more orientations, tighten it",
+                },
+            }
+        }
+    }
+    vec![why]
 }
 
 /// One variant's result on a capture set, judged.
@@ -261,10 +350,11 @@ pub struct Assessed {
 }
 
 impl Assessed {
-    /// The error bound in units of the suspect limits (below 1: within them).
+    /// The error bound in units of the tolerance (below 1: within it).
     fn score(&self) -> f64 {
-        let (r, t) = self.judged.quality.error_bound();
-        let s = (r / MAX_ERROR_DEG).max(t / MAX_ERROR_MM);
+        let q = &self.judged.quality;
+        let (r, t) = q.error_bound();
+        let s = (r / q.judging.tolerance_deg).max(t / q.judging.tolerance_mm);
         if s.is_nan() { f64::INFINITY } else { s }
     }
 }
@@ -300,8 +390,8 @@ pub fn assess_every(
         .collect()
 }
 
-/// The best result: the smallest error bound among those judged ok, else among all (first in
-/// the estimators' order on a tie). None when no variant ran.
+/// The best result: the smallest error bound among those judged ok, else among those not
+/// suspect, else among all (first in the estimators' order on a tie). None when no variant ran.
 pub fn best(results: &[(super::MethodId, Result<Assessed, crate::error::Error>)]) -> Option<usize> {
     let ran = || {
         results
@@ -309,17 +399,19 @@ pub fn best(results: &[(super::MethodId, Result<Assessed, crate::error::Error>)]
             .enumerate()
             .filter_map(|(i, (_, r))| r.as_ref().ok().map(|a| (i, a)))
     };
-    let pick = |ok_only: bool| {
+    let pick = |worst: Verdict| {
         ran()
-            .filter(|(_, a)| !ok_only || a.judged.verdict == Verdict::Ok)
+            .filter(|(_, a)| a.judged.verdict as u8 <= worst as u8)
             .min_by(|x, y| x.1.score().total_cmp(&y.1.score()))
             .map(|(i, _)| i)
     };
-    pick(true).or_else(|| pick(false))
+    pick(Verdict::Ok)
+        .or_else(|| pick(Verdict::Imprecise))
+        .or_else(|| pick(Verdict::Suspect))
 }
 
-/// Variants judged ok that disagree beyond both of their error bounds: one of their model
-/// assumptions (a label, the radius) is wrong. A reason per disagreeing variant.
+/// Variants not judged suspect that disagree beyond both of their honest 95 % bounds: one of
+/// their model assumptions (a label, the radius) is wrong. A reason per disagreeing variant.
 pub fn disagreements(
     results: &[(super::MethodId, Result<Assessed, crate::error::Error>)],
     chosen: usize,
@@ -333,7 +425,7 @@ pub fn disagreements(
         .enumerate()
         .filter(|(i, _)| *i != chosen)
         .filter_map(|(_, (_, r))| r.as_ref().ok())
-        .filter(|o| o.judged.verdict == Verdict::Ok)
+        .filter(|o| o.judged.verdict != Verdict::Suspect)
         .filter_map(|o| {
             let e = crate::calib::PoseError::between(
                 &c.calibration.flange_to_sensor,
@@ -342,17 +434,23 @@ pub fn disagreements(
             let (or, ot) = o.judged.quality.error_bound();
             (e.rotation_error_deg > cr + or || e.translation_error_mm > ct + ot).then(|| {
                 format!(
-                    "{} and {} disagree by {:.3} deg / {:.3} mm, more than their error bounds \
-                     allow: a label (sign, edge sense) or the specimen's size fits one model \
-                     and not the other",
-                    c.method, o.method, e.rotation_error_deg, e.translation_error_mm
+                    "{} and {} disagree by {:.3} deg / {:.3} mm, more than their 95 % bounds \
+                     together allow ({:.3} deg / {:.3} mm): a label (sign, edge sense) or the \
+                     specimen's size fits one model and not the other",
+                    c.method,
+                    o.method,
+                    e.rotation_error_deg,
+                    e.translation_error_mm,
+                    cr + or,
+                    ct + ot
                 )
             })
         })
         .collect()
 }
 
-/// How much one group moves the result: the variant re-run without each group in turn.
+/// How much one group moves the result: the variant re-run without each group in turn, each
+/// run judged against its own honest bound (a jackknife over groups, used as a test).
 #[derive(Debug, Clone, PartialEq)]
 pub struct LeaveOneOut {
     /// Groups left out in turn, and the runs that could not calibrate without them.
@@ -362,6 +460,12 @@ pub struct LeaveOneOut {
     pub rotation_deg: f64,
     pub translation_mm: f64,
     pub group: usize,
+    /// Groups without which the rest cannot fix a direction (run refused, near-degenerate or
+    /// unbounded), with that direction in words.
+    pub carriers: Vec<(usize, String)>,
+    /// The group whose removal moves the result furthest beyond what the 95 % bounds of both
+    /// runs allow, and that move in units of the allowance (above 1: beyond it).
+    pub outlier: Option<(usize, f64)>,
 }
 
 /// Groups of more than this many are not left out one by one (the figure would cost as many
@@ -381,15 +485,23 @@ pub fn leave_one_out(a: &Assessed, caps: &Captures, sensor: &SensorModel) -> Opt
         rotation_deg: 0.0,
         translation_mm: 0.0,
         group: caps.groups[0].id,
+        carriers: Vec::new(),
+        outlier: None,
     };
+    let (fr, ft) = a.judged.quality.error_bound();
     let mut worst = -1.0;
     for g in &caps.groups {
         let mut c = caps.clone();
         c.groups.retain(|h| h.id != g.id);
         c.profiles.retain(|p| p.group != g.id);
         match super::estimate(a.method, &c, sensor) {
-            Err(_) => out.failed += 1,
-            Ok((cal, _)) => {
+            Err(e) => {
+                out.failed += 1;
+                let e = e.to_string();
+                let short = e.split(" | ").next().unwrap_or(&e).to_string();
+                out.carriers.push((g.id, short));
+            }
+            Ok((cal, refined)) => {
                 let e = crate::calib::PoseError::between(
                     &cal.flange_to_sensor,
                     &a.calibration.flange_to_sensor,
@@ -402,37 +514,87 @@ pub fn leave_one_out(a: &Assessed, caps: &Captures, sensor: &SensorModel) -> Opt
                     out.translation_mm = e.translation_error_mm;
                     out.group = g.id;
                 }
+                let q = quality(&cal, refined.as_ref(), &c, sensor);
+                let (rr, rt) = q.error_bound();
+                if !(q.condition.is_some_and(|k| k <= MAX_CONDITION))
+                    || !(rr.is_finite() && rt.is_finite())
+                {
+                    let w = q.weakest.unwrap_or_else(|| "result".to_string());
+                    out.carriers.push((g.id, w));
+                    continue;
+                }
+                let beyond =
+                    (e.rotation_error_deg / (fr + rr)).max(e.translation_error_mm / (ft + rt));
+                if beyond.is_finite() && out.outlier.is_none_or(|(_, b)| beyond > b) {
+                    out.outlier = Some((g.id, beyond));
+                }
             }
         }
     }
     Some(out)
 }
 
-/// The leave-one-out figure's reason, when one group moves the result beyond the limits.
+/// The leave-one-out run's reason, when one group moves the result beyond what the honest
+/// bounds of both runs allow: that group does not fit the others.
 pub fn leave_one_out_reason(l: &LeaveOneOut) -> Option<String> {
-    (l.rotation_deg > MAX_ERROR_DEG || l.translation_mm > MAX_ERROR_MM).then(|| {
+    let (g, b) = l.outlier?;
+    (b > 1.0).then(|| {
         format!(
-            "leaving out group {} moves the result by {:.3} deg / {:.3} mm: the result hangs on \
-             one group; check that group's captures",
-            l.group, l.rotation_deg, l.translation_mm
+            "leaving out group {g} moves the result {b:.1} times further than the 95 % bounds of \
+             both runs allow: group {g} does not fit the others; check its captures (pairing of \
+             poses and profiles, its sign or edge sense, a specimen moved between groups)"
         )
     })
 }
 
+/// The leave-one-out run's notes: the groups that alone fix a direction (no mistake, but the
+/// result leans on them).
+pub fn leave_one_out_notes(l: &LeaveOneOut) -> Vec<String> {
+    if l.carriers.is_empty() {
+        return Vec::new();
+    }
+    if l.carriers.len() == l.runs {
+        return vec![format!(
+            "every one of the {} groups is needed: without any one of them the rest cannot fix \
+             the result (the protocol needs them all), so leaving one out tests nothing",
+            l.runs
+        )];
+    }
+    l.carriers
+        .iter()
+        .map(|(g, w)| format!("group {g} carries a direction the others do not fix ({w})"))
+        .collect()
+}
+
 impl Judged {
-    /// Add reasons found beyond the result's own figures (other variants, leave-one-out).
+    /// Add reasons found beyond the result's own figures (other variants, leave-one-out): each
+    /// one says the model does not fit the data.
     pub fn add_reasons(&mut self, more: impl IntoIterator<Item = String>) {
         self.reasons.extend(more);
         if !self.reasons.is_empty() {
             self.verdict = Verdict::Suspect;
         }
     }
+
+    /// Add notes (changing neither answer).
+    pub fn add_notes(&mut self, more: impl IntoIterator<Item = String>) {
+        self.notes.extend(more);
+    }
+
+    /// Every line the verdict prints: reasons, then precision, then notes.
+    pub fn lines(&self) -> impl Iterator<Item = &String> {
+        self.reasons
+            .iter()
+            .chain(&self.precision)
+            .chain(&self.notes)
+    }
 }
 
 /// The hand-given group signs the data contradict: when the closed form (the one variant that
-/// uses them) is judged suspect or disagrees with `chosen`, each group's sign is flipped in turn;
-/// a flip that makes the closed form ok and agree with `chosen` names a wrong sign. A reason
-/// naming them, or None.
+/// uses them) is judged suspect or disagrees with `chosen` beyond their honest bounds, each
+/// group's sign is flipped in turn; a flip that makes the closed form agree with `chosen` and fit
+/// its features clearly better (residual RMS `CLEARLY_BETTER` times lower) names a wrong sign.
+/// An imprecise closed form whose flips fit no better is no contradiction. A reason, or None.
 pub fn contradicted_signs(
     caps: &Captures,
     sensor: &SensorModel,
@@ -440,7 +602,7 @@ pub fn contradicted_signs(
     closed_form: Option<&Assessed>,
 ) -> Option<String> {
     let m = super::method(caps.method);
-    if !m.uses_group_signs() || chosen.judged.verdict != Verdict::Ok {
+    if !m.uses_group_signs() || chosen.judged.verdict == Verdict::Suspect {
         return None;
     }
     let id = super::MethodId::new(caps.method, super::Estimator::ClosedForm);
@@ -451,7 +613,7 @@ pub fn contradicted_signs(
         );
         let (ar, at) = a.judged.quality.error_bound();
         let (cr, ct) = chosen.judged.quality.error_bound();
-        a.judged.verdict == Verdict::Ok
+        a.judged.verdict != Verdict::Suspect
             && e.rotation_error_deg <= ar + cr
             && e.translation_error_mm <= at + ct
     };
@@ -470,6 +632,11 @@ pub fn contradicted_signs(
     if agrees(closed_form) {
         return None;
     }
+    let rms = closed_form
+        .judged
+        .quality
+        .residual_rms_mm
+        .unwrap_or(f64::INFINITY);
     let flipped: Vec<usize> = caps
         .groups
         .iter()
@@ -478,25 +645,29 @@ pub fn contradicted_signs(
         .filter(|&(i, _)| {
             let mut c = caps.clone();
             c.groups[i].sign = -c.groups[i].sign;
-            assess(id, &c, sensor).is_ok_and(|a| agrees(&a))
+            assess(id, &c, sensor).is_ok_and(|a| {
+                let better = a
+                    .judged
+                    .quality
+                    .residual_rms_mm
+                    .is_some_and(|r| r * CLEARLY_BETTER < rms);
+                agrees(&a) && better
+            })
         })
         .map(|(_, g)| g.id)
         .collect();
-    let named = if flipped.is_empty() {
-        "no single flip makes it agree".to_string()
-    } else {
-        format!(
-            "with the sign of group {} flipped it agrees",
-            flipped
-                .iter()
-                .map(|g| g.to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
-        )
-    };
+    if flipped.is_empty() {
+        return None;
+    }
     Some(format!(
-        "the file's group signs (s_i) contradict the data: the closed form, which uses them, \
-         does not agree with {} ({named}); correct the signs or leave them out",
+        "the file's group signs (s_i) contradict the data: with the sign of group {} flipped the \
+         closed form, which uses them, fits its features {CLEARLY_BETTER} or more times better \
+         and agrees with {}; correct the signs or leave them out",
+        flipped
+            .iter()
+            .map(|g| g.to_string())
+            .collect::<Vec<_>>()
+            .join(", "),
         chosen.method
     ))
 }

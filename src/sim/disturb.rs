@@ -38,6 +38,22 @@ impl RobotError {
     pub fn is_off(&self) -> bool {
         *self == RobotError::default()
     }
+
+    /// About one standard deviation of a measured point's offset along one direction that this
+    /// error makes (metres): the repeatability's per-axis sigma, and each joint's angle and
+    /// link errors acting over the arm's reach (the sum of its link lengths). An allowance for
+    /// the verdict's residual test, not a model of the arm.
+    pub fn point_sd(&self, robot: &Robot) -> f64 {
+        let reach: f64 = robot
+            .joints
+            .iter()
+            .map(|j| j.prev_to_joint.translation.vector.norm())
+            .sum();
+        let n = robot.joints.len() as f64;
+        let angle = self.joint_noise.powi(2) + self.joint_offset_error.powi(2);
+        let rp = self.repeatability / (3.0 * 3f64.sqrt());
+        (rp * rp + n * (angle * reach * reach + self.link_error.powi(2)) / 3.0).sqrt()
+    }
 }
 
 impl Vibration {

@@ -20,6 +20,18 @@ pub struct Args {
     /// controller's jitter); overrides the file's orientation_tolerance_deg [default: 0.1]
     #[arg(long)]
     orientation_tolerance_deg: Option<f64>,
+    /// The largest acceptable 95 % error bound on the rotation (deg); a larger one is judged
+    /// imprecise (exit 4). Overrides the file's tolerance_deg [default: 0.5]
+    #[arg(long, allow_negative_numbers = true)]
+    tolerance_deg: Option<f64>,
+    /// The same for the translation (mm); overrides the file's tolerance_mm [default: 0.5]
+    #[arg(long, allow_negative_numbers = true)]
+    tolerance_mm: Option<f64>,
+    /// The robot's pose accuracy (mm, one standard deviation of a point's offset) that the
+    /// residual test allows beside the sensor's noise; overrides the file's robot_accuracy_mm
+    /// [default: 0.5]
+    #[arg(long, allow_negative_numbers = true)]
+    robot_accuracy_mm: Option<f64>,
     /// Write the result as JSON
     #[arg(long)]
     json: Option<PathBuf>,
@@ -47,8 +59,11 @@ pub struct Args {
     spawn: bool,
 }
 
-/// Exit status of a calibration judged suspect (docs: README, "Exit codes").
+/// Exit status of a calibration judged suspect (docs/verdict.md, "Exit codes").
 pub const SUSPECT: i32 = 3;
+/// Exit status of a calibration judged consistent but imprecise (its 95 % bound beyond the
+/// tolerance).
+pub const IMPRECISE: i32 = 4;
 
 pub fn run(a: Args) -> Result<i32> {
     let name = a.file.display().to_string();
@@ -60,6 +75,17 @@ pub fn run(a: Args) -> Result<i32> {
     if let Some(t) = a.orientation_tolerance_deg {
         caps.orientation_tolerance_deg =
             lasercal::io::captures::orientation_tolerance(t, &name, "--orientation-tolerance-deg")?;
+    }
+    if let Some(t) = a.tolerance_deg {
+        caps.judging.tolerance_deg =
+            lasercal::io::captures::tolerance(t, &name, "--tolerance-deg")?;
+    }
+    if let Some(t) = a.tolerance_mm {
+        caps.judging.tolerance_mm = lasercal::io::captures::tolerance(t, &name, "--tolerance-mm")?;
+    }
+    if let Some(r) = a.robot_accuracy_mm {
+        caps.judging.robot_accuracy =
+            lasercal::io::captures::robot_accuracy(r, &name, "--robot-accuracy-mm")?;
     }
     let known: Vec<String> = caps
         .method
@@ -152,14 +178,19 @@ pub fn run(a: Args) -> Result<i32> {
     };
     if a.method.is_none() {
         say!(
-            "chosen: {method} (the smallest error bound among the variants judged ok; --method \
-             to choose another)"
+            "chosen: {method} (the smallest 95 % error bound among the variants judged ok, else \
+             not suspect; --method to choose another)"
         );
     }
     let mut judged = chosen.judged.clone();
     judged.add_reasons(others);
     let loo = verdict::leave_one_out(&chosen, &caps, &sensor);
     judged.add_reasons(loo.as_ref().and_then(verdict::leave_one_out_reason));
+    judged.add_notes(
+        loo.as_ref()
+            .map(verdict::leave_one_out_notes)
+            .unwrap_or_default(),
+    );
     let cal = &chosen.calibration;
     let est = pose_to_rows_mm(&cal.flange_to_sensor);
     say!(
@@ -209,10 +240,10 @@ pub fn run(a: Args) -> Result<i32> {
         let summary = summary(&name, &caps, method, cal, &judged);
         record(&recorders, &caps, &sensor, &cal.flange_to_sensor, &summary)?;
     }
-    Ok(if judged.verdict == verdict::Verdict::Suspect {
-        SUSPECT
-    } else {
-        0
+    Ok(match judged.verdict {
+        verdict::Verdict::Suspect => SUSPECT,
+        verdict::Verdict::Imprecise => IMPRECISE,
+        verdict::Verdict::Ok => 0,
     })
 }
 

@@ -176,8 +176,8 @@ pub fn verdict_text(
     }
     if q.covariance.is_some() {
         say!(
-            "{method}: predicted sd: rotation about sensor x/y/z {} deg, translation along \
-             flange x/y/z {} mm",
+            "{method}: predicted sd from the sensor's noise alone: rotation about sensor x/y/z {} \
+             deg, translation along flange x/y/z {} mm",
             f3(&q.sd_rotation_deg, 4),
             f3(&q.sd_translation_mm, 4)
         );
@@ -230,14 +230,43 @@ pub fn verdict_text(
             q.profiles
         );
     }
-    say!("{method}: verdict {}", j.verdict);
-    for r in &j.reasons {
+    let (br, bt) = q.error_bound();
+    if let Some(b) = &q.bounds {
+        let f = |v: &[f64; 3]| v.map(|x| format!("{x:.4}")).join("/");
+        say!(
+            "{method}: 95 % error bound {br:.4} deg / {bt:.4} mm (per axis: rotation about the \
+             sensor's x/y/z {} deg, translation along the flange's x/y/z {} mm; {} poses{})",
+            f(&b.rotation_deg),
+            f(&b.translation_mm),
+            q.poses,
+            q.inflation
+                .filter(|f| *f > 1.0)
+                .map_or(String::new(), |f| format!(
+                    ", widened {f:.1} times by the scatter between poses"
+                ))
+        );
+    }
+    say!(
+        "{method}: verdict {} (tolerance {} deg / {} mm)",
+        j.verdict,
+        q.judging.tolerance_deg,
+        q.judging.tolerance_mm
+    );
+    for r in j.lines() {
         say!("  - {r}");
     }
-    let (br, bt) = q.error_bound();
     Ok(serde_json::json!({
         "verdict": j.verdict,
         "reasons": j.reasons,
+        "precision": j.precision,
+        "notes": j.notes,
+        "tolerance_deg": q.judging.tolerance_deg,
+        "tolerance_mm": q.judging.tolerance_mm,
+        "robot_accuracy_mm": q.judging.robot_accuracy * 1e3,
+        "bound_rotation_deg": q.bounds.map(|b| b.rotation_deg),
+        "bound_translation_mm": q.bounds.map(|b| b.translation_mm),
+        "poses": q.poses,
+        "inflation": q.inflation,
         "residual_rms_mm": q.residual_rms_mm,
         "stated_noise_mm": q.stated_noise_mm,
         "noise_ratio": q.noise_ratio,
@@ -258,6 +287,8 @@ pub fn verdict_text(
         "leave_one_out": loo.map(|l| serde_json::json!({
             "runs": l.runs, "failed": l.failed, "rotation_deg": l.rotation_deg,
             "translation_mm": l.translation_mm, "group": l.group,
+            "carriers": l.carriers.iter().map(|(g, w)| serde_json::json!({"group": g, "direction": w})).collect::<Vec<_>>(),
+            "outlier": l.outlier.map(|(g, b)| serde_json::json!({"group": g, "beyond_bounds": b})),
         })),
     }))
 }
@@ -333,10 +364,10 @@ pub fn summary_text(
 ) -> String {
     let (br, bt) = j.quality.error_bound();
     let mut s = format!("{header}\n\n{method}: verdict {}\n", j.verdict);
-    for r in &j.reasons {
+    for r in j.lines() {
         s += &format!("  - {r}\n");
     }
-    s += &format!("error bound {br:.4} deg / {bt:.4} mm");
+    s += &format!("95 % error bound {br:.4} deg / {bt:.4} mm");
     if let Some(n) = j.quality.noise_ratio {
         s += &format!(", residual {n:.2} x the stated noise");
     }

@@ -109,6 +109,10 @@ pub fn run(a: Args) -> Result<()> {
                     Metric::PredictedSdRotation,
                     Metric::PredictedSdTranslation,
                     Metric::Suspect,
+                    Metric::BoundRotation,
+                    Metric::BoundTranslation,
+                    Metric::Imprecise,
+                    Metric::Covered,
                 ];
                 for (m, v) in s
                     .metrics

@@ -45,6 +45,10 @@ impl Model for BallModel {
         1
     }
 
+    fn residual_flanges(&self) -> Vec<&Isometry3<f64>> {
+        self.points.iter().map(|(f, _)| f).collect()
+    }
+
     fn eval(
         &self,
         x: &Transform,

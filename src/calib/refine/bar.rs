@@ -68,6 +68,13 @@ impl Model for BarModel {
         1
     }
 
+    fn residual_flanges(&self) -> Vec<&Isometry3<f64>> {
+        let face = self.face.iter().map(|(f, _)| f);
+        let edges = self.edges.iter().map(|e| &e.base_to_flange);
+        let walls = self.walls.iter().map(|w| &w.base_to_flange);
+        face.chain(edges).chain(walls).collect()
+    }
+
     fn eval(
         &self,
         x: &Transform,

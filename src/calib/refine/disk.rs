@@ -142,6 +142,14 @@ impl Model for DiskModel {
         2 * self.ends.len() + self.face.len() + self.rims.len() + self.walls.len()
     }
 
+    fn residual_flanges(&self) -> Vec<&Isometry3<f64>> {
+        let ends = self.ends.iter().flat_map(|(f, _)| [f, f]);
+        let face = self.face.iter().map(|(f, _)| f);
+        let rims = self.rims.iter().map(|(f, _, _)| f);
+        let walls = self.walls.iter().map(|(f, _, _)| f);
+        ends.chain(face).chain(rims).chain(walls).collect()
+    }
+
     fn eval(
         &self,
         x: &Transform,

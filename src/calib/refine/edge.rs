@@ -49,6 +49,10 @@ impl Model for EdgeModel {
         2
     }
 
+    fn residual_flanges(&self) -> Vec<&Isometry3<f64>> {
+        self.points.iter().flat_map(|(f, _)| [f, f]).collect()
+    }
+
     fn eval(
         &self,
         x: &Transform,

@@ -13,6 +13,7 @@ pub mod ball;
 pub mod bar;
 pub mod disk;
 pub mod edge;
+pub mod honest;
 pub mod plane;
 pub mod slant;
 
@@ -174,6 +175,13 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
     fn reweighted(&self, _x: &Transform, _s: &Self::Specimen) -> Option<(Self, slant::SlantNoise)> {
         None
     }
+
+    /// The flange pose each residual was seen from, in residual order (empty: unknown, and
+    /// every residual is its own cluster). The honest covariance treats the residuals of one
+    /// pose as one block: a robot's pose error moves them together.
+    fn residual_flanges(&self) -> Vec<&Isometry3<f64>> {
+        Vec::new()
+    }
 }
 
 /// The sensor's depth direction in the base frame when the flange is at `f`.
@@ -245,6 +253,10 @@ pub struct Refined {
     /// The slanted points' noise as the residuals showed it (`slant`), when their weights came
     /// from it.
     pub slant: Option<slant::SlantNoise>,
+    /// The covariance that also holds what the sensor-noise model leaves out (`honest`): the
+    /// residual-level one above and the one clustered by flange pose, whichever is larger in
+    /// every direction.
+    pub honest: honest::Honest,
 }
 
 /// A refinement problem whose specimen model is hidden: what a calibration carries so that the
@@ -261,6 +273,8 @@ pub trait Refinable: Send + Sync + fmt::Debug {
     /// The same problem with the specimen estimate moved by `dx` (its own parameters).
     fn with_specimen_step(&self, dx: &[f64]) -> Box<dyn Refinable>;
     fn n_params(&self) -> usize;
+    /// Each residual's cluster (its flange pose), numbered from 0 (`honest::clusters`).
+    fn clusters(&self) -> Vec<u32>;
 }
 
 /// A model with its starting specimen estimate.
@@ -315,6 +329,9 @@ impl<M: Model + 'static> Refinable for Problem<M> {
     }
     fn n_params(&self) -> usize {
         6 + self.model.n_specimen_params()
+    }
+    fn clusters(&self) -> Vec<u32> {
+        honest::clusters(&self.model.residual_flanges(), self.model.n_residuals())
     }
 }
 
@@ -668,10 +685,12 @@ pub fn refine<M: Model>(
         Some(j) => j,
         None => eval(model, &x, &s, &labels, true).1,
     };
-    let cov = match last_ata {
-        Some(a) if a.nrows() == j.ncols() => covariance_from(&a, &r, &j),
-        _ => covariance(&r, &j),
+    let a = match last_ata {
+        Some(a) if a.nrows() == j.ncols() => a,
+        _ => ata(&j),
     };
+    let cov = covariance_from(&a, &r, &j);
+    let honest = honest_from(&a, &r, &j, &cov, model);
     let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
     Ok((
         Refined {
@@ -688,6 +707,7 @@ pub fn refine<M: Model>(
             sd_translation_mm: Vector3::new(sd(3), sd(4), sd(5)) * 1e3,
             observability: obs,
             slant: None,
+            honest,
         },
         s,
     ))
@@ -702,8 +722,9 @@ pub fn assess(p: &dyn Refinable, x: &Isometry3<f64>, status: Status) -> (Refined
     let (r, j) = p.residuals_and_jacobian(x);
     // J^T J once: the covariance, the observability and the step all start from it.
     let a = ata(&j);
+    let clusters = p.clusters();
     (
-        figures_of(&a, &r, &j, x, status),
+        figures_of(&a, &r, &j, x, status, &clusters),
         gauss_newton_step(&a, &r, &j),
     )
 }
@@ -732,9 +753,11 @@ fn figures_of(
     j: &DMatrix<f64>,
     x: &Isometry3<f64>,
     status: Status,
+    clusters: &[u32],
 ) -> Refined {
     let n = r.len();
     let cov = covariance_from(a, r, j);
+    let honest = honest::Honest::of(a, r, j, &used_columns(a), &cov, clusters);
     let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
     let cost = r.norm_squared() / 2.0;
     Refined {
@@ -751,7 +774,20 @@ fn figures_of(
         sd_translation_mm: Vector3::new(sd(3), sd(4), sd(5)) * 1e3,
         observability: observability_from(a.clone()),
         slant: None,
+        honest,
     }
+}
+
+/// `honest::Honest` of a model's fit.
+fn honest_from<M: Model>(
+    a: &DMatrix<f64>,
+    r: &DVector<f64>,
+    j: &DMatrix<f64>,
+    cov: &Matrix6<f64>,
+    model: &M,
+) -> honest::Honest {
+    let clusters = honest::clusters(&model.residual_flanges(), r.len());
+    honest::Honest::of(a, r, j, &used_columns(a), cov, &clusters)
 }
 
 /// 1.4826 times the median absolute residual: a robust standard deviation.
@@ -879,9 +915,6 @@ fn minimise<M: Model>(
 /// The transform block of the sandwich covariance A^-1 (sum J_i^T r_i^2 J_i) A^-1 (A = J^T J),
 /// with the small-sample factor N / (N - p): consistent when residuals have unequal variances (a
 /// chord end's distance from the rim is noisier than its distance from the disk plane).
-fn covariance(r: &DVector<f64>, j: &DMatrix<f64>) -> Matrix6<f64> {
-    covariance_from(&ata(j), r, j)
-}
 
 /// The parameters the residuals depend on: every transform one, and a specimen parameter only
 /// when its column of J is not all zero (a bar's edge whose every crossing falls inside its

@@ -49,6 +49,10 @@ impl Model for PlaneModel {
         1
     }
 
+    fn residual_flanges(&self) -> Vec<&Isometry3<f64>> {
+        self.points.iter().map(|(f, _)| f).collect()
+    }
+
     fn eval(
         &self,
         x: &Transform,

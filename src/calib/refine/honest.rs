@@ -1,0 +1,304 @@
+//! An honest covariance: one that holds the errors the sensor-noise model leaves out.
+//!
+//! The residual-level sandwich (`covariance_from`) treats every residual as independent. A robot's
+//! pose error, a vibration or a specimen's form error moves all the points of one flange pose
+//! together, so hundreds of points per pose do not average it away, and that covariance is too
+//! small by about the square root of the points per pose. Clustering the sandwich's middle term by
+//! flange pose (the infinitesimal jackknife over poses; geodesy's correlated-observation
+//! adjustment) counts each pose's error once, whatever its cause, at the cost of one pass over J.
+//! With few poses it is itself noisy, so the result is the larger of the two in every direction,
+//! and its quantiles use Student's t with one degree of freedom fewer than the poses.
+
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Matrix6, SymmetricEigen};
+use std::collections::HashMap;
+
+/// The two-sided 95 % normal quantile.
+const Z_975: f64 = 1.959_963_985;
+/// The one-sided 95 % normal quantile (chi-square quantiles).
+const Z_95: f64 = 1.644_853_627;
+
+/// The honest covariance of the six transform parameters (rotation rad in the sensor frame,
+/// translation m in the flange frame) and what its quantiles need.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Honest {
+    pub covariance: Matrix6<f64>,
+    /// Distinct flange poses the residuals came from (0: not known, every residual alone).
+    pub clusters: usize,
+    /// Degrees of freedom of the quantiles: poses - 1 when clustered, else residuals - parameters.
+    pub dof: usize,
+    /// How much the pose clustering widens the residual-level covariance in its most widened
+    /// direction, as a factor on the standard deviation (1: the sensor noise explains the
+    /// scatter between poses).
+    pub inflation: f64,
+}
+
+/// 95 % bounds on the transform's error: per axis and on the whole rotation and translation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bounds {
+    pub rotation_deg: [f64; 3],
+    pub translation_mm: [f64; 3],
+    pub rotation_norm_deg: f64,
+    pub translation_norm_mm: f64,
+}
+
+impl Honest {
+    /// No information: infinite covariance.
+    pub fn unknown() -> Honest {
+        Honest {
+            covariance: Matrix6::from_element(f64::INFINITY),
+            clusters: 0,
+            dof: 0,
+            inflation: f64::NAN,
+        }
+    }
+
+    /// From J^T J (`a`), the residuals, J, the columns the fit uses and the residual-level
+    /// covariance `cov` (6x6), with each residual's cluster (`clusters`; empty: none).
+    pub fn of(
+        a: &DMatrix<f64>,
+        r: &DVector<f64>,
+        j: &DMatrix<f64>,
+        used: &[usize],
+        cov: &Matrix6<f64>,
+        clusters: &[u32],
+    ) -> Honest {
+        let (n, p) = (r.len(), used.len());
+        let alone = Honest {
+            covariance: *cov,
+            clusters: 0,
+            dof: n.saturating_sub(p).max(1),
+            inflation: 1.0,
+        };
+        let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
+        if clusters.len() != n || g < 2 || n <= p || !cov.iter().all(|v| v.is_finite()) {
+            return alone;
+        }
+        let au = a.select_rows(used).select_columns(used);
+        let Some(inv) = au.try_inverse() else {
+            return alone;
+        };
+        // Each pose's score J_c^T r_c, then their outer products.
+        let mut scores = DMatrix::<f64>::zeros(p, g);
+        let jn = j.nrows();
+        for (k, &c) in used.iter().enumerate() {
+            let col = &j.as_slice()[c * jn..(c + 1) * jn];
+            for ((v, ri), &cl) in col.iter().zip(r.iter()).zip(clusters) {
+                scores[(k, cl as usize)] += v * ri;
+            }
+        }
+        let meat = &scores * scores.transpose();
+        // The small-sample factor of the clustered sandwich (CR1).
+        let factor = (g as f64 / (g - 1) as f64) * ((n - 1) as f64 / (n - p) as f64);
+        let full = &inv * meat * &inv * factor;
+        let clustered = Matrix6::from_fn(|r, c| full[(r, c)]);
+        let (covariance, inflation) = larger_of(cov, &clustered);
+        Honest {
+            covariance,
+            clusters: g,
+            dof: g - 1,
+            inflation,
+        }
+    }
+
+    /// 95 % bounds on the error (deg, mm).
+    pub fn bounds(&self) -> Bounds {
+        let t = student_t_975(self.dof) / Z_975;
+        let sd = |i: usize| self.covariance[(i, i)].max(0.0).sqrt();
+        let rot: Matrix3<f64> = self.covariance.fixed_view::<3, 3>(0, 0).into_owned();
+        let tra: Matrix3<f64> = self.covariance.fixed_view::<3, 3>(3, 3).into_owned();
+        Bounds {
+            rotation_deg: std::array::from_fn(|i| (Z_975 * t * sd(i)).to_degrees()),
+            translation_mm: std::array::from_fn(|i| Z_975 * t * sd(3 + i) * 1e3),
+            rotation_norm_deg: (t * norm_quantile_95(&rot)).to_degrees(),
+            translation_norm_mm: t * norm_quantile_95(&tra) * 1e3,
+        }
+    }
+}
+
+/// Each residual's cluster: residuals seen from one flange pose (bit for bit) share a number.
+/// Empty when the poses are not known or not one per residual.
+pub fn clusters(flanges: &[&Isometry3<f64>], n_residuals: usize) -> Vec<u32> {
+    if flanges.len() != n_residuals {
+        return Vec::new();
+    }
+    let key = |f: &Isometry3<f64>| -> [u64; 7] {
+        let (q, t) = (f.rotation.coords, f.translation.vector);
+        [q.x, q.y, q.z, q.w, t.x, t.y, t.z].map(f64::to_bits)
+    };
+    let mut ids: HashMap<[u64; 7], u32> = HashMap::new();
+    let mut out = Vec::with_capacity(n_residuals);
+    let mut last: Option<(&Isometry3<f64>, u32)> = None;
+    for &f in flanges {
+        // Runs of one pose are the rule: compare with the previous before hashing.
+        let id = match last {
+            Some((g, id)) if std::ptr::eq(g, f) || g == f => id,
+            _ => {
+                let next = ids.len() as u32;
+                *ids.entry(key(f)).or_insert(next)
+            }
+        };
+        last = Some((f, id));
+        out.push(id);
+    }
+    out
+}
+
+/// The smallest covariance that holds both `a` and `b` along `a`'s principal directions: with
+/// a = S S, the eigenvalues of S^-1 b S^-1 are raised to at least 1. Returns it and the square
+/// root of the largest of those eigenvalues (at least 1). Falls back to a + b where `a` is
+/// singular.
+fn larger_of(a: &Matrix6<f64>, b: &Matrix6<f64>) -> (Matrix6<f64>, f64) {
+    let ea = SymmetricEigen::new(*a);
+    let top = ea.eigenvalues.max();
+    if !(top > 0.0) || ea.eigenvalues.iter().any(|&l| !(l > 1e-24 * top)) {
+        return (a + b, f64::NAN);
+    }
+    let u = ea.eigenvectors;
+    let half = u * Matrix6::from_diagonal(&ea.eigenvalues.map(f64::sqrt)) * u.transpose();
+    let inv_half =
+        u * Matrix6::from_diagonal(&ea.eigenvalues.map(|l| 1.0 / l.sqrt())) * u.transpose();
+    let m = inv_half * b * inv_half;
+    let em = SymmetricEigen::new((m + m.transpose()) * 0.5);
+    let raised = em.eigenvalues.map(|l| l.max(1.0));
+    let mid = em.eigenvectors * Matrix6::from_diagonal(&raised) * em.eigenvectors.transpose();
+    (half * mid * half, raised.max().sqrt())
+}
+
+/// The 95 % quantile of |e| for e ~ N(0, c), c 3x3: |e|^2 is a weighted sum of chi-square(1)
+/// variables, taken as a scaled chi-square with the same mean and variance (Satterthwaite).
+fn norm_quantile_95(c: &Matrix3<f64>) -> f64 {
+    let l = SymmetricEigen::new(*c).eigenvalues.map(|v| v.max(0.0));
+    let (s1, s2) = (l.sum(), l.norm_squared());
+    if !(s1 > 0.0) || !s1.is_finite() {
+        return if s1 == 0.0 { 0.0 } else { f64::INFINITY };
+    }
+    let (scale, dof) = (s2 / s1, s1 * s1 / s2);
+    (scale * chi_square_95(dof)).sqrt()
+}
+
+/// The chi-square distribution's 95 % quantile (Wilson-Hilferty; within 3 % at 1 degree of
+/// freedom, closer beyond).
+pub fn chi_square_95(dof: f64) -> f64 {
+    let h = 2.0 / (9.0 * dof);
+    dof * (1.0 - h + Z_95 * h.sqrt()).powi(3)
+}
+
+/// Student's t distribution's 97.5 % quantile (two-sided 95 %): exact (tabulated) up to 4 degrees
+/// of freedom, a Cornish-Fisher expansion beyond (within 0.5 % from 5 on).
+pub fn student_t_975(dof: usize) -> f64 {
+    match dof {
+        0 => f64::INFINITY,
+        1 => 12.706_204_736,
+        2 => 4.302_652_730,
+        3 => 3.182_446_305,
+        4 => 2.776_445_105,
+        _ => {
+            let (z, v) = (Z_975, dof as f64);
+            let (z3, z5, z7) = (z.powi(3), z.powi(5), z.powi(7));
+            z + (z3 + z) / (4.0 * v)
+                + (5.0 * z5 + 16.0 * z3 + 3.0 * z) / (96.0 * v * v)
+                + (3.0 * z7 + 19.0 * z5 + 17.0 * z3 - 15.0 * z) / (384.0 * v * v * v)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+
+    #[test]
+    fn quantiles_match_tables() {
+        // Tables: t(0.975; 3, 5, 10, 30) and chi-square(0.95; 1, 3, 10).
+        for (v, t) in [(3, 3.182), (5, 2.571), (10, 2.228), (30, 2.042)] {
+            assert!(
+                (student_t_975(v) - t).abs() < 0.005 * t,
+                "{v}: {}",
+                student_t_975(v)
+            );
+        }
+        for (v, c) in [(1.0, 3.841), (3.0, 7.815), (10.0, 18.307)] {
+            assert!(
+                (chi_square_95(v) - c).abs() < 0.03 * c,
+                "{v}: {}",
+                chi_square_95(v)
+            );
+        }
+    }
+
+    #[test]
+    fn the_norm_quantile_of_an_isotropic_gaussian_is_the_chi_square_one() {
+        let q = norm_quantile_95(&(Matrix3::identity() * 4.0));
+        assert!((q - 2.0 * chi_square_95(3.0).sqrt()).abs() < 1e-12);
+        // One axis only: the two-sided normal quantile.
+        let q1 = norm_quantile_95(&Matrix3::from_diagonal(&Vector3::new(1.0, 0.0, 0.0)));
+        assert!((q1 - Z_975).abs() < 0.03, "{q1}");
+    }
+
+    #[test]
+    fn the_larger_of_two_covariances_holds_both() {
+        let a = Matrix6::from_diagonal(&nalgebra::Vector6::new(1.0, 2.0, 3.0, 4.0, 5.0, 6.0));
+        let mut b = Matrix6::identity() * 0.5;
+        b[(0, 0)] = 9.0;
+        b[(0, 1)] = 0.3;
+        b[(1, 0)] = 0.3;
+        let (c, f) = larger_of(&a, &b);
+        for m in [a, b] {
+            let d = SymmetricEigen::new(c - m).eigenvalues.min();
+            assert!(d > -1e-9, "{d}");
+        }
+        assert!((f - 3.0).abs() < 0.01, "{f}");
+        // Where b is within a, a itself.
+        let (c, f) = larger_of(&a, &(a * 0.5));
+        assert!((c - a).norm() < 1e-12 && f == 1.0);
+    }
+
+    #[test]
+    fn clusters_number_the_poses_in_order_of_first_sight() {
+        let p: Vec<Isometry3<f64>> = (0..3)
+            .map(|i| Isometry3::translation(i as f64, 0.0, 0.0))
+            .collect();
+        let f = [&p[0], &p[0], &p[1], &p[2], &p[0]];
+        assert_eq!(clusters(&f, 5), vec![0, 0, 1, 2, 0]);
+        assert!(clusters(&f, 4).is_empty());
+    }
+
+    /// Points of 20 poses, each pose shifted by its own error much larger than the noise: the
+    /// clustered covariance sees the shifts, the residual-level one does not.
+    #[test]
+    fn pose_errors_widen_the_honest_covariance() {
+        let (poses, per) = (20usize, 50usize);
+        let n = poses * per;
+        // A location model y = mu + e: one parameter, padded to six columns with tiny ones.
+        let mut j = DMatrix::zeros(n, 6);
+        let mut r = DVector::zeros(n);
+        let mut cl = Vec::new();
+        for i in 0..n {
+            let pose = i / per;
+            j[(i, 0)] = 1.0;
+            for c in 1..6 {
+                j[(i, c)] = (((i * 31 + c * 17) % 97) as f64 / 97.0 - 0.5) * 1e-3;
+            }
+            let shift = if pose % 2 == 0 { 1.0 } else { -1.0 };
+            r[i] = shift + 0.01 * (((i * 7919) % 101) as f64 / 101.0 - 0.5);
+            cl.push(pose as u32);
+        }
+        let a = j.transpose() * &j;
+        let used: Vec<usize> = (0..6).collect();
+        let inv = a.clone().try_inverse().unwrap();
+        let mut meat = DMatrix::zeros(6, 6);
+        for i in 0..n {
+            let row = j.row(i).transpose() * r[i];
+            meat += &row * row.transpose();
+        }
+        let full = &inv * meat * &inv;
+        let cov = Matrix6::from_fn(|a, b| full[(a, b)]);
+        let h = Honest::of(&a, &r, &j, &used, &cov, &cl);
+        assert_eq!((h.clusters, h.dof), (20, 19));
+        // sd of the mean of 20 pose shifts of +-1: about 1 / sqrt(20), against about
+        // 1 / sqrt(1000) at the residual level.
+        let sd = h.covariance[(0, 0)].sqrt();
+        assert!(sd > 0.15 && sd < 0.4, "{sd}");
+        assert!(h.inflation > 4.0, "{}", h.inflation);
+    }
+}
