@@ -29,6 +29,9 @@ const Z_999: f64 = 3.09;
 /// The scale of a large error (deg, mm): leave-one-out moves are ranked in these units.
 pub const MAX_ERROR_DEG: f64 = 1.0;
 pub const MAX_ERROR_MM: f64 = 1.0;
+/// The lever (m) over which the robot's stated accuracy is taken as an orientation error of the
+/// flange: an arm's joint errors move a point by about their angle times the arm's reach.
+pub const ROBOT_REACH: f64 = 1.0;
 /// A flipped group sign is blamed only when the closed form's residual RMS falls at least this
 /// many times with it flipped: an imprecise closed form is no contradiction.
 pub const CLEARLY_BETTER: f64 = 2.0;
@@ -219,7 +222,11 @@ pub fn quality(
         status: cal.status,
         profiles: caps.profiles.len(),
         rejected: cal.missed,
-        bounds: finite.map(|f| f.honest.bounds()),
+        bounds: finite.map(|f| {
+            f.honest
+                .with_systematic(robot / ROBOT_REACH, robot)
+                .bounds()
+        }),
         poses: figures.map_or(0, |f| f.honest.clusters),
         inflation: finite.map(|f| f.honest.inflation),
         judging: caps.judging,
@@ -322,6 +329,14 @@ fn precision_reasons(q: &Quality) -> Vec<String> {
                     why += &format!(
                         " and the pose set is near-degenerate (condition {c:.2e}): add poses \
                          that move it"
+                    )
+                }
+                _ if q.judging.robot_accuracy * 1e3 > 0.5 * q.judging.tolerance_mm => {
+                    why += &format!(
+                        "; the robot's stated accuracy ({:.3} mm) is in it: a robot error common \
+                         to every pose cannot be told from the mounting; state your robot's \
+                         accuracy (robot_accuracy_mm, --robot-accuracy-mm) if it is better",
+                        q.judging.robot_accuracy * 1e3
                     )
                 }
                 _ => match q.inflation {

@@ -100,6 +100,22 @@ impl Honest {
         }
     }
 
+    /// The same with an error added that no residual shows: one common to every pose (a
+    /// robot's absolute error over the small region a pose set spans moves every pose alike, so
+    /// the fit takes it into the transform), of standard deviation `rotation` (rad) and
+    /// `translation` (m) per axis.
+    pub fn with_systematic(&self, rotation: f64, translation: f64) -> Honest {
+        let mut c = self.covariance;
+        for i in 0..3 {
+            c[(i, i)] += rotation * rotation;
+            c[(3 + i, 3 + i)] += translation * translation;
+        }
+        Honest {
+            covariance: c,
+            ..self.clone()
+        }
+    }
+
     /// 95 % bounds on the error (deg, mm).
     pub fn bounds(&self) -> Bounds {
         let t = student_t_975(self.dof) / Z_975;
