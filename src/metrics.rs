@@ -36,11 +36,15 @@ pub enum Metric {
     /// 1 when both errors against the truth lie within their 95 % bounds (the mean over trials
     /// is the bound's coverage; the truth is needed).
     Covered,
+    /// The rotation and translation errors of the results judged ok only (absent otherwise):
+    /// their statistics are what a user who trusts the verdict gets.
+    RotationErrorOk,
+    TranslationErrorOk,
 }
 
 impl Metric {
     /// Every metric, in the order of trials.csv's columns.
-    pub const ALL: [Metric; 16] = [
+    pub const ALL: [Metric; 18] = [
         Metric::RotationError,
         Metric::TranslationError,
         Metric::FrobeniusRotation,
@@ -57,10 +61,12 @@ impl Metric {
         Metric::BoundTranslation,
         Metric::Imprecise,
         Metric::Covered,
+        Metric::RotationErrorOk,
+        Metric::TranslationErrorOk,
     ];
 
     /// The metrics summarised per grid point and method, in summary.csv's order.
-    pub const SUMMARISED: [Metric; 10] = [
+    pub const SUMMARISED: [Metric; 12] = [
         Metric::CentreError,
         Metric::RotationError,
         Metric::TranslationError,
@@ -71,6 +77,8 @@ impl Metric {
         Metric::Suspect,
         Metric::Imprecise,
         Metric::Covered,
+        Metric::RotationErrorOk,
+        Metric::TranslationErrorOk,
     ];
 
     /// Column name (with its unit).
@@ -92,6 +100,8 @@ impl Metric {
             Metric::BoundTranslation => "bound_translation_mm",
             Metric::Imprecise => "imprecise",
             Metric::Covered => "covered",
+            Metric::RotationErrorOk => "rotation_error_ok_deg",
+            Metric::TranslationErrorOk => "translation_error_ok_mm",
         }
     }
 
@@ -114,6 +124,8 @@ impl Metric {
             Metric::BoundTranslation => "95 % bound on the translation error",
             Metric::Imprecise => "share judged imprecise",
             Metric::Covered => "share of errors within their 95 % bounds",
+            Metric::RotationErrorOk => "rotation error of the results judged ok",
+            Metric::TranslationErrorOk => "translation error of the results judged ok",
         }
     }
 
@@ -123,7 +135,8 @@ impl Metric {
             Metric::RotationError
             | Metric::EdgeAngleDev
             | Metric::PredictedSdRotation
-            | Metric::BoundRotation => "deg",
+            | Metric::BoundRotation
+            | Metric::RotationErrorOk => "deg",
             Metric::FrobeniusRotation
             | Metric::NoiseRatio
             | Metric::Suspect
@@ -145,7 +158,7 @@ impl Metric {
 
 /// A value per metric (absent where the method does not report it).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Metrics([Option<f64>; 16]);
+pub struct Metrics([Option<f64>; 18]);
 
 impl Metrics {
     pub fn get(&self, m: Metric) -> Option<f64> {

@@ -150,6 +150,7 @@ fn with_verdict(m: Metrics, j: &crate::method::verdict::Judged) -> Metrics {
     let (sr, st) = j.quality.worst_sd();
     let (br, bt) = j.quality.error_bound();
     let finite = |v: f64| v.is_finite().then_some(v);
+    let ok = |e: Metric| m.get(e).filter(|_| j.verdict == Verdict::Ok);
     let covered = match (
         m.get(Metric::RotationError),
         m.get(Metric::TranslationError),
@@ -171,6 +172,8 @@ fn with_verdict(m: Metrics, j: &crate::method::verdict::Judged) -> Metrics {
             Some(f64::from(j.verdict == Verdict::Imprecise)),
         )
         .with(Metric::Covered, covered)
+        .with(Metric::RotationErrorOk, ok(Metric::RotationError))
+        .with(Metric::TranslationErrorOk, ok(Metric::TranslationError))
 }
 
 /// Score a calibration of a specimen method against the scenario's truth.

@@ -194,7 +194,8 @@ fn calibrated(file: &str, dir: &std::path::Path, tag: &str) -> Vec<Vec<f64>> {
         "--json",
         json.to_str().unwrap(),
     ]);
-    assert!(code == 0 || code == 3, "{tag}: {out} {err}");
+    // An imported file states no robot accuracy: the default (0.5 mm) may make it imprecise (4).
+    assert!(code == 0 || code == 3 || code == 4, "{tag}: {out} {err}");
     let doc: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     serde_json::from_value(doc["flange_to_sensor"].clone()).unwrap()

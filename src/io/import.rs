@@ -346,6 +346,8 @@ pub struct Header<'a> {
     pub feature_sigma_mm: Option<f64>,
     /// The sensor's z noise (mm, one standard deviation) as its data sheet states it.
     pub z_sigma_mm: Option<f64>,
+    /// The robot's pose accuracy (mm) for the verdict (docs/verdict.md).
+    pub robot_accuracy_mm: Option<f64>,
 }
 
 /// Assemble a capture file (JSON text) and check it by reading it back; errors name the file,
@@ -432,6 +434,9 @@ pub fn capture_file(
     }
     if let Some(s) = h.feature_sigma_mm {
         doc["feature_sigma_mm"] = serde_json::json!(s);
+    }
+    if let Some(r) = h.robot_accuracy_mm {
+        doc["robot_accuracy_mm"] = serde_json::json!(r);
     }
     let text = serde_json::to_string_pretty(&doc)
         .map_err(|e| field(poses_file, "json".into(), e.to_string()))?;

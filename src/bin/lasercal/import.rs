@@ -31,6 +31,11 @@ pub struct Args {
     /// residual test compares with it
     #[arg(long)]
     z_sigma_mm: Option<f64>,
+    /// The robot's pose accuracy, mm (one standard deviation of a measured point's offset that
+    /// its pose error makes): the verdict's bound and residual test include it [default when
+    /// not given: 0.5]
+    #[arg(long, allow_negative_numbers = true)]
+    robot_accuracy_mm: Option<f64>,
     /// Robot (irb120, irb2600 or a URDF path) for a pose list of joint angles
     #[arg(long)]
     robot: Option<String>,
@@ -64,6 +69,9 @@ pub fn run(a: Args) -> Result<()> {
             bail!("{name} {x}: give a positive number of mm");
         }
     }
+    if let Some(r) = a.robot_accuracy_mm {
+        lasercal::io::captures::robot_accuracy(r, "lasercal import", "--robot-accuracy-mm")?;
+    }
     let source = if a.profiles.is_dir() {
         let mut files: Vec<PathBuf> = std::fs::read_dir(&a.profiles)
             .with_context(|| format!("{}: cannot list", a.profiles.display()))?
@@ -93,6 +101,7 @@ pub fn run(a: Args) -> Result<()> {
         radius_mm: a.radius_mm,
         feature_sigma_mm: None,
         z_sigma_mm: a.z_sigma_mm,
+        robot_accuracy_mm: a.robot_accuracy_mm,
     };
     let text = capture_file(&header, &pname, &poses, source)?;
     lasercal::io::write(&a.out, text.as_bytes())?;

@@ -113,6 +113,8 @@ pub fn run(a: Args) -> Result<()> {
                     Metric::BoundTranslation,
                     Metric::Imprecise,
                     Metric::Covered,
+                    Metric::RotationErrorOk,
+                    Metric::TranslationErrorOk,
                 ];
                 for (m, v) in s
                     .metrics
