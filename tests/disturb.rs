@@ -236,3 +236,39 @@ fn radius_tolerance_biases_the_disk_method_in_proportion() {
         .to_string();
     assert!(e.contains("specimen.radius_tolerance_mm"), "{e}");
 }
+
+/// The accuracy a simulated rig states for the verdict (`RobotError::point_sd`) against the
+/// spread of the flange's position over many drawn robots: close for link-length errors, an
+/// upper bound (within 2.5 times) for joint-zero errors, whose lever it takes as half the reach.
+#[test]
+fn the_stated_robot_accuracy_matches_the_drawn_robots() {
+    let robot = irb120();
+    let q = [0.3, 0.2, -0.1, 0.5, 0.6, 0.1];
+    let nominal = robot.fk(&q);
+    let spread = |err: RobotError| {
+        let n = 400;
+        let mut sum = 0.0;
+        for k in 0..n {
+            let mut d = Disturbance::new(&robot, err, Vibration::default(), rng::stream(9, &[k]));
+            let off = d.actual(&robot, &nominal, 0).translation.vector - nominal.translation.vector;
+            sum += off.norm_squared() / 3.0;
+        }
+        (sum / n as f64).sqrt()
+    };
+    let links = RobotError {
+        link_error: 0.1e-3,
+        ..Default::default()
+    };
+    let (stated, drawn) = (links.point_sd(&robot), spread(links));
+    assert!((stated / drawn - 1.0).abs() < 0.15, "{stated} vs {drawn}");
+    let zeros = RobotError {
+        joint_offset_error: 0.01f64.to_radians(),
+        ..Default::default()
+    };
+    let (stated, drawn) = (zeros.point_sd(&robot), spread(zeros));
+    assert!(
+        stated >= drawn && stated < 3.0 * drawn,
+        "{stated} vs {drawn}"
+    );
+    assert_eq!(RobotError::default().point_sd(&robot), 0.0);
+}

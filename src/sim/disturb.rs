@@ -40,8 +40,9 @@ impl RobotError {
     }
 
     /// About one standard deviation of a measured point's offset along one direction that this
-    /// error makes (metres): the repeatability's per-axis sigma, and each joint's angle and
-    /// link errors acting over the arm's reach (the sum of its link lengths). An allowance for
+    /// error makes (metres): the repeatability's per-axis sigma, each joint's link-length error
+    /// (per axis), and each joint's angle errors acting over half the arm's reach (the sum of
+    /// its link lengths). An allowance for
     /// the verdict's residual test, not a model of the arm.
     pub fn point_sd(&self, robot: &Robot) -> f64 {
         let reach: f64 = robot
@@ -52,7 +53,12 @@ impl RobotError {
         let n = robot.joints.len() as f64;
         let angle = self.joint_noise.powi(2) + self.joint_offset_error.powi(2);
         let rp = self.repeatability / (3.0 * 3f64.sqrt());
-        (rp * rp + n * (angle * reach * reach + self.link_error.powi(2)) / 3.0).sqrt()
+        // A link error is drawn per axis, so each joint's adds its whole variance along any
+        // direction. An angle error's lever is taken as half the reach (a joint's typical
+        // distance from the flange), its displacement spread over three directions.
+        let links = n * self.link_error.powi(2);
+        let lever = reach / 2.0;
+        (rp * rp + links + n * angle * lever * lever / 3.0).sqrt()
     }
 }
 
