@@ -65,6 +65,12 @@ impl Metric {
         Metric::TranslationErrorOk,
     ];
 
+    /// The verdict's figures (and what follows from it), the last of `ALL`: `run` prints them
+    /// with the verdict, not on the result's line.
+    pub fn is_verdict(self) -> bool {
+        self.index() >= Metric::NoiseRatio.index()
+    }
+
     /// The metrics summarised per grid point and method, in summary.csv's order.
     pub const SUMMARISED: [Metric; 12] = [
         Metric::CentreError,

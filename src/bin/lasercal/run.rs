@@ -104,24 +104,7 @@ pub fn run(a: Args) -> Result<()> {
                     error.rotation_error_deg, error.translation_error_mm, error.frobenius_rotation
                 );
                 // The verdict's own figures are printed with it, below.
-                let verdict_figures = [
-                    Metric::NoiseRatio,
-                    Metric::PredictedSdRotation,
-                    Metric::PredictedSdTranslation,
-                    Metric::Suspect,
-                    Metric::BoundRotation,
-                    Metric::BoundTranslation,
-                    Metric::Imprecise,
-                    Metric::Covered,
-                    Metric::RotationErrorOk,
-                    Metric::TranslationErrorOk,
-                ];
-                for (m, v) in s
-                    .metrics
-                    .present()
-                    .skip(3)
-                    .filter(|(m, _)| !verdict_figures.contains(m))
-                {
+                for (m, v) in s.metrics.present().skip(3).filter(|(m, _)| !m.is_verdict()) {
                     line += &format!(", {} {v:.4} {}", m.words(), m.unit());
                 }
                 if out.missed_profiles > 0 {
