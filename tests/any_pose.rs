@@ -1158,18 +1158,35 @@ fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
             random_disk_setup(7300 + seed, 16, sigma)
         }),
     ];
-    let (mut passed, mut flagged) = (0, Vec::new());
+    // LASERCAL_VERDICT_SEEDS rigs per estimator (default 10) for a larger measurement.
+    let seeds: u64 = std::env::var("LASERCAL_VERDICT_SEEDS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(10);
+    let (mut passed, mut flagged, mut covered) = (0, Vec::new(), 0);
+    let (mut off, mut refused) = (0u64, 0u64);
+    let mut per = std::collections::BTreeMap::new();
     for (id, setup) in cases {
-        for seed in 0..10u64 {
+        for seed in 0..seeds {
             let s = setup(seed);
             let sensor = told(&s);
-            let (cal, r) = lasercal::method::estimate(id, &s.caps, &sensor).unwrap();
+            let Ok((cal, r)) = lasercal::method::estimate(id, &s.caps, &sensor) else {
+                refused += 1;
+                continue;
+            };
             let j = judge(quality(&cal, r.as_ref(), &s.caps, &sensor));
             let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
-            assert!(
-                e.rotation_error_deg < 1.0 && e.translation_error_mm < 1.0,
-                "{id} {seed}"
-            );
+            // A wrong answer (beyond 1 deg or 1 mm) must not pass as ok.
+            if !(e.rotation_error_deg < 1.0 && e.translation_error_mm < 1.0) {
+                off += 1;
+                assert_ne!(j.verdict, Verdict::Ok, "{id} {seed}: {e:?} judged ok");
+                continue;
+            }
+            let (br, bt) = j.quality.error_bound();
+            if e.rotation_error_deg <= br && e.translation_error_mm <= bt {
+                covered += 1;
+                *per.entry(id.to_string()).or_insert(0) += 1;
+            }
             match j.verdict {
                 Verdict::Ok => passed += 1,
                 Verdict::Suspect | Verdict::Imprecise => flagged.push(format!(
@@ -1180,8 +1197,24 @@ fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
         }
     }
     assert!(
-        flagged.len() <= 1,
+        flagged.len() as u64 <= 1 + seeds / 25,
         "correct results judged suspect or imprecise: {flagged:#?}"
+    );
+    // The honest 95 % bound on profiles lasercal did not make: 40 results are too few to show
+    // 95 %, but far fewer than 85 % would say the bound is not honest there.
+    let n = 4 * seeds - off - refused;
+    assert!(
+        off + refused <= seeds / 10,
+        "{off} wrong answers, {refused} refused"
+    );
+    eprintln!(
+        "honest bound on independent rigs: {covered} of {n} right answers' errors within it \
+         ({off} wrong answers, none judged ok; {refused} refused); covered per estimator \
+         (of {seeds}): {per:?}"
+    );
+    assert!(
+        covered as f64 >= 0.85 * n as f64,
+        "{covered} of {n} errors within their 95 % bounds"
     );
     let mut wrong = 0;
     for seed in 0..10u64 {
@@ -1206,7 +1239,7 @@ fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
         );
     }
     eprintln!(
-        "verdict on independent rigs: {passed} of 40 correct ok; {wrong} of 10 wrong-radius answers off"
+        "verdict on independent rigs: {passed} of {n} correct ok; {wrong} of 10 wrong-radius answers off"
     );
 }
 
