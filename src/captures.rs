@@ -105,6 +105,10 @@ pub struct Judging {
     /// (metres): what the residuals may show beyond the sensor's noise before the model is
     /// called inconsistent with the data.
     pub robot_accuracy: f64,
+    /// The mounting as drawn (the CAD model's flange-to-sensor): a result further from it than
+    /// `method::verdict::NOMINAL_DEG` / `NOMINAL_MM` is suspect. A sensor mirrored in x fits its
+    /// data as well as the right one, turned 180 deg about z; only the drawing tells them apart.
+    pub nominal: Option<Isometry3<f64>>,
 }
 
 impl Judging {
@@ -121,6 +125,7 @@ impl Default for Judging {
             tolerance_deg: Judging::DEFAULT_TOLERANCE_DEG,
             tolerance_mm: Judging::DEFAULT_TOLERANCE_MM,
             robot_accuracy: Judging::DEFAULT_ROBOT_ACCURACY_MM * 1e-3,
+            nominal: None,
         }
     }
 }

@@ -141,6 +141,8 @@ fn simulate(
         },
     );
     caps.judging.robot_accuracy = robot.hypot(vibration);
+    // The rig's mounting as designed: what a drawing of a real cell states.
+    caps.judging.nominal = Some(setup.rig.flange_to_sensor);
     Ok(caps)
 }
 

@@ -434,3 +434,186 @@ fn nearly_collinear_translations_are_refused_relative_to_their_length() {
     let r = rotation_from_translations(&wide, 0.1);
     assert!(r.is_ok(), "{r:?}");
 }
+
+/// Gross mistakes made as a file would make them: each returns the captures as a reader would
+/// take them from a file with that mistake (independent of `method::cause`, which undoes them).
+mod mistake {
+    use lasercal::captures::{Captures, ProfileData};
+    use nalgebra::{Quaternion, Rotation3, UnitQuaternion, Vector3};
+
+    /// Each profile logged with the pose of the next record (the last one dropped).
+    pub fn pairing(c: &mut Captures) {
+        let poses: Vec<_> = c.profiles.iter().map(|p| p.base_to_flange).collect();
+        for (i, p) in c.profiles.iter_mut().enumerate().take(poses.len() - 1) {
+            p.base_to_flange = poses[i + 1];
+        }
+        c.profiles.pop();
+    }
+
+    /// Positions written in metres in the millimetre field.
+    pub fn metres(c: &mut Captures) {
+        for p in &mut c.profiles {
+            p.base_to_flange.translation.vector *= 1e-3;
+        }
+    }
+
+    /// Quaternions written x, y, z, w in the w, x, y, z field.
+    pub fn xyzw(c: &mut Captures) {
+        for p in &mut c.profiles {
+            let q = *p.base_to_flange.rotation.quaternion();
+            p.base_to_flange.rotation =
+                UnitQuaternion::from_quaternion(Quaternion::new(q.i, q.j, q.k, q.w));
+        }
+    }
+
+    /// Profiles from a sensor whose x runs the other way.
+    pub fn mirrored(c: &mut Captures) {
+        for p in &mut c.profiles {
+            match &mut p.data {
+                ProfileData::Raw(r) => {
+                    r.points.reverse();
+                    r.points.iter_mut().flatten().for_each(|q| q.x = -q.x);
+                }
+                ProfileData::Chord { a, b } => {
+                    (a.x, b.x) = (-b.x, -a.x);
+                    (a.y, b.y) = (b.y, a.y);
+                }
+                ProfileData::Circle(k) => k.centre.x = -k.centre.x,
+                ProfileData::Arc(ps) => ps.iter_mut().for_each(|q| q.x = -q.x),
+                ProfileData::EdgePoint(q) => q.x = -q.x,
+            }
+        }
+    }
+
+    pub fn radius_5(c: &mut Captures) {
+        c.specimen_radius = c.specimen_radius.map(|r| r * 1.05);
+    }
+
+    pub fn radius_20(c: &mut Captures) {
+        c.specimen_radius = c.specimen_radius.map(|r| r * 1.2);
+    }
+
+    /// Every pose's orientation 3 deg off about an axis of its own (a fixed, seeded pattern).
+    pub fn turned_3deg(c: &mut Captures) {
+        for (i, p) in c.profiles.iter_mut().enumerate() {
+            let a = i as f64 * 2.399;
+            let axis = Vector3::new(a.cos(), a.sin(), (0.7 * a).cos()).normalize();
+            let r = Rotation3::from_scaled_axis(axis * 3f64.to_radians());
+            p.base_to_flange.rotation =
+                UnitQuaternion::from_rotation_matrix(&r) * p.base_to_flange.rotation;
+        }
+    }
+}
+
+/// The gross mistakes of docs/verdict.md on every specimen: each wrong answer (more than 1 deg
+/// or 1 mm off) must be flagged (suspect or imprecise) or refused, and a suspect result should
+/// name the mistake that was made. `LASERCAL_MISTAKE_TRIALS` sets the trials per case (default
+/// 1); `--nocapture` prints the table docs/verdict.md quotes.
+#[test]
+fn gross_mistakes_are_flagged_and_their_cause_named() {
+    use lasercal::method::verdict::decide;
+    let n: u64 = std::env::var("LASERCAL_MISTAKE_TRIALS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1);
+    type Mutate = fn(&mut Captures);
+    let mistakes: [(&str, &str, Mutate); 7] = [
+        (
+            "pairing shifted",
+            "paired one record apart",
+            mistake::pairing,
+        ),
+        ("metres", "in metres", mistake::metres),
+        ("quaternion x,y,z,w", "x, y, z, w order", mistake::xyzw),
+        ("mirrored in x", "mirrored in x", mistake::mirrored),
+        ("radius +5 %", "specimen's size", mistake::radius_5),
+        ("radius +20 %", "specimen's size", mistake::radius_20),
+        ("orientations 3 deg off", "", mistake::turned_3deg),
+    ];
+    // The comparison rig's disk with 30 chords a scan (the default 100 costs 3 times as much).
+    let rigs = [
+        ("comparison", Kind::Disk),
+        ("comparison", Kind::Ball),
+        ("comparison", Kind::Edge),
+        ("plane-8-poses", Kind::Plane),
+    ];
+    let (mut wrong, mut flagged, mut refused, mut named, mut suspect) = (0, 0, 0, 0, 0);
+    let mut missed = Vec::new();
+    println!(
+        "| mistake | rig | results | wrong | wrong, flagged | refused | suspect | cause named |"
+    );
+    for (rig, kind) in rigs {
+        let s = setup(rig, &|t| t.replace("chords = 100", "chords = 30"));
+        for (what, cause, mutate) in &mistakes {
+            let started = std::time::Instant::now();
+            let mut row = [0usize; 6];
+            for t in 0..n {
+                let mut caps = trial_captures(&s, kind, 27, t).0.unwrap();
+                if caps.specimen_radius.is_none() && what.starts_with("radius") {
+                    continue;
+                }
+                mutate(&mut caps);
+                let truth = caps.truth.unwrap();
+                row[0] += 1;
+                let Ok(d) = decide(&caps, &s.rig.sensor, None) else {
+                    row[3] += 1;
+                    continue;
+                };
+                let e = PoseError::between(&d.assessed().calibration.flange_to_sensor, &truth);
+                let bad = !(e.rotation_error_deg <= 1.0 && e.translation_error_mm <= 1.0);
+                let lines = d.judged.lines().cloned().collect::<Vec<_>>().join(" | ");
+                if bad {
+                    row[1] += 1;
+                    if d.judged.verdict != Verdict::Ok {
+                        row[2] += 1;
+                    } else {
+                        missed.push(format!(
+                            "{what}, {rig} {kind} trial {t}: {} {:.3} deg / {:.3} mm off, judged \
+                             ok: {lines}",
+                            d.method(),
+                            e.rotation_error_deg,
+                            e.translation_error_mm
+                        ));
+                    }
+                }
+                if d.judged.verdict == Verdict::Suspect {
+                    row[4] += 1;
+                    if !cause.is_empty() && d.judged.reasons[0].contains(cause) {
+                        row[5] += 1;
+                    } else {
+                        println!("  {what}, {rig} {kind} trial {t}: {lines}");
+                    }
+                }
+            }
+            println!(
+                "| {what} | {rig} {kind} | {} | {} | {} | {} | {} | {} | ({:.1} s)",
+                row[0],
+                row[1],
+                row[2],
+                row[3],
+                row[4],
+                row[5],
+                started.elapsed().as_secs_f64()
+            );
+            wrong += row[1];
+            flagged += row[2];
+            refused += row[3];
+            suspect += row[4];
+            named += row[5];
+        }
+    }
+    println!(
+        "all: {wrong} wrong answers, {flagged} flagged; {refused} refused; {suspect} suspect, \
+         {named} with the cause named"
+    );
+    assert!(
+        wrong > 0,
+        "no mistake gave a wrong answer: the cases test nothing"
+    );
+    assert!(
+        flagged as f64 >= 0.99 * wrong as f64,
+        "{} of {wrong} wrong answers judged ok:\n{}",
+        wrong - flagged,
+        missed.join("\n")
+    );
+}

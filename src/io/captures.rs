@@ -28,6 +28,9 @@ struct FileV1 {
     edge_sense: Option<EdgeSense>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     truth_flange_to_sensor_mm: Option<[[f64; 4]; 4]>,
+    /// The mounting as drawn (4x4, mm): a result far from it is suspect (a mirrored sensor).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    nominal_flange_to_sensor_mm: Option<[[f64; 4]; 4]>,
     /// How far apart (deg) a protocol's "one orientation" captures may be (default 0.1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     orientation_tolerance_deg: Option<f64>,
@@ -150,6 +153,7 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
         },
         edge_sense: c.edge_sense,
         truth_flange_to_sensor_mm: c.truth.as_ref().map(crate::math::pose_to_rows_mm),
+        nominal_flange_to_sensor_mm: c.judging.nominal.as_ref().map(crate::math::pose_to_rows_mm),
         groups: c
             .groups
             .iter()
@@ -243,13 +247,10 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
         .map_err(|e: crate::method::UnknownMethod| err(file, "method", e))?;
     let sensor = with_measured_grid(sensor_of(&f, file)?, &f);
     let radius = radius_of(&f, kind, file)?;
-    let truth = f.truth_flange_to_sensor_mm.map(|m| {
-        let r = Matrix3::from_fn(|i, j| m[i][j]);
-        Isometry3::from_parts(
-            Translation3::new(m[0][3] * 1e-3, m[1][3] * 1e-3, m[2][3] * 1e-3),
-            UnitQuaternion::from_rotation_matrix(&crate::math::nearest_rotation(&r)),
-        )
-    });
+    let truth = f
+        .truth_flange_to_sensor_mm
+        .map(|m| transform_of(&m, file, "truth_flange_to_sensor_mm"))
+        .transpose()?;
     let tolerance = match f.orientation_tolerance_deg {
         None => crate::calib::ORIENTATION_TOLERANCE_DEG,
         Some(t) => orientation_tolerance(t, file, "orientation_tolerance_deg")?,
@@ -652,6 +653,29 @@ fn columns_on_rays(
 /// A user's orientation tolerance (deg), checked: finite, above 0 and at most 5 (beyond, "one
 /// orientation" means nothing the protocols rely on).
 /// The verdict's settings a file states, checked; the defaults for the rest.
+/// A 4x4 row-major transform in mm: its 3x3 block must be a rotation (to 1e-3: a printed
+/// matrix's rounding), its last row 0 0 0 1.
+fn transform_of(m: &[[f64; 4]; 4], file: &str, at: &str) -> Result<Isometry3<f64>, FormatError> {
+    let r = Matrix3::from_fn(|i, j| m[i][j]);
+    let finite = m.iter().flatten().all(|v| v.is_finite());
+    let orthonormal = (r.transpose() * r - Matrix3::identity()).abs().max() < 1e-3;
+    let last = m[3] == [0.0, 0.0, 0.0, 1.0];
+    if !(finite && orthonormal && last && r.determinant() > 0.0) {
+        return Err(err(
+            file,
+            at,
+            format!(
+                "{m:?}: give a rigid transform, 4 rows of 4 (mm), its upper-left 3x3 a rotation \
+                 matrix (orthonormal, determinant +1) and its last row [0, 0, 0, 1]"
+            ),
+        ));
+    }
+    Ok(Isometry3::from_parts(
+        Translation3::new(m[0][3] * 1e-3, m[1][3] * 1e-3, m[2][3] * 1e-3),
+        UnitQuaternion::from_rotation_matrix(&crate::math::nearest_rotation(&r)),
+    ))
+}
+
 fn judging_of(f: &FileV1, file: &str) -> Result<Judging, FormatError> {
     let d = Judging::default();
     let or =
@@ -663,6 +687,10 @@ fn judging_of(f: &FileV1, file: &str) -> Result<Judging, FormatError> {
             None => d.robot_accuracy,
             Some(a) => robot_accuracy(a, file, "robot_accuracy_mm")?,
         },
+        nominal: f
+            .nominal_flange_to_sensor_mm
+            .map(|m| transform_of(&m, file, "nominal_flange_to_sensor_mm"))
+            .transpose()?,
     })
 }
 

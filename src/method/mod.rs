@@ -6,6 +6,7 @@
 //! `method()` below is the one place that dispatches over them.
 
 pub mod ball;
+pub mod cause;
 pub mod disk;
 pub mod edge;
 pub mod plane;

@@ -19,7 +19,7 @@ use crate::calib::refine::Refined;
 use crate::calib::refine::honest::Bounds;
 use crate::captures::{Captures, Judging, ProfileData};
 use crate::sensor::SensorModel;
-use nalgebra::Matrix6;
+use nalgebra::{Isometry3, Matrix6, UnitQuaternion, Vector3};
 
 /// How many times the stated noise the residuals may show before the data are called
 /// inconsistent with the noise model.
@@ -40,6 +40,38 @@ pub const MAX_REJECTED_SHARE: f64 = 0.5;
 /// The observability's condition (largest over smallest singular value, rotations scaled to
 /// displacements 0.1 m away) beyond which a pose set is near-degenerate.
 pub const MAX_CONDITION: f64 = 1e4;
+/// How far (deg, mm) a result may lie from the nominal mounting (a drawing's) before it is
+/// suspect: a drawing is good to a few degrees and millimetres, a mirrored sensor is 180 deg off.
+pub const NOMINAL_DEG: f64 = 20.0;
+pub const NOMINAL_MM: f64 = 50.0;
+
+/// How far a result lies from the nominal mounting.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FromNominal {
+    pub rotation_deg: f64,
+    pub translation_mm: f64,
+    /// The result is the nominal turned about 180 deg about the sensor's z (within
+    /// `NOMINAL_DEG`): the profiles are mirrored in x.
+    pub mirrored: bool,
+}
+
+impl FromNominal {
+    pub fn between(result: &Isometry3<f64>, nominal: &Isometry3<f64>) -> FromNominal {
+        let e = crate::calib::PoseError::between(result, nominal);
+        let rel = nominal.rotation.inverse() * result.rotation;
+        let half_turn = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), std::f64::consts::PI);
+        FromNominal {
+            rotation_deg: e.rotation_error_deg,
+            translation_mm: e.translation_error_mm,
+            mirrored: (half_turn.inverse() * rel).angle().to_degrees() < NOMINAL_DEG,
+        }
+    }
+
+    /// Beyond what a drawing's error explains.
+    pub fn too_far(&self) -> bool {
+        !(self.rotation_deg <= NOMINAL_DEG && self.translation_mm <= NOMINAL_MM)
+    }
+}
 
 /// Truth-free figures of one calibration result.
 #[derive(Debug, Clone, PartialEq)]
@@ -79,6 +111,8 @@ pub struct Quality {
     /// The robot's stated accuracy (mm) the residual test allowed, and the tolerance judged
     /// against.
     pub judging: Judging,
+    /// How far the result lies from the nominal mounting, when the captures state one.
+    pub from_nominal: Option<FromNominal>,
 }
 
 impl Quality {
@@ -230,6 +264,10 @@ pub fn quality(
         poses: figures.map_or(0, |f| f.honest.clusters),
         inflation: finite.map(|f| f.honest.inflation),
         judging: caps.judging,
+        from_nominal: caps
+            .judging
+            .nominal
+            .map(|n| FromNominal::between(&cal.flange_to_sensor, &n)),
     }
 }
 
@@ -269,6 +307,24 @@ pub fn judge(q: Quality) -> Judged {
             q.profiles,
             MAX_REJECTED_SHARE * 100.0
         ));
+    }
+    if let Some(n) = q.from_nominal.filter(FromNominal::too_far) {
+        reasons.push(if n.mirrored {
+            format!(
+                "the result is the nominal mounting turned {:.0} deg about the sensor's z: the \
+                 profiles are mirrored in x (a sensor frame whose x runs the other way fits the \
+                 points as well); check the sensor's x direction against its data sheet and the \
+                 exporter's settings",
+                n.rotation_deg
+            )
+        } else {
+            format!(
+                "the result lies {:.1} deg / {:.1} mm from the nominal mounting, more than a \
+                 drawing's error ({NOMINAL_DEG} deg / {NOMINAL_MM} mm): check \
+                 nominal_flange_to_sensor_mm, the sensor, and the flange frame the poses are of",
+                n.rotation_deg, n.translation_mm
+            )
+        });
     }
     if let Status::NotConverged { iterations } = q.status {
         reasons.push(format!(
@@ -685,4 +741,84 @@ pub fn contradicted_signs(
             .join(", "),
         chosen.method
     ))
+}
+
+/// A capture set judged whole: every variant (or the one asked for), the one kept, and its
+/// verdict with the cross-checks (variants that disagree, contradicted signs, one group left out,
+/// and when suspect the likely cause).
+#[derive(Debug)]
+pub struct Decision {
+    pub results: Vec<(super::MethodId, Result<Assessed, crate::error::Error>)>,
+    /// Index into `results` of the result kept (`best`).
+    pub chosen: usize,
+    /// The kept result's verdict after the cross-checks.
+    pub judged: Judged,
+    pub leave_one_out: Option<LeaveOneOut>,
+}
+
+impl Decision {
+    /// The kept result.
+    pub fn assessed(&self) -> &Assessed {
+        match &self.results[self.chosen].1 {
+            Ok(a) => a,
+            Err(_) => unreachable!("best() keeps only results that ran"),
+        }
+    }
+
+    pub fn method(&self) -> super::MethodId {
+        self.results[self.chosen].0
+    }
+}
+
+/// Judge a capture set as `calibrate` does: run `method` or every variant, keep the best, test it
+/// against the others, the group signs and each group left out, and when that finds the model
+/// inconsistent name the likely cause (`super::cause`). None when no variant could calibrate
+/// (`results` say why).
+pub fn decide(
+    caps: &Captures,
+    sensor: &SensorModel,
+    method: Option<super::MethodId>,
+) -> Result<Decision, Vec<(super::MethodId, crate::error::Error)>> {
+    let results = match method {
+        Some(m) => vec![(m, assess(m, caps, sensor))],
+        None => assess_every(caps, sensor),
+    };
+    let Some(chosen) = best(&results) else {
+        return Err(results
+            .into_iter()
+            .filter_map(|(id, r)| r.err().map(|e| (id, e)))
+            .collect());
+    };
+    let mut others = disagreements(&results, chosen);
+    let closed_form = results
+        .iter()
+        .find(|(id, _)| id.estimator == super::Estimator::ClosedForm)
+        .and_then(|(_, r)| r.as_ref().ok());
+    let Ok(a) = &results[chosen].1 else {
+        unreachable!("best() keeps only results that ran")
+    };
+    others.extend(contradicted_signs(caps, sensor, a, closed_form));
+    others.extend(super::cause::mirrored_labels(caps, sensor, a, closed_form));
+    let mut judged = a.judged.clone();
+    judged.add_reasons(others);
+    let loo = leave_one_out(a, caps, sensor);
+    judged.add_reasons(loo.as_ref().and_then(leave_one_out_reason));
+    judged.add_notes(loo.as_ref().map(leave_one_out_notes).unwrap_or_default());
+    // The refits cost a calibration each: only when the residuals themselves do not fit (the
+    // mistakes they look for all show there).
+    let misfit = a
+        .judged
+        .quality
+        .noise_ratio
+        .zip(a.judged.quality.noise_ratio_bound)
+        .is_some_and(|(r, b)| !(r <= b));
+    if misfit && let Some(c) = super::cause::likely_cause(caps, sensor, a) {
+        judged.reasons.insert(0, c);
+    }
+    Ok(Decision {
+        results,
+        chosen,
+        judged,
+        leave_one_out: loo,
+    })
 }

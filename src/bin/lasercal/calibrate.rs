@@ -102,10 +102,17 @@ pub fn run(a: Args) -> Result<i32> {
             known.join(", ")
         );
     }
-    // Every variant the file supports, unless one is asked for; the best judged result is kept.
-    let mut results = match a.method {
-        Some(m) => vec![(m, verdict::assess(m, &caps, &sensor))],
-        None => verdict::assess_every(&caps, &sensor),
+    // Every variant the file supports, unless one is asked for; the best judged result is kept
+    // and tested against the rest (docs/verdict.md).
+    let decision = match verdict::decide(&caps, &sensor, a.method) {
+        Ok(d) => d,
+        Err(failed) => {
+            let why: Vec<String> = failed.iter().map(|(id, e)| format!("{id}: {e}")).collect();
+            bail!(
+                "{name}: no variant could calibrate:\n  {}",
+                why.join("\n  ")
+            );
+        }
     };
     let mut variants = Vec::new();
     if a.method.is_none() {
@@ -124,7 +131,7 @@ pub fn run(a: Args) -> Result<i32> {
             "noise ratio"
         );
     }
-    for (id, r) in &results {
+    for (id, r) in &decision.results {
         let row = match r {
             Ok(x) => {
                 let (br, bt) = x.judged.quality.error_bound();
@@ -154,43 +161,16 @@ pub fn run(a: Args) -> Result<i32> {
         };
         variants.push(row);
     }
-    let Some(best) = verdict::best(&results) else {
-        let why: Vec<String> = results
-            .iter()
-            .filter_map(|(id, r)| r.as_ref().err().map(|e| format!("{id}: {e}")))
-            .collect();
-        bail!(
-            "{name}: no variant could calibrate:\n  {}",
-            why.join("\n  ")
-        );
-    };
-    let mut others = verdict::disagreements(&results, best);
-    let closed_form = results
-        .iter()
-        .find(|(id, _)| id.estimator == lasercal::method::Estimator::ClosedForm)
-        .and_then(|(_, r)| r.as_ref().ok());
-    if let Ok(b) = &results[best].1 {
-        others.extend(verdict::contradicted_signs(&caps, &sensor, b, closed_form));
-    }
-    let (method, chosen) = {
-        let (id, r) = results.swap_remove(best);
-        (id, r.map_err(anyhow::Error::from)?)
-    };
+    let method = decision.method();
+    let chosen = decision.assessed();
     if a.method.is_none() {
         say!(
             "chosen: {method} (the smallest 95 % error bound among the variants judged ok, else \
              not suspect; --method to choose another)"
         );
     }
-    let mut judged = chosen.judged.clone();
-    judged.add_reasons(others);
-    let loo = verdict::leave_one_out(&chosen, &caps, &sensor);
-    judged.add_reasons(loo.as_ref().and_then(verdict::leave_one_out_reason));
-    judged.add_notes(
-        loo.as_ref()
-            .map(verdict::leave_one_out_notes)
-            .unwrap_or_default(),
-    );
+    let judged = &decision.judged;
+    let loo = decision.leave_one_out.as_ref();
     let cal = &chosen.calibration;
     let est = pose_to_rows_mm(&cal.flange_to_sensor);
     say!(
@@ -220,7 +200,7 @@ pub fn run(a: Args) -> Result<i32> {
     if let Some(r) = &chosen.refined {
         doc["refinement"] = refinement(r);
     }
-    doc["quality"] = verdict_text(method, &judged, loo.as_ref())?;
+    doc["quality"] = verdict_text(method, judged, loo)?;
     if let Some(t) = &caps.truth {
         let e = PoseError::between(&cal.flange_to_sensor, t);
         say!(
@@ -235,9 +215,9 @@ pub fn run(a: Args) -> Result<i32> {
     if let Some(p) = &a.json {
         lasercal::io::write(p, serde_json::to_string_pretty(&doc)?.as_bytes())?;
     }
-    export(&a, &cal.flange_to_sensor, &judged)?;
+    export(&a, &cal.flange_to_sensor, judged)?;
     if !recorders.is_empty() {
-        let summary = summary(&name, &caps, method, cal, &judged);
+        let summary = summary(&name, &caps, method, cal, judged);
         record(&recorders, &caps, &sensor, &cal.flange_to_sensor, &summary)?;
     }
     Ok(match judged.verdict {

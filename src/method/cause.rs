@@ -1,0 +1,291 @@
+//! The likely cause of a result judged suspect: the verdict says what the data show, not the
+//! first check that tripped. Each gross mistake a capture file can hold (poses and profiles paired
+//! one record apart, positions in metres, quaternions in x, y, z, w order, profiles mirrored in
+//! x, the other edge sense, a wrong specimen size) is undone in turn and the kept variant re-run;
+//! a correction that makes the model fit `CLEARLY_BETTER` times better and no longer suspect
+//! names the cause. Refits cost one calibration each and run only for suspect results.
+
+use super::verdict::{Assessed, CLEARLY_BETTER, Verdict, assess};
+use crate::captures::{CaptureProfile, Captures, ProfileData};
+use crate::features::EdgeSense;
+use crate::sensor::SensorModel;
+use nalgebra::{Quaternion, UnitQuaternion, Vector2};
+
+/// A gross mistake in a capture file, named by what the file got wrong.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Mistake {
+    /// Each profile was given the pose of the record after it (+1) or before it (-1).
+    Pairing(i8),
+    /// Positions in metres where the file wants millimetres.
+    Metres,
+    /// Quaternions in x, y, z, w order where the file wants w, x, y, z.
+    QuaternionXyzw,
+    /// Profiles mirrored in x (a sensor frame turned 180 deg about its z, or x read reversed).
+    Mirrored,
+    /// The other edge sense.
+    EdgeSense,
+    /// The specimen's radius is this factor of the file's.
+    Radius(f64),
+}
+
+impl Mistake {
+    /// What the data show and how to check it, with the improvement that shows it.
+    fn explain(&self, caps: &Captures, method: super::MethodId, before: f64, after: f64) -> String {
+        let fit = format!(
+            "with that undone {method} fits {:.0} times better (residual RMS {before:.4} -> \
+             {after:.4} mm)",
+            before / after
+        );
+        match *self {
+            Mistake::Pairing(k) => format!(
+                "likely cause: poses and profiles are paired one record apart (each profile's pose \
+                 is that of the record {}): {fit}; check how poses and profiles were matched \
+                 (timestamps, a skipped or repeated record)",
+                if k > 0 { "after it" } else { "before it" }
+            ),
+            Mistake::Metres => format!(
+                "likely cause: the positions are in metres, not millimetres: {fit}; give \
+                 tcp_position_mm in millimetres"
+            ),
+            Mistake::QuaternionXyzw => format!(
+                "likely cause: the quaternions are in x, y, z, w order: {fit}; give \
+                 tcp_quaternion_wxyz as w, x, y, z (ABB RAPID order; ROS and Eigen write x, y, z, w)"
+            ),
+            Mistake::Mirrored => format!(
+                "likely cause: the profiles are mirrored in x (the labels fit a sensor turned \
+                 180 deg about its z): {fit}; check the sensor's x direction against its data \
+                 sheet and the exporter's settings"
+            ),
+            Mistake::EdgeSense => format!(
+                "likely cause: the edge sense is the other one ({}): {fit}; set edge_sense",
+                match caps.edge_sense {
+                    Some(EdgeSense::Falling) => "rising, not falling",
+                    _ => "falling, not rising",
+                }
+            ),
+            Mistake::Radius(f) => {
+                let r = caps.specimen_radius.unwrap_or(f64::NAN) * 1e3;
+                format!(
+                    "likely cause: the specimen's size: the data fit a radius of {:.2} mm best, \
+                     the file says {r:.2} mm: {fit}; measure the specimen and check its kind",
+                    r * f
+                )
+            }
+        }
+    }
+
+    /// The captures with this mistake undone; None where it cannot apply.
+    pub fn undo(&self, caps: &Captures) -> Option<Captures> {
+        let mut c = caps.clone();
+        match *self {
+            Mistake::Pairing(k) => {
+                let n = c.profiles.len();
+                if n < 3 {
+                    return None;
+                }
+                // Profile i takes the pose recorded with profile i - k; the one left without a
+                // pose is dropped.
+                let poses: Vec<_> = caps.profiles.iter().map(|p| p.base_to_flange).collect();
+                let profiles: Vec<CaptureProfile> = (0..n)
+                    .filter_map(|i| {
+                        let j = i as i64 - k as i64;
+                        (0..n as i64).contains(&j).then(|| CaptureProfile {
+                            base_to_flange: poses[j as usize],
+                            ..caps.profiles[i].clone()
+                        })
+                    })
+                    .collect();
+                c.profiles = profiles;
+            }
+            Mistake::Metres => {
+                for p in &mut c.profiles {
+                    p.base_to_flange.translation.vector *= 1e3;
+                }
+            }
+            Mistake::QuaternionXyzw => {
+                for p in &mut c.profiles {
+                    // The file's (x, y, z, w) was read as (w, x, y, z).
+                    let q = p.base_to_flange.rotation.quaternion();
+                    let read = [q.w, q.i, q.j, q.k];
+                    p.base_to_flange.rotation = UnitQuaternion::from_quaternion(Quaternion::new(
+                        read[3], read[0], read[1], read[2],
+                    ));
+                }
+            }
+            Mistake::Mirrored => {
+                for p in &mut c.profiles {
+                    mirror(&mut p.data);
+                }
+            }
+            Mistake::EdgeSense => {
+                c.edge_sense = Some(match caps.edge_sense? {
+                    EdgeSense::Falling => EdgeSense::Rising,
+                    EdgeSense::Rising => EdgeSense::Falling,
+                });
+            }
+            Mistake::Radius(f) => c.specimen_radius = Some(caps.specimen_radius? * f),
+        }
+        Some(c)
+    }
+}
+
+/// A profile's data seen by a sensor mirrored in x: columns in reverse order, x negated.
+fn mirror(d: &mut ProfileData) {
+    let flip = |v: &mut Vector2<f64>| v.x = -v.x;
+    match d {
+        ProfileData::Raw(p) => {
+            p.points.reverse();
+            for q in p.points.iter_mut().flatten() {
+                q.x = -q.x;
+            }
+        }
+        ProfileData::Chord { a, b } => {
+            flip(a);
+            flip(b);
+            std::mem::swap(a, b);
+        }
+        ProfileData::Circle(c) => flip(&mut c.centre),
+        ProfileData::Arc(ps) => {
+            ps.reverse();
+            ps.iter_mut().for_each(flip);
+        }
+        ProfileData::EdgePoint(v) => flip(v),
+    }
+}
+
+/// The residual RMS (mm) of `m`'s variant with the mistake undone, when that result is not
+/// suspect.
+fn refit(caps: &Captures, sensor: &SensorModel, a: &Assessed, m: Mistake) -> Option<f64> {
+    let c = m.undo(caps)?;
+    let r = assess(a.method, &c, sensor).ok()?;
+    (r.judged.verdict != Verdict::Suspect)
+        .then_some(r.judged.quality.residual_rms_mm)
+        .flatten()
+}
+
+/// The radius factor (0.5 to 2) that fits `a`'s variant best: a golden-section search on the
+/// residual RMS over the factor's logarithm. None without a radius.
+fn best_radius(caps: &Captures, sensor: &SensorModel, a: &Assessed) -> Option<(f64, f64)> {
+    caps.specimen_radius?;
+    let rms = |lf: f64| {
+        Mistake::Radius(lf.exp())
+            .undo(caps)
+            .and_then(|c| assess(a.method, &c, sensor).ok())
+            .and_then(|r| r.judged.quality.residual_rms_mm)
+            .unwrap_or(f64::INFINITY)
+    };
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut lo, mut hi) = (0.5f64.ln(), 2f64.ln());
+    let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
+    let (mut f1, mut f2) = (rms(x1), rms(x2));
+    // To a factor within 1 % (the interval shrinks by 0.618 a step: 10 refits).
+    while hi - lo > 1e-2 {
+        if f1 <= f2 {
+            hi = x2;
+            (x2, f2) = (x1, f1);
+            x1 = hi - g * (hi - lo);
+            f1 = rms(x1);
+        } else {
+            lo = x1;
+            (x1, f1) = (x2, f2);
+            x2 = lo + g * (hi - lo);
+            f2 = rms(x2);
+        }
+    }
+    let f = (0.5 * (lo + hi)).exp();
+    refit(caps, sensor, a, Mistake::Radius(f)).map(|r| (f, r))
+}
+
+/// The likely cause of `a` being suspect on `caps`: the correction among the gross mistakes that
+/// fits clearly best and is not suspect, in words, or None (no residuals to compare, or no
+/// correction helps).
+pub fn likely_cause(caps: &Captures, sensor: &SensorModel, a: &Assessed) -> Option<String> {
+    let before = a.judged.quality.residual_rms_mm?;
+    let m = super::method(caps.method);
+    let mut tries = vec![
+        Mistake::Pairing(1),
+        Mistake::Pairing(-1),
+        Mistake::Metres,
+        Mistake::QuaternionXyzw,
+        Mistake::Mirrored,
+    ];
+    if caps.edge_sense.is_some() {
+        tries.push(Mistake::EdgeSense);
+    }
+    let mut found: Vec<(Mistake, f64)> = tries
+        .into_iter()
+        .filter_map(|t| refit(caps, sensor, a, t).map(|r| (t, r)))
+        .collect();
+    if m.needs_radius()
+        && let Some((f, r)) = best_radius(caps, sensor, a)
+        && (f - 1.0).abs() > 1e-2
+    {
+        found.push((Mistake::Radius(f), r));
+    }
+    let (t, after) = found
+        .into_iter()
+        .filter(|(_, r)| r * CLEARLY_BETTER < before)
+        .min_by(|x, y| x.1.total_cmp(&y.1))?;
+    Some(t.explain(caps, a.method, before, after))
+}
+
+/// Labels that fit the profiles mirrored in x: the any-pose estimators infer the ball's side and
+/// the scan's direction from the data, so profiles mirrored in x give them a transform turned
+/// 180 deg about the sensor's z that maps every point correctly, and exit ok. The file's labels
+/// (group signs, edge sense) tell: when the closed form, which uses them, fits its features
+/// `CLEARLY_BETTER` times better on the profiles mirrored back and then agrees with `chosen`
+/// turned 180 deg about z, either the profiles are mirrored or every label is the other way
+/// round. A reason, or None.
+pub fn mirrored_labels(
+    caps: &Captures,
+    sensor: &SensorModel,
+    chosen: &Assessed,
+    closed_form: Option<&Assessed>,
+) -> Option<String> {
+    let m = super::method(caps.method);
+    if !(m.uses_group_signs() || caps.edge_sense.is_some())
+        || chosen.method.estimator != super::Estimator::AnyPose
+    {
+        return None;
+    }
+    let id = super::MethodId::new(caps.method, super::Estimator::ClosedForm);
+    let before = closed_form
+        .filter(|a| a.judged.verdict != Verdict::Suspect)
+        .and_then(|a| a.judged.quality.residual_rms_mm)
+        .unwrap_or(f64::INFINITY);
+    let mirrored = assess(id, &Mistake::Mirrored.undo(caps)?, sensor).ok()?;
+    let after = mirrored.judged.quality.residual_rms_mm?;
+    if mirrored.judged.verdict == Verdict::Suspect || !(after * CLEARLY_BETTER < before) {
+        return None;
+    }
+    let turned = chosen.calibration.flange_to_sensor
+        * nalgebra::UnitQuaternion::from_axis_angle(
+            &nalgebra::Vector3::z_axis(),
+            std::f64::consts::PI,
+        );
+    let e = crate::calib::PoseError::between(&mirrored.calibration.flange_to_sensor, &turned);
+    let (ar, at) = mirrored.judged.quality.error_bound();
+    let (cr, ct) = chosen.judged.quality.error_bound();
+    if !(e.rotation_error_deg <= ar + cr && e.translation_error_mm <= at + ct) {
+        return None;
+    }
+    let labels = if m.uses_group_signs() {
+        "group signs"
+    } else {
+        "edge sense"
+    };
+    Some(format!(
+        "the file's {labels} fit the profiles mirrored in x: {id}, which uses them, fits \
+         {:.0} times better on the profiles mirrored back and then agrees with {} turned 180 deg \
+         about the sensor's z. Either the profiles are mirrored (then {}'s sensor frame is the \
+         data sheet's turned 180 deg about z: check the sensor's x direction and the exporter's \
+         settings) or every label is the other way round",
+        if before.is_finite() {
+            before / after
+        } else {
+            f64::INFINITY
+        },
+        chosen.method,
+        chosen.method,
+    ))
+}
