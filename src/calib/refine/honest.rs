@@ -10,7 +10,7 @@
 //! and its quantiles use Student's t with one degree of freedom fewer than the poses.
 
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Matrix6, SymmetricEigen};
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 /// The two-sided 95 % normal quantile.
 const Z_975: f64 = 1.959_963_985;
@@ -141,7 +141,7 @@ pub fn clusters(flanges: &[&Isometry3<f64>], n_residuals: usize) -> Vec<u32> {
         let (q, t) = (f.rotation.coords, f.translation.vector);
         [q.x, q.y, q.z, q.w, t.x, t.y, t.z].map(f64::to_bits)
     };
-    let mut ids: HashMap<[u64; 7], u32> = HashMap::new();
+    let mut ids: FxHashMap<[u64; 7], u32> = FxHashMap::default();
     let mut out = Vec::with_capacity(n_residuals);
     let mut last: Option<(&Isometry3<f64>, u32)> = None;
     for &f in flanges {
