@@ -612,10 +612,47 @@ fn gross_mistakes_are_flagged_and_their_cause_named() {
         wrong > 0,
         "no mistake gave a wrong answer: the cases test nothing"
     );
+    // Every mistake but the turned orientations has a correction that undoes it.
+    let nameable = suspect - rigs.len() * n as usize;
+    assert!(
+        named as f64 >= 0.8 * nameable as f64,
+        "the cause named in {named} of {nameable} suspect results"
+    );
     assert!(
         flagged as f64 >= 0.99 * wrong as f64,
         "{} of {wrong} wrong answers judged ok:\n{}",
         wrong - flagged,
         missed.join("\n")
+    );
+}
+
+#[test]
+fn calibrate_names_mirrored_profiles_and_checks_the_nominal_mounting() {
+    let dir = tempfile::tempdir().unwrap();
+    // The ball's profiles mirrored in x: ball-any-pose fits them with the frame turned 180 deg
+    // about z; the nominal mounting the simulated file states tells it.
+    let mirrored = capture_file(dir.path(), "comparison", "ball", |d| {
+        assert!(d["nominal_flange_to_sensor_mm"].is_array(), "{d}");
+        for p in d["profiles"].as_array_mut().unwrap() {
+            if let Some(pts) = p["points_mm"].as_array_mut() {
+                pts.reverse();
+                for q in pts.iter_mut().filter(|q| q.is_array()) {
+                    q[0] = serde_json::json!(-q[0].as_f64().unwrap());
+                }
+            }
+        }
+    });
+    let (code, out, err) = common::lasercal(&["calibrate", &mirrored]);
+    assert_eq!(code, 3, "{out} {err}");
+    assert!(out.contains("mirrored in x"), "{out}");
+    // A nominal that is no rigid transform: refused, naming the field.
+    let bad = capture_file(dir.path(), "comparison", "edge", |d| {
+        d["nominal_flange_to_sensor_mm"][0][0] = serde_json::json!(2.0);
+    });
+    let (code, _, err) = common::lasercal(&["calibrate", &bad]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("nominal_flange_to_sensor_mm") && err.contains("rotation matrix"),
+        "{err}"
     );
 }

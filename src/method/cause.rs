@@ -212,8 +212,10 @@ pub fn likely_cause(caps: &Captures, sensor: &SensorModel, a: &Assessed) -> Opti
     if caps.edge_sense.is_some() {
         tries.push(Mistake::EdgeSense);
     }
+    // The refits are independent: side by side, collected in the order above.
+    use rayon::prelude::*;
     let mut found: Vec<(Mistake, f64)> = tries
-        .into_iter()
+        .into_par_iter()
         .filter_map(|t| refit(caps, sensor, a, t).map(|r| (t, r)))
         .collect();
     if m.needs_radius()

@@ -451,9 +451,11 @@ pub fn assess_every(
     caps: &Captures,
     sensor: &SensorModel,
 ) -> Vec<(super::MethodId, Result<Assessed, crate::error::Error>)> {
+    // The variants are independent: run side by side (collected in the estimators' order).
+    use rayon::prelude::*;
     caps.method
         .estimators()
-        .iter()
+        .par_iter()
         .map(|&e| {
             let id = super::MethodId::new(caps.method, e);
             (id, assess(id, caps, sensor))
@@ -561,18 +563,30 @@ pub fn leave_one_out(a: &Assessed, caps: &Captures, sensor: &SensorModel) -> Opt
     };
     let (fr, ft) = a.judged.quality.error_bound();
     let mut worst = -1.0;
-    for g in &caps.groups {
-        let mut c = caps.clone();
-        c.groups.retain(|h| h.id != g.id);
-        c.profiles.retain(|p| p.group != g.id);
-        match super::estimate(a.method, &c, sensor) {
+    // Each reduced run is independent: run them side by side, then read them in group order.
+    use rayon::prelude::*;
+    let runs: Vec<_> = caps
+        .groups
+        .par_iter()
+        .map(|g| {
+            let mut c = caps.clone();
+            c.groups.retain(|h| h.id != g.id);
+            c.profiles.retain(|p| p.group != g.id);
+            super::estimate(a.method, &c, sensor).map(|(cal, refined)| {
+                let q = quality(&cal, refined.as_ref(), &c, sensor);
+                (cal, q)
+            })
+        })
+        .collect();
+    for (g, run) in caps.groups.iter().zip(runs) {
+        match run {
             Err(e) => {
                 out.failed += 1;
                 let e = e.to_string();
                 let short = e.split(" | ").next().unwrap_or(&e).to_string();
                 out.carriers.push((g.id, short));
             }
-            Ok((cal, refined)) => {
+            Ok((cal, q)) => {
                 let e = crate::calib::PoseError::between(
                     &cal.flange_to_sensor,
                     &a.calibration.flange_to_sensor,
@@ -585,7 +599,6 @@ pub fn leave_one_out(a: &Assessed, caps: &Captures, sensor: &SensorModel) -> Opt
                     out.translation_mm = e.translation_error_mm;
                     out.group = g.id;
                 }
-                let q = quality(&cal, refined.as_ref(), &c, sensor);
                 let (rr, rt) = q.error_bound();
                 if !(q.condition.is_some_and(|k| k <= MAX_CONDITION))
                     || !(rr.is_finite() && rt.is_finite())
