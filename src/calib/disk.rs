@@ -208,11 +208,14 @@ pub fn sensing_datum(
     let r = radius;
     let den = 4.0 * r * (e1.y - e2.y);
     let num = (t1 - t2).norm_squared() - (e1 - e2).norm_squared() - 4.0 * r * r;
+    // A flat ellipse: the chords seen lie at one depth. That is what the data show (a draw that
+    // lost chords, or a move parallel to the disk, which the move-angle check catches apart), not
+    // the move's angle, which is not measured here.
     if den.abs() < 1e-12 * r * r {
-        return Err(CalibError::ScanParallelToDisk {
-            scan: scan_index,
-            angle_deg: 0.0,
-        });
+        return Err(not_ellipse(&format!(
+            "its tangent points lie at one depth: {m} chords seen, over {:.0} % of the scan",
+            100.0 * (last.u - first.u)
+        )));
     }
     let alpha = (num / den).clamp(-1.0, 1.0).acos();
     // Eq. 12 in the rotated frame, then back.

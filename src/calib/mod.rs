@@ -92,7 +92,9 @@ pub enum CalibError {
         need: usize,
     },
     #[error(
-        "scan {scan}: the chord ends do not trace an ellipse ({reason}); is the scan direction parallel to the disk?"
+        "scan {scan}: the chord ends do not trace an ellipse ({reason}): the scan saw too few \
+         chords across the disk (profiles that missed it, chords clipped by the field of view), or \
+         it moves parallel to the disk"
     )]
     NotAnEllipse { scan: usize, reason: String },
     #[error(
