@@ -650,15 +650,12 @@ fn columns_on_rays(
         .collect()
 }
 
-/// A user's orientation tolerance (deg), checked: finite, above 0 and at most 5 (beyond, "one
-/// orientation" means nothing the protocols rely on).
-/// The verdict's settings a file states, checked; the defaults for the rest.
-/// A 4x4 row-major transform in mm: its 3x3 block must be a rotation (to 1e-3: a printed
-/// matrix's rounding), its last row 0 0 0 1.
+/// A 4x4 row-major transform in mm: its 3x3 block must be a rotation (to 1e-2: a matrix printed
+/// with two decimals passes, and is replaced by the nearest rotation), its last row 0 0 0 1.
 fn transform_of(m: &[[f64; 4]; 4], file: &str, at: &str) -> Result<Isometry3<f64>, FormatError> {
     let r = Matrix3::from_fn(|i, j| m[i][j]);
     let finite = m.iter().flatten().all(|v| v.is_finite());
-    let orthonormal = (r.transpose() * r - Matrix3::identity()).abs().max() < 1e-3;
+    let orthonormal = (r.transpose() * r - Matrix3::identity()).abs().max() < 1e-2;
     let last = m[3] == [0.0, 0.0, 0.0, 1.0];
     if !(finite && orthonormal && last && r.determinant() > 0.0) {
         return Err(err(
@@ -676,6 +673,7 @@ fn transform_of(m: &[[f64; 4]; 4], file: &str, at: &str) -> Result<Isometry3<f64
     ))
 }
 
+/// The verdict's settings a file states, checked; the defaults for the rest.
 fn judging_of(f: &FileV1, file: &str) -> Result<Judging, FormatError> {
     let d = Judging::default();
     let or =
@@ -726,6 +724,8 @@ pub fn robot_accuracy(mm: f64, file: &str, at: &str) -> Result<f64, FormatError>
     }
 }
 
+/// A user's orientation tolerance (deg), checked: finite, above 0 and at most 5 (beyond, "one
+/// orientation" means nothing the protocols rely on).
 pub fn orientation_tolerance(deg: f64, file: &str, at: &str) -> Result<f64, FormatError> {
     if deg.is_finite() && deg > 0.0 && deg <= 5.0 {
         Ok(deg)

@@ -5,7 +5,7 @@
 //! a correction that makes the model fit `CLEARLY_BETTER` times better and no longer suspect
 //! names the cause. Refits cost one calibration each and run only for suspect results.
 
-use super::verdict::{Assessed, CLEARLY_BETTER, Verdict, assess};
+use super::verdict::{Assessed, CLEARLY_BETTER, Verdict, assess, within_bounds};
 use crate::captures::{CaptureProfile, Captures, ProfileData};
 use crate::features::EdgeSense;
 use crate::sensor::SensorModel;
@@ -251,6 +251,18 @@ pub fn mirrored_labels(
         return None;
     }
     let id = super::MethodId::new(caps.method, super::Estimator::ClosedForm);
+    // A closed form that agrees with the kept result says the labels fit: no refit needed.
+    if closed_form.is_some_and(|cf| {
+        cf.judged.verdict != Verdict::Suspect
+            && within_bounds(
+                &cf.calibration.flange_to_sensor,
+                &cf.judged.quality,
+                &chosen.calibration.flange_to_sensor,
+                &chosen.judged.quality,
+            )
+    }) {
+        return None;
+    }
     let before = closed_form
         .filter(|a| a.judged.verdict != Verdict::Suspect)
         .and_then(|a| a.judged.quality.residual_rms_mm)
@@ -265,10 +277,12 @@ pub fn mirrored_labels(
             &nalgebra::Vector3::z_axis(),
             std::f64::consts::PI,
         );
-    let e = crate::calib::PoseError::between(&mirrored.calibration.flange_to_sensor, &turned);
-    let (ar, at) = mirrored.judged.quality.error_bound();
-    let (cr, ct) = chosen.judged.quality.error_bound();
-    if !(e.rotation_error_deg <= ar + cr && e.translation_error_mm <= at + ct) {
+    if !within_bounds(
+        &mirrored.calibration.flange_to_sensor,
+        &mirrored.judged.quality,
+        &turned,
+        &chosen.judged.quality,
+    ) {
         return None;
     }
     let labels = if m.uses_group_signs() {

@@ -674,6 +674,14 @@ impl Judged {
     }
 }
 
+/// Two transforms agree when they differ by no more than their honest 95 % bounds together.
+pub fn within_bounds(x: &Isometry3<f64>, qx: &Quality, y: &Isometry3<f64>, qy: &Quality) -> bool {
+    let e = crate::calib::PoseError::between(x, y);
+    let (xr, xt) = qx.error_bound();
+    let (yr, yt) = qy.error_bound();
+    e.rotation_error_deg <= xr + yr && e.translation_error_mm <= xt + yt
+}
+
 /// The hand-given group signs the data contradict: when the closed form (the one variant that
 /// uses them) is judged suspect or disagrees with `chosen` beyond their honest bounds, each
 /// group's sign is flipped in turn; a flip that makes the closed form agree with `chosen` and fit
@@ -691,15 +699,13 @@ pub fn contradicted_signs(
     }
     let id = super::MethodId::new(caps.method, super::Estimator::ClosedForm);
     let agrees = |a: &Assessed| {
-        let e = crate::calib::PoseError::between(
-            &a.calibration.flange_to_sensor,
-            &chosen.calibration.flange_to_sensor,
-        );
-        let (ar, at) = a.judged.quality.error_bound();
-        let (cr, ct) = chosen.judged.quality.error_bound();
         a.judged.verdict != Verdict::Suspect
-            && e.rotation_error_deg <= ar + cr
-            && e.translation_error_mm <= at + ct
+            && within_bounds(
+                &a.calibration.flange_to_sensor,
+                &a.judged.quality,
+                &chosen.calibration.flange_to_sensor,
+                &chosen.judged.quality,
+            )
     };
     let own;
     let closed_form = match closed_form {
