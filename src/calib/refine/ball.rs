@@ -8,7 +8,7 @@
 //! stalled at their iteration limit (issue 14). The normal residual needs no label.
 
 use super::{Model, Transform, skew};
-use nalgebra::{DMatrix, DVector, Isometry3, Point3, Vector2, Vector3};
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Point3, Vector2, Vector3};
 
 /// The least |n_z| a point's residual is divided by (about 73 deg from the sensor's z).
 const NZ_MIN: f64 = 0.3;
@@ -18,15 +18,6 @@ pub struct BallModel {
     pub radius: f64,
     /// Arc points (sensor x, z) with the flange pose each was seen from.
     pub points: Vec<(Isometry3<f64>, Vector2<f64>)>,
-}
-
-impl BallModel {
-    /// The centre in the sensor frame: s = R^T (F_R^T (c - F_t) - t).
-    fn centre_in_sensor(x: &Transform, f: &Isometry3<f64>, c: &Vector3<f64>) -> Vector3<f64> {
-        let fr = *f.rotation.to_rotation_matrix().matrix();
-        let g = fr.transpose() * (c - f.translation.vector);
-        x.rot.matrix().transpose() * (g - x.t)
-    }
 }
 
 impl Model for BallModel {
@@ -55,12 +46,64 @@ impl Model for BallModel {
         c: &Vector3<f64>,
         _branch: &[f64],
         r: &mut DVector<f64>,
+        j: Option<&mut DMatrix<f64>>,
+    ) {
+        self.rows(x, c, &self.points, r, j);
+    }
+
+    fn eval_part(
+        &self,
+        x: &Transform,
+        c: &Vector3<f64>,
+        _branch: &[f64],
+        part: std::ops::Range<usize>,
+        r: &mut DVector<f64>,
+        j: &mut DMatrix<f64>,
+    ) -> bool {
+        self.rows(x, c, &self.points[part], r, Some(j));
+        true
+    }
+
+    fn step(&self, c: &Vector3<f64>, dx: &[f64]) -> Vector3<f64> {
+        c + Vector3::new(dx[0], dx[1], dx[2])
+    }
+
+    fn centre(&self, c: &Vector3<f64>) -> Option<Point3<f64>> {
+        Some(Point3::from(*c))
+    }
+}
+
+impl BallModel {
+    /// The centre in the sensor frame: s = R^T (F_R^T (c - F_t) - t).
+    fn centre_in_sensor(x: &Transform, f: &Isometry3<f64>, c: &Vector3<f64>) -> Vector3<f64> {
+        let fr = *f.rotation.to_rotation_matrix().matrix();
+        let g = fr.transpose() * (c - f.translation.vector);
+        x.rot.matrix().transpose() * (g - x.t)
+    }
+
+    /// Rows 0.. of `r` (and `j`) for `points`.
+    fn rows(
+        &self,
+        x: &Transform,
+        c: &Vector3<f64>,
+        points: &[(Isometry3<f64>, Vector2<f64>)],
+        r: &mut DVector<f64>,
         mut j: Option<&mut DMatrix<f64>>,
     ) {
         let rmat = *x.rot.matrix();
-        for (i, (f, p)) in self.points.iter().enumerate() {
-            let fr = *f.rotation.to_rotation_matrix().matrix();
-            let s = Self::centre_in_sensor(x, f, c);
+        // An arc's points share their flange pose: its rotation matrix and the centre in the
+        // sensor frame are computed once per run of one pose (the same values, the same bits).
+        let mut last: Option<(&Isometry3<f64>, Matrix3<f64>, Vector3<f64>)> = None;
+        for (i, (f, p)) in points.iter().enumerate() {
+            let (fr, s) = match last {
+                Some((g, fr, s)) if std::ptr::eq(g, f) || g == f => (fr, s),
+                _ => {
+                    let fr = *f.rotation.to_rotation_matrix().matrix();
+                    let s = Self::centre_in_sensor(x, f, c);
+                    last = Some((f, fr, s));
+                    (fr, s)
+                }
+            };
             let v = Vector3::new(p.x, 0.0, p.y) - s;
             let dist = v.norm().max(1e-12);
             let g = dist - self.radius;
@@ -90,13 +133,5 @@ impl Model for BallModel {
                 }
             }
         }
-    }
-
-    fn step(&self, c: &Vector3<f64>, dx: &[f64]) -> Vector3<f64> {
-        c + Vector3::new(dx[0], dx[1], dx[2])
-    }
-
-    fn centre(&self, c: &Vector3<f64>) -> Option<Point3<f64>> {
-        Some(Point3::from(*c))
     }
 }

@@ -52,44 +52,33 @@ impl Honest {
         }
     }
 
-    /// From J^T J (`a`), the residuals, J, the columns the fit uses and the residual-level
-    /// covariance `cov` (6x6), with each residual's cluster (`clusters`; empty: none).
+    /// From the inverse of J^T J over the columns the fit uses (`inv`; None: singular), the
+    /// fit's sums (`super::Sums`: each cluster's score among them), those columns and the
+    /// residual-level covariance `cov` (6x6).
     pub fn of(
-        a: &DMatrix<f64>,
-        r: &DVector<f64>,
-        j: &DMatrix<f64>,
+        inv: Option<&DMatrix<f64>>,
+        sums: &super::Sums,
         used: &[usize],
         cov: &Matrix6<f64>,
-        clusters: &[u32],
     ) -> Honest {
-        let (n, p) = (r.len(), used.len());
+        let (n, p, g) = (sums.n, used.len(), sums.scores.ncols());
         let alone = Honest {
             covariance: *cov,
             clusters: 0,
             dof: n.saturating_sub(p).max(1),
             inflation: 1.0,
         };
-        let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
-        if clusters.len() != n || g < 2 || n <= p || !cov.iter().all(|v| v.is_finite()) {
+        if g < 2 || n <= p || !cov.iter().all(|v| v.is_finite()) {
             return alone;
         }
-        let au = a.select_rows(used).select_columns(used);
-        let Some(inv) = au.try_inverse() else {
+        let Some(inv) = inv else {
             return alone;
         };
-        // Each pose's score J_c^T r_c, then their outer products.
-        let mut scores = DMatrix::<f64>::zeros(p, g);
-        let jn = j.nrows();
-        for (k, &c) in used.iter().enumerate() {
-            let col = &j.as_slice()[c * jn..(c + 1) * jn];
-            for ((v, ri), &cl) in col.iter().zip(r.iter()).zip(clusters) {
-                scores[(k, cl as usize)] += v * ri;
-            }
-        }
+        let scores = sums.scores.select_rows(used);
         let meat = &scores * scores.transpose();
         // The small-sample factor of the clustered sandwich (CR1).
         let factor = (g as f64 / (g - 1) as f64) * ((n - 1) as f64 / (n - p) as f64);
-        let full = &inv * meat * &inv * factor;
+        let full = inv * meat * inv * factor;
         let clustered = Matrix6::from_fn(|r, c| full[(r, c)]);
         let (covariance, inflation) = larger_of(cov, &clustered);
         Honest {
@@ -131,6 +120,38 @@ impl Honest {
     }
 }
 
+/// Each cluster's score J_c^T r_c over every column of J (p x `g`): summed over runs of one
+/// cluster (a pose's residuals are consecutive as a rule), each run in row order. No clusters
+/// (`clusters` not one per residual): p x 0.
+pub fn scores(r: &DVector<f64>, j: &DMatrix<f64>, clusters: &[u32], g: usize) -> DMatrix<f64> {
+    let (n, p) = (r.len(), j.ncols());
+    if clusters.len() != n || n == 0 {
+        return DMatrix::zeros(p, 0);
+    }
+    let mut runs: Vec<(usize, usize, usize)> = Vec::new();
+    let mut start = 0;
+    for i in 1..=n {
+        if i == n || clusters[i] != clusters[start] {
+            runs.push((start, i, clusters[start] as usize));
+            start = i;
+        }
+    }
+    let mut sums = vec![0.0; p * g];
+    let rs = r.as_slice();
+    for k in 0..p {
+        let col = &j.as_slice()[k * n..(k + 1) * n];
+        for &(a, b, cl) in &runs {
+            // Runs are short (a chord end's rows): a plain sum, in row order.
+            let mut sum = 0.0;
+            for (v, ri) in col[a..b].iter().zip(&rs[a..b]) {
+                sum += v * ri;
+            }
+            sums[cl * p + k] += sum;
+        }
+    }
+    DMatrix::from_column_slice(p, g, &sums)
+}
+
 /// Each residual's cluster: residuals seen from one flange pose (bit for bit) share a number.
 /// Empty when the poses are not known or not one per residual.
 pub fn clusters(flanges: &[&Isometry3<f64>], n_residuals: usize) -> Vec<u32> {
@@ -141,7 +162,9 @@ pub fn clusters(flanges: &[&Isometry3<f64>], n_residuals: usize) -> Vec<u32> {
         let (q, t) = (f.rotation.coords, f.translation.vector);
         [q.x, q.y, q.z, q.w, t.x, t.y, t.z].map(f64::to_bits)
     };
-    let mut ids: FxHashMap<[u64; 7], u32> = FxHashMap::default();
+    // Room for a pose per four residuals (a disk chord's two ends): rarely a rehash.
+    let mut ids: FxHashMap<[u64; 7], u32> =
+        FxHashMap::with_capacity_and_hasher((n_residuals / 4).min(1 << 16), Default::default());
     let mut out = Vec::with_capacity(n_residuals);
     let mut last: Option<(&Isometry3<f64>, u32)> = None;
     for &f in flanges {
@@ -309,7 +332,8 @@ mod tests {
         }
         let full = &inv * meat * &inv;
         let cov = Matrix6::from_fn(|a, b| full[(a, b)]);
-        let h = Honest::of(&a, &r, &j, &used, &cov, &cl);
+        let sums = super::super::Sums::of(&r, &j, &cl, 20);
+        let h = Honest::of(Some(&inv), &sums, &used, &cov);
         assert_eq!((h.clusters, h.dof), (20, 19));
         // sd of the mean of 20 pose shifts of +-1: about 1 / sqrt(20), against about
         // 1 / sqrt(1000) at the residual level.

@@ -162,6 +162,22 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
         j: Option<&mut DMatrix<f64>>,
     );
 
+    /// Residuals and Jacobian rows of the features `part` only, into the first rows of `r` and
+    /// `j` (sized for them): the verdict streams a tall problem in parts instead of forming its
+    /// whole Jacobian. False: the model cannot (its features are of several kinds), and is
+    /// evaluated whole.
+    fn eval_part(
+        &self,
+        _x: &Transform,
+        _s: &Self::Specimen,
+        _labels: &[f64],
+        _part: std::ops::Range<usize>,
+        _r: &mut DVector<f64>,
+        _j: &mut DMatrix<f64>,
+    ) -> bool {
+        false
+    }
+
     /// The specimen after a step `dx` of its parameters.
     fn step(&self, s: &Self::Specimen, dx: &[f64]) -> Self::Specimen;
 
@@ -275,7 +291,59 @@ pub trait Refinable: Send + Sync + fmt::Debug {
     fn n_params(&self) -> usize;
     /// Each residual's cluster (its flange pose), numbered from 0 (`honest::clusters`).
     fn clusters(&self) -> Vec<u32>;
+    /// The sums the figures at `x` need (`Sums`), streamed in parts where the problem is tall.
+    fn sums(&self, x: &Isometry3<f64>) -> Sums;
 }
+
+/// What a fit's figures need from its residuals r and Jacobian J, summed over the rows: J^T J,
+/// J^T r, sum r_i^2 J_i^T J_i and each cluster's score J_c^T r_c (every column), r^T r and the
+/// number of rows. A tall problem is summed part by part and J is never whole.
+#[derive(Debug, Clone)]
+pub struct Sums {
+    pub ata: DMatrix<f64>,
+    pub atr: DVector<f64>,
+    pub meat: DMatrix<f64>,
+    /// p x clusters (0 columns: no clusters).
+    pub scores: DMatrix<f64>,
+    pub rss: f64,
+    pub n: usize,
+}
+
+impl Sums {
+    /// Of rows `r`, `j` whose clusters are `clusters` (empty: none), `g` clusters in all.
+    fn of(r: &DVector<f64>, j: &DMatrix<f64>, clusters: &[u32], g: usize) -> Sums {
+        Sums {
+            ata: ata(j),
+            ..Sums::of_without_ata(r, j, clusters, g)
+        }
+    }
+
+    /// `of` with J^T J left empty, for a caller that has it already.
+    fn of_without_ata(r: &DVector<f64>, j: &DMatrix<f64>, clusters: &[u32], g: usize) -> Sums {
+        let all: Vec<usize> = (0..j.ncols()).collect();
+        Sums {
+            ata: DMatrix::zeros(0, 0),
+            atr: atb(j, r),
+            meat: ata_scaled(j, &all, r),
+            scores: honest::scores(r, j, clusters, g),
+            rss: r.norm_squared(),
+            n: r.len(),
+        }
+    }
+
+    fn add(&mut self, o: Sums) {
+        self.ata += o.ata;
+        self.atr += o.atr;
+        self.meat += o.meat;
+        self.scores += o.scores;
+        self.rss += o.rss;
+        self.n += o.n;
+    }
+}
+
+/// Rows per part when a problem's sums are streamed (`Refinable::sums`): a part's Jacobian is
+/// a few hundred kB, a tall problem's whole one was tens of MB per trial.
+const PART_ROWS: usize = 4096;
 
 /// A model with its starting specimen estimate.
 #[derive(Debug, Clone)]
@@ -333,6 +401,48 @@ impl<M: Model + 'static> Refinable for Problem<M> {
     fn clusters(&self) -> Vec<u32> {
         honest::clusters(&self.model.residual_flanges(), self.model.n_residuals())
     }
+    fn sums(&self, x: &Isometry3<f64>) -> Sums {
+        let clusters = self.clusters();
+        let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
+        let x = Transform::from_isometry(x);
+        let m = &self.model;
+        let labels = m.labels(&x, &self.specimen);
+        let whole = || {
+            let (r, j) = eval(m, &x, &self.specimen, &labels, true);
+            Sums::of(&r, &j, &clusters, g)
+        };
+        let (n, per) = (m.n_residuals(), m.residuals_per_feature());
+        let features = (PART_ROWS / per).max(1);
+        if n <= PART_ROWS || m.n_features() * per != n {
+            return whole();
+        }
+        let mut total: Option<Sums> = None;
+        let (mut r, mut j) = (DVector::zeros(0), DMatrix::zeros(0, 0));
+        for start in (0..m.n_features()).step_by(features) {
+            let part = start..(start + features).min(m.n_features());
+            let rows = part.len() * per;
+            if r.len() != rows {
+                r = DVector::zeros(rows);
+                j = DMatrix::zeros(rows, self.n_params());
+            } else {
+                j.as_mut_slice().fill(0.0);
+            }
+            if !m.eval_part(&x, &self.specimen, &labels, part.clone(), &mut r, &mut j) {
+                return whole();
+            }
+            let cl = if clusters.is_empty() {
+                &[][..]
+            } else {
+                &clusters[start * per..start * per + rows]
+            };
+            let sums = Sums::of(&r, &j, cl, g);
+            match total.as_mut() {
+                Some(t) => t.add(sums),
+                None => total = Some(sums),
+            }
+        }
+        total.unwrap_or_else(whole)
+    }
 }
 
 /// Characteristic length that puts rotations and translations on one scale (m).
@@ -349,14 +459,41 @@ fn ata(j: &DMatrix<f64>) -> DMatrix<f64> {
 /// J^T B for B of J's shape whose product is symmetric (J^T W J, B = W J).
 fn atb_sym(j: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
     let (cj, cb) = (columns(j, 0..j.ncols()), columns(b, 0..b.ncols()));
-    gram(&cj, &cb, j.as_slice(), |x, y, _| x * y)
+    gram(&cj, &cb)
 }
 
-/// (J r)^T (J r) over the columns `cols` of J, each row scaled by its residual, without the
-/// scaled copy.
+/// (J r)^T (J r) over the columns `cols` of J, each row scaled by its residual: block by block
+/// into a small scratch (a scaled copy of a tall J would be its size again), the same bits as
+/// `gram` of the scaled copy.
 fn ata_scaled(j: &DMatrix<f64>, cols: &[usize], r: &DVector<f64>) -> DMatrix<f64> {
     let cols = columns(j, cols.iter().copied());
-    gram(&cols, &cols, r.as_slice(), |x, y, s| (x * s) * (y * s))
+    let (p, n, s) = (cols.len(), j.nrows(), r.as_slice());
+    let body = n - n % 8;
+    let pairs = pairs(p);
+    let mut acc = vec![[0.0f64; 8]; pairs.len()];
+    let mut scratch = vec![0.0; p * GRAM_BLOCK];
+    let mut from = 0;
+    while from < body {
+        let to = (from + GRAM_BLOCK).min(body);
+        let len = to - from;
+        for (c, col) in cols.iter().enumerate() {
+            for ((o, x), w) in scratch[c * len..(c + 1) * len]
+                .iter_mut()
+                .zip(&col[from..to])
+                .zip(&s[from..to])
+            {
+                *o = x * w;
+            }
+        }
+        let block: Vec<&[f64]> = (0..p).map(|c| &scratch[c * len..(c + 1) * len]).collect();
+        add_block(&mut acc, &pairs, &block, &block);
+        from = to;
+    }
+    finish(&acc, &pairs, p, |c, d| {
+        (body..n)
+            .map(|i| (cols[c][i] * s[i]) * (cols[d][i] * s[i]))
+            .sum()
+    })
 }
 
 /// The columns `which` of J as contiguous slices.
@@ -368,46 +505,58 @@ fn columns(j: &DMatrix<f64>, which: impl Iterator<Item = usize>) -> Vec<&[f64]> 
 /// Rows per block of `gram`: twelve columns' blocks (48 kB) stay in cache for all 78 pairs.
 const GRAM_BLOCK: usize = 512;
 
-/// The symmetric matrix of sum_i prod(a_c[i], b_d[i], s[i]) over every pair of columns c <= d,
-/// mirrored. Blocked over rows, so a tall J is read from memory once rather than once per pair;
-/// each pair keeps eight partial sums, its remainder's sum and their order as `dot` has them
-/// (the same bits whatever the block size).
-fn gram(
-    a: &[&[f64]],
-    b: &[&[f64]],
-    s: &[f64],
-    prod: impl Fn(f64, f64, f64) -> f64,
-) -> DMatrix<f64> {
+/// Every pair of columns c <= d of p.
+fn pairs(p: usize) -> Vec<(usize, usize)> {
+    (0..p).flat_map(|c| (c..p).map(move |d| (c, d))).collect()
+}
+
+/// The symmetric matrix of sum_i a_c[i] b_d[i] over every pair of columns c <= d, mirrored.
+/// Blocked over rows, so a tall J is read from memory once rather than once per pair; each pair
+/// keeps eight partial sums, its remainder's sum and their order as `dot` has them (the same bits
+/// whatever the block size).
+fn gram(a: &[&[f64]], b: &[&[f64]]) -> DMatrix<f64> {
     let p = a.len();
     let n = a.first().map_or(0, |c| c.len());
     let body = n - n % 8;
-    let pairs: Vec<(usize, usize)> = (0..p).flat_map(|c| (c..p).map(move |d| (c, d))).collect();
+    let pairs = pairs(p);
     let mut acc = vec![[0.0f64; 8]; pairs.len()];
     let mut from = 0;
     while from < body {
         let to = (from + GRAM_BLOCK).min(body);
-        let sb = &s[from..to];
-        for (acc, &(c, d)) in acc.iter_mut().zip(&pairs) {
-            let (ca, cb) = (&a[c][from..to], &b[d][from..to]);
-            // A local copy of the sums, which the compiler keeps in registers.
-            let mut sums = *acc;
-            for ((x, y), w) in ca
-                .chunks_exact(8)
-                .zip(cb.chunks_exact(8))
-                .zip(sb.chunks_exact(8))
-            {
-                for k in 0..8 {
-                    sums[k] += prod(x[k], y[k], w[k]);
-                }
-            }
-            *acc = sums;
-        }
+        let ba: Vec<&[f64]> = a.iter().map(|c| &c[from..to]).collect();
+        let bb: Vec<&[f64]> = b.iter().map(|c| &c[from..to]).collect();
+        add_block(&mut acc, &pairs, &ba, &bb);
         from = to;
     }
+    finish(&acc, &pairs, p, |c, d| {
+        (body..n).map(|i| a[c][i] * b[d][i]).sum()
+    })
+}
+
+/// Adds one block of rows (a multiple of 8) to each pair's eight partial sums.
+fn add_block(acc: &mut [[f64; 8]], pairs: &[(usize, usize)], a: &[&[f64]], b: &[&[f64]]) {
+    for (acc, &(c, d)) in acc.iter_mut().zip(pairs) {
+        // A local copy of the sums, which the compiler keeps in registers.
+        let mut sums = *acc;
+        for (x, y) in a[c].chunks_exact(8).zip(b[d].chunks_exact(8)) {
+            for k in 0..8 {
+                sums[k] += x[k] * y[k];
+            }
+        }
+        *acc = sums;
+    }
+}
+
+/// The p x p symmetric matrix from each pair's partial sums and its remainder (`tail`).
+fn finish(
+    acc: &[[f64; 8]],
+    pairs: &[(usize, usize)],
+    p: usize,
+    tail: impl Fn(usize, usize) -> f64,
+) -> DMatrix<f64> {
     let mut out = DMatrix::zeros(p, p);
-    for (acc, &(c, d)) in acc.iter().zip(&pairs) {
-        let tail: f64 = (body..n).map(|i| prod(a[c][i], b[d][i], s[i])).sum();
-        let v = acc.iter().sum::<f64>() + tail;
+    for (acc, &(c, d)) in acc.iter().zip(pairs) {
+        let v = acc.iter().sum::<f64>() + tail(c, d);
         out[(c, d)] = v;
         out[(d, c)] = v;
     }
@@ -689,8 +838,15 @@ pub fn refine<M: Model>(
         Some(a) if a.nrows() == j.ncols() => a,
         _ => ata(&j),
     };
-    let cov = covariance_from(&a, &r, &j);
-    let honest = honest_from(&a, &r, &j, &cov, model);
+    let clusters = honest::clusters(&model.residual_flanges(), r.len());
+    let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
+    let sums = Sums {
+        ata: a,
+        ..Sums::of_without_ata(&r, &j, &clusters, g)
+    };
+    let normal = Normal::of(&sums.ata);
+    let cov = covariance_from(&normal, &sums);
+    let honest = honest::Honest::of(normal.inverse(), &sums, &normal.used, &cov);
     let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
     Ok((
         Refined {
@@ -719,21 +875,19 @@ pub fn refine<M: Model>(
 /// step towards the least-squares fit (rotation rad in the sensor frame, translation m): how far
 /// the transform is from the best fit of its own data.
 pub fn assess(p: &dyn Refinable, x: &Isometry3<f64>, status: Status) -> (Refined, Vector6<f64>) {
-    let (r, j) = p.residuals_and_jacobian(x);
+    let sums = p.sums(x);
     // J^T J once: the covariance, the observability and the step all start from it.
-    let a = ata(&j);
-    let clusters = p.clusters();
+    let normal = Normal::of(&sums.ata);
     (
-        figures_of(&a, &r, &j, x, status, &clusters),
-        gauss_newton_step(&a, &r, &j),
+        figures_of(&sums, &normal, p.n_params(), x, status),
+        gauss_newton_step(&sums, &normal),
     )
 }
 
-fn gauss_newton_step(a: &DMatrix<f64>, r: &DVector<f64>, j: &DMatrix<f64>) -> Vector6<f64> {
-    let used = used_columns(a);
-    let a = a.select_rows(&used).select_columns(&used);
-    let g_all = atb(j, r);
-    let g = DVector::from_fn(used.len(), |i, _| g_all[used[i]]);
+fn gauss_newton_step(sums: &Sums, normal: &Normal) -> Vector6<f64> {
+    let used = &normal.used;
+    let g = DVector::from_fn(used.len(), |i, _| sums.atr[used[i]]);
+    let a = sums.ata.select_rows(used).select_columns(used);
     // Scaled so that one ill-scaled parameter does not spoil the solve; a singular system has
     // no step to speak of (the observability figures say why).
     let d: Vec<f64> = (0..a.nrows())
@@ -748,46 +902,33 @@ fn gauss_newton_step(a: &DMatrix<f64>, r: &DVector<f64>, j: &DMatrix<f64>) -> Ve
 }
 
 fn figures_of(
-    a: &DMatrix<f64>,
-    r: &DVector<f64>,
-    j: &DMatrix<f64>,
+    sums: &Sums,
+    normal: &Normal,
+    n_params: usize,
     x: &Isometry3<f64>,
     status: Status,
-    clusters: &[u32],
 ) -> Refined {
-    let n = r.len();
-    let cov = covariance_from(a, r, j);
-    let honest = honest::Honest::of(a, r, j, &used_columns(a), &cov, clusters);
+    let n = sums.n;
+    let cov = covariance_from(normal, sums);
+    let honest = honest::Honest::of(normal.inverse(), sums, &normal.used, &cov);
     let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
-    let cost = r.norm_squared() / 2.0;
+    let cost = sums.rss / 2.0;
     Refined {
         flange_to_sensor: *x,
         centre: None,
         status,
         initial_cost: cost,
         cost,
-        residual_rms: (r.norm_squared() / n.max(1) as f64).sqrt(),
+        residual_rms: (sums.rss / n.max(1) as f64).sqrt(),
         n_residuals: n,
-        n_params: j.ncols(),
+        n_params,
         covariance: cov,
         sd_rotation_deg: Vector3::new(sd(0), sd(1), sd(2)).map(f64::to_degrees),
         sd_translation_mm: Vector3::new(sd(3), sd(4), sd(5)) * 1e3,
-        observability: observability_from(a.clone()),
+        observability: observability_from(sums.ata.clone()),
         slant: None,
         honest,
     }
-}
-
-/// `honest::Honest` of a model's fit.
-fn honest_from<M: Model>(
-    a: &DMatrix<f64>,
-    r: &DVector<f64>,
-    j: &DMatrix<f64>,
-    cov: &Matrix6<f64>,
-    model: &M,
-) -> honest::Honest {
-    let clusters = honest::clusters(&model.residual_flanges(), r.len());
-    honest::Honest::of(a, r, j, &used_columns(a), cov, &clusters)
 }
 
 /// 1.4826 times the median absolute residual: a robust standard deviation.
@@ -912,10 +1053,6 @@ fn minimise<M: Model>(
     }
 }
 
-/// The transform block of the sandwich covariance A^-1 (sum J_i^T r_i^2 J_i) A^-1 (A = J^T J),
-/// with the small-sample factor N / (N - p): consistent when residuals have unequal variances (a
-/// chord end's distance from the rim is noisier than its distance from the disk plane).
-
 /// The parameters the residuals depend on: every transform one, and a specimen parameter only
 /// when its column of J is not all zero (a bar's edge whose every crossing falls inside its
 /// censored gap carries no information), read off the diagonal of J^T J.
@@ -925,21 +1062,36 @@ fn used_columns(a: &DMatrix<f64>) -> Vec<usize> {
         .collect()
 }
 
-/// The sandwich covariance from J^T J (computed once by the caller), the residuals and J.
-fn covariance_from(a: &DMatrix<f64>, r: &DVector<f64>, j: &DMatrix<f64>) -> Matrix6<f64> {
-    let used = used_columns(a);
-    let (n, p) = (j.nrows(), used.len());
-    if n <= p {
-        return Matrix6::from_element(f64::INFINITY);
+/// The parameters the fit uses and the inverse of J^T J over them (None: singular), computed
+/// once for the covariance, the honest covariance and the Gauss-Newton step.
+pub(crate) struct Normal {
+    pub used: Vec<usize>,
+    inv: Option<DMatrix<f64>>,
+}
+
+impl Normal {
+    fn of(a: &DMatrix<f64>) -> Normal {
+        let used = used_columns(a);
+        let inv = a.select_rows(&used).select_columns(&used).try_inverse();
+        Normal { used, inv }
     }
-    let a = a.select_rows(&used).select_columns(&used);
-    let Some(inv) = a.try_inverse() else {
+
+    pub fn inverse(&self) -> Option<&DMatrix<f64>> {
+        self.inv.as_ref()
+    }
+}
+
+/// The transform block of the sandwich covariance A^-1 (sum J_i^T r_i^2 J_i) A^-1 (A = J^T J),
+/// with the small-sample factor N / (N - p): consistent when residuals have unequal variances (a
+/// chord end's distance from the rim is noisier than its distance from the disk plane).
+fn covariance_from(normal: &Normal, sums: &Sums) -> Matrix6<f64> {
+    let (n, p) = (sums.n, normal.used.len());
+    let Some(inv) = normal.inverse().filter(|_| n > p) else {
         return Matrix6::from_element(f64::INFINITY);
     };
-    // sum_i J_i^T r_i^2 J_i over the used columns: (J r)^T (J r), without a scaled copy of J (with
-    // tens of thousands of arc points the copy's allocation was a fifth of a trial).
-    let b = ata_scaled(j, &used, r);
-    let full = &inv * b * &inv * (n as f64 / (n - p) as f64);
+    let used = &normal.used;
+    let b = sums.meat.select_rows(used).select_columns(used);
+    let full = inv * b * inv * (n as f64 / (n - p) as f64);
     Matrix6::from_fn(|r, c| full[(r, c)])
 }
 
