@@ -80,11 +80,10 @@ pub fn solve(views: &[ArcView], radius: f64) -> Result<AnyPose, CalibError> {
         .map(|r| normal.best_sides(views, &h, &r))
         .collect();
     starts.sort_by(|a, b| a.cost.total_cmp(&b.cost));
-    let points: Vec<(Isometry3<f64>, Vector2<f64>)> = views
-        .iter()
-        .flat_map(|v| v.points.iter().map(move |p| (v.base_to_flange, *p)))
-        .collect();
-    let model = BallModel { radius, points };
+    let mut model = BallModel::new(radius);
+    for v in views {
+        model.add(&v.base_to_flange, v.points.iter().copied());
+    }
     let mut best: Option<AnyPose> = None;
     // The best few distinct starts: a wrong one that fits (1) nearly as well is refined too, and
     // the joint refinement's cost decides.

@@ -401,20 +401,16 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         .specimen_radius
         .ok_or(CaptureError::MissingRadius { method: Kind::Ball })?;
     let (mut rotation_set, mut translation_set) = (Vec::new(), Vec::new());
-    let mut arc_points = Some(Vec::new());
+    let mut arc_points = Some(BallModel::new(radius));
     for g in &c.groups {
         let mut centres = Vec::new();
         for p in c.group_profiles(g.id) {
             let circle = circle_of(g, p, radius, &cfg)?;
             match (&p.data, &mut arc_points) {
-                (ProfileData::Arc(a), Some(all)) => {
-                    all.extend(a.iter().map(|q| (p.base_to_flange, *q)))
+                (ProfileData::Arc(a), Some(all)) => all.add(&p.base_to_flange, a.iter().copied()),
+                (ProfileData::Raw(prof), Some(all)) => {
+                    all.add(&p.base_to_flange, features::arc_points(prof, &circle))
                 }
-                (ProfileData::Raw(prof), Some(all)) => all.extend(
-                    features::arc_points(prof, &circle)
-                        .into_iter()
-                        .map(|q| (p.base_to_flange, q)),
-                ),
                 _ => arc_points = None,
             }
             if g.sign != 1.0 && g.sign != -1.0 {
@@ -454,9 +450,9 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     })?;
     Ok(super::Calibration {
         full_profile: None,
-        refinable: arc_points.map(|points| {
+        refinable: arc_points.map(|model| {
             std::sync::Arc::new(Problem {
-                model: BallModel { radius, points },
+                model,
                 specimen: sol.centre_in_base,
             }) as std::sync::Arc<dyn crate::calib::refine::Refinable>
         }),

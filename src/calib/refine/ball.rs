@@ -16,8 +16,11 @@ const NZ_MIN: f64 = 0.3;
 #[derive(Debug, Clone, PartialEq)]
 pub struct BallModel {
     pub radius: f64,
-    /// Arc points (sensor x, z) with the flange pose each was seen from.
-    pub points: Vec<(Isometry3<f64>, Vector2<f64>)>,
+    /// The flange poses the arcs were seen from.
+    poses: Vec<Isometry3<f64>>,
+    /// Arc points (sensor x, z) with the index of their pose: a pose per point was three
+    /// times the size, and a Fig. 17 trial holds hundreds of thousands of points.
+    points: Vec<(u32, Vector2<f64>)>,
 }
 
 impl Model for BallModel {
@@ -37,7 +40,10 @@ impl Model for BallModel {
     }
 
     fn residual_flanges(&self) -> Vec<&Isometry3<f64>> {
-        self.points.iter().map(|(f, _)| f).collect()
+        self.points
+            .iter()
+            .map(|(k, _)| &self.poses[*k as usize])
+            .collect()
     }
 
     fn eval(
@@ -74,6 +80,23 @@ impl Model for BallModel {
 }
 
 impl BallModel {
+    pub fn new(radius: f64) -> BallModel {
+        BallModel {
+            radius,
+            poses: Vec::new(),
+            points: Vec::new(),
+        }
+    }
+
+    /// Adds arc points seen from the flange pose `f`.
+    pub fn add(&mut self, f: &Isometry3<f64>, points: impl IntoIterator<Item = Vector2<f64>>) {
+        if self.poses.last() != Some(f) {
+            self.poses.push(*f);
+        }
+        let k = (self.poses.len() - 1) as u32;
+        self.points.extend(points.into_iter().map(|p| (k, p)));
+    }
+
     /// The centre in the sensor frame: s = R^T (F_R^T (c - F_t) - t).
     fn centre_in_sensor(x: &Transform, f: &Isometry3<f64>, c: &Vector3<f64>) -> Vector3<f64> {
         let fr = *f.rotation.to_rotation_matrix().matrix();
@@ -86,21 +109,22 @@ impl BallModel {
         &self,
         x: &Transform,
         c: &Vector3<f64>,
-        points: &[(Isometry3<f64>, Vector2<f64>)],
+        points: &[(u32, Vector2<f64>)],
         r: &mut DVector<f64>,
         mut j: Option<&mut DMatrix<f64>>,
     ) {
         let rmat = *x.rot.matrix();
         // An arc's points share their flange pose: its rotation matrix and the centre in the
         // sensor frame are computed once per run of one pose (the same values, the same bits).
-        let mut last: Option<(&Isometry3<f64>, Matrix3<f64>, Vector3<f64>)> = None;
-        for (i, (f, p)) in points.iter().enumerate() {
+        let mut last: Option<(u32, Matrix3<f64>, Vector3<f64>)> = None;
+        for (i, (k, p)) in points.iter().enumerate() {
             let (fr, s) = match last {
-                Some((g, fr, s)) if std::ptr::eq(g, f) || g == f => (fr, s),
+                Some((l, fr, s)) if l == *k => (fr, s),
                 _ => {
+                    let f = &self.poses[*k as usize];
                     let fr = *f.rotation.to_rotation_matrix().matrix();
                     let s = Self::centre_in_sensor(x, f, c);
-                    last = Some((f, fr, s));
+                    last = Some((*k, fr, s));
                     (fr, s)
                 }
             };
@@ -124,8 +148,9 @@ impl BallModel {
                 };
                 let dr_ds = -(dg / w - dw * (g / (w * w)));
                 let dw = dr_ds.transpose() * skew(&s);
-                let dt = -(dr_ds.transpose() * rmat.transpose());
-                let dc = dr_ds.transpose() * rmat.transpose() * fr.transpose();
+                let u = dr_ds.transpose() * rmat.transpose();
+                let dt = -u;
+                let dc = u * fr.transpose();
                 for k in 0..3 {
                     j[(i, k)] = dw[k];
                     j[(i, 3 + k)] = dt[k];

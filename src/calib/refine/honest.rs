@@ -141,12 +141,9 @@ pub fn scores(r: &DVector<f64>, j: &DMatrix<f64>, clusters: &[u32], g: usize) ->
     for k in 0..p {
         let col = &j.as_slice()[k * n..(k + 1) * n];
         for &(a, b, cl) in &runs {
-            // Runs are short (a chord end's rows): a plain sum, in row order.
-            let mut sum = 0.0;
-            for (v, ri) in col[a..b].iter().zip(&rs[a..b]) {
-                sum += v * ri;
-            }
-            sums[cl * p + k] += sum;
+            // `dot`: a short run (a chord end's rows) is summed in row order, a long one (an
+            // arc's points) with eight partial sums.
+            sums[cl * p + k] += super::dot(&col[a..b], &rs[a..b]);
         }
     }
     DMatrix::from_column_slice(p, g, &sums)

@@ -571,7 +571,7 @@ fn atb(a: &DMatrix<f64>, r: &DVector<f64>) -> DVector<f64> {
 }
 
 /// Dot product with eight independent partial sums (lets the compiler vectorise it).
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     let mut acc = [0.0; 8];
     let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
     let tail: f64 = ca
