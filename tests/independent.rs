@@ -1069,3 +1069,107 @@ fn ball_refinement_converges_on_independent_profiles() {
         assert!(refined < 0.2 * closed, "{refined} vs {closed}");
     }
 }
+
+/// The verdict on the papers' own protocols as another generator makes them: the disk paper's
+/// four scans and its ball's rotation and translation sets, every profile from `testkit::fan`
+/// (its own fan, declared as docs/sensors.md says) with z noise 0.1 mm; once with an exact arm
+/// and once with robot pose error (each profile cast from a pose moved up to 0.3 mm and
+/// 0.017 deg, the file recording the commanded pose and stating 0.2 mm of robot accuracy). Every
+/// variant run and judged as `calibrate` does (`verdict::decide`). Counts right answers called
+/// suspect (false alarms), wrong answers (more than 1 deg or 1 mm off) judged ok, and how often
+/// the chosen result's 95 % bound holds its error. Trials per case:
+/// `LASERCAL_INDEPENDENT_TRIALS` (default 2; docs/verdict.md has a release run of 100).
+#[test]
+fn the_verdict_on_the_papers_protocols_from_another_generator() {
+    use lasercal::calib::PoseError;
+    use lasercal::method::verdict::{Verdict, decide};
+    let n: u64 = std::env::var("LASERCAL_INDEPENDENT_TRIALS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(2);
+    let cases: [(&str, Kind, fn() -> (Setup, Fan, Vec<Solid>)); 2] = [
+        ("disk", Kind::Disk, disk_case),
+        ("ball", Kind::Ball, ball_case),
+    ];
+    let (mut false_alarms, mut missed) = (Vec::new(), Vec::new());
+    println!(
+        "| specimen | robot error | results | right | suspect of right | wrong | wrong judged ok | refused | covered |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for (name, kind, case) in cases {
+        let (s, fan, solids) = case();
+        let sensor = with_sigma(&common::declared(&fan, "fan-295"), 0.1);
+        for (robot_mm, stated_mm) in [(0.0, 0.0), (0.3, 0.2)] {
+            let mut row = [0usize; 7];
+            for t in 0..n {
+                let caps = trial_captures(&s, kind, 27, t).0.unwrap();
+                let mut moved = caps.clone();
+                let mut g = lasercal::testkit::rng(5000 + t);
+                if robot_mm > 0.0 {
+                    for p in &mut moved.profiles {
+                        p.base_to_flange = lasercal::testkit::perturb(
+                            &mut g,
+                            &p.base_to_flange,
+                            robot_mm * 1e-3 / 1.0,
+                            robot_mm * 1e-3,
+                        );
+                    }
+                }
+                let noise = Noise {
+                    sigma_z: 0.1e-3,
+                    dropout: 0.0,
+                };
+                let mut file = regenerate(&moved, &s, &fan, &solids, noise, 7000 + t);
+                for (p, q) in file.profiles.iter_mut().zip(&caps.profiles) {
+                    p.base_to_flange = q.base_to_flange;
+                }
+                file.judging.robot_accuracy = stated_mm * 1e-3;
+                row[0] += 1;
+                let Ok(d) = decide(&file, &sensor, None) else {
+                    row[5] += 1;
+                    continue;
+                };
+                let a = d.assessed();
+                let e =
+                    PoseError::between(&a.calibration.flange_to_sensor, &s.rig.flange_to_sensor);
+                let (br, bt) = a.judged.quality.error_bound();
+                let right = e.rotation_error_deg <= 1.0 && e.translation_error_mm <= 1.0;
+                let lines = d.judged.lines().cloned().collect::<Vec<_>>().join(" | ");
+                let what = format!(
+                    "{name}, robot {robot_mm} mm, trial {t}: {} {:.4} deg / {:.4} mm (bound \
+                     {br:.4} / {bt:.4}): {lines}",
+                    d.method(),
+                    e.rotation_error_deg,
+                    e.translation_error_mm
+                );
+                if right {
+                    row[1] += 1;
+                    if d.judged.verdict == Verdict::Suspect {
+                        row[2] += 1;
+                        false_alarms.push(what.clone());
+                    }
+                } else {
+                    row[3] += 1;
+                    if d.judged.verdict == Verdict::Ok {
+                        row[4] += 1;
+                        missed.push(what.clone());
+                    }
+                }
+                if e.rotation_error_deg <= br && e.translation_error_mm <= bt {
+                    row[6] += 1;
+                } else {
+                    println!("  not covered: {what}");
+                }
+            }
+            println!(
+                "| {name} | {robot_mm} mm | {} | {} | {} | {} | {} | {} | {} |",
+                row[0], row[1], row[2], row[3], row[4], row[5], row[6]
+            );
+        }
+    }
+    assert!(missed.is_empty(), "wrong answers judged ok: {missed:#?}");
+    assert!(
+        false_alarms.is_empty(),
+        "right answers called suspect: {false_alarms:#?}"
+    );
+}
