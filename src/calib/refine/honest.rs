@@ -26,6 +26,9 @@ pub struct Honest {
     pub clusters: usize,
     /// Degrees of freedom of the quantiles: poses - 1 when clustered, else residuals - parameters.
     pub dof: usize,
+    /// The transform's directions the scatter between poses was measured in (at most 6; 0:
+    /// not clustered, or too few poses for the parameters); the rest take their mean widening.
+    pub pose_directions: usize,
     /// How much the pose clustering widens the residual-level covariance in its most widened
     /// direction, as a factor on the standard deviation (1: the sensor noise explains the
     /// scatter between poses).
@@ -48,6 +51,7 @@ impl Honest {
             covariance: Matrix6::from_element(f64::INFINITY),
             clusters: 0,
             dof: 0,
+            pose_directions: 0,
             inflation: f64::NAN,
         }
     }
@@ -66,6 +70,7 @@ impl Honest {
             covariance: *cov,
             clusters: 0,
             dof: n.saturating_sub(p).max(1),
+            pose_directions: 0,
             inflation: 1.0,
         };
         if g < 2 || n <= p || !cov.iter().all(|v| v.is_finite()) {
@@ -80,11 +85,18 @@ impl Honest {
         let factor = (g as f64 / (g - 1) as f64) * ((n - 1) as f64 / (n - p) as f64);
         let full = inv * meat * inv * factor;
         let clustered = Matrix6::from_fn(|r, c| full[(r, c)]);
-        let (covariance, inflation) = larger_of(cov, &clustered);
+        // The scores of g poses span at most g - 1 directions, and the specimen's parameters
+        // take p - 6 of them: with few poses (8 ball or plane poses) the clustered covariance
+        // says nothing in the transform's remaining directions. There the residual-level one is
+        // raised by the mean widening of the directions it does see (pose error is no smaller
+        // where it cannot be measured).
+        let informative = (g - 1).saturating_sub(p.saturating_sub(6)).min(6);
+        let (covariance, inflation) = larger_of(cov, &clustered, informative);
         Honest {
             covariance,
             clusters: g,
             dof: g - 1,
+            pose_directions: informative,
             inflation,
         }
     }
@@ -180,10 +192,11 @@ pub fn clusters(flanges: &[&Isometry3<f64>], n_residuals: usize) -> Vec<u32> {
 }
 
 /// The smallest covariance that holds both `a` and `b` along `a`'s principal directions: with
-/// a = S S, the eigenvalues of S^-1 b S^-1 are raised to at least 1. Returns it and the square
-/// root of the largest of those eigenvalues (at least 1). Falls back to a + b where `a` is
-/// singular.
-fn larger_of(a: &Matrix6<f64>, b: &Matrix6<f64>) -> (Matrix6<f64>, f64) {
+/// a = S S, the eigenvalues of S^-1 b S^-1 are raised to at least 1. When `b` is estimated in
+/// only `informative` (< 6) directions, every eigenvalue is raised to at least the mean of the
+/// largest `informative` ones. Returns it and the square root of the largest raised eigenvalue
+/// (at least 1). Falls back to a + b where `a` is singular.
+fn larger_of(a: &Matrix6<f64>, b: &Matrix6<f64>, informative: usize) -> (Matrix6<f64>, f64) {
     let ea = SymmetricEigen::new(*a);
     let top = ea.eigenvalues.max();
     if !(top > 0.0) || ea.eigenvalues.iter().any(|&l| !(l > 1e-24 * top)) {
@@ -195,7 +208,14 @@ fn larger_of(a: &Matrix6<f64>, b: &Matrix6<f64>) -> (Matrix6<f64>, f64) {
         u * Matrix6::from_diagonal(&ea.eigenvalues.map(|l| 1.0 / l.sqrt())) * u.transpose();
     let m = inv_half * b * inv_half;
     let em = SymmetricEigen::new((m + m.transpose()) * 0.5);
-    let raised = em.eigenvalues.map(|l| l.max(1.0));
+    let floor = if (1..6).contains(&informative) {
+        let mut l: Vec<f64> = em.eigenvalues.iter().copied().collect();
+        l.sort_by(|x, y| y.total_cmp(x));
+        (l[..informative].iter().sum::<f64>() / informative as f64).max(1.0)
+    } else {
+        1.0
+    };
+    let raised = em.eigenvalues.map(|l| l.max(floor));
     let mid = em.eigenvectors * Matrix6::from_diagonal(&raised) * em.eigenvectors.transpose();
     (half * mid * half, raised.max().sqrt())
 }
@@ -278,15 +298,29 @@ mod tests {
         b[(0, 0)] = 9.0;
         b[(0, 1)] = 0.3;
         b[(1, 0)] = 0.3;
-        let (c, f) = larger_of(&a, &b);
+        let (c, f) = larger_of(&a, &b, 6);
         for m in [a, b] {
             let d = SymmetricEigen::new(c - m).eigenvalues.min();
             assert!(d > -1e-9, "{d}");
         }
         assert!((f - 3.0).abs() < 0.01, "{f}");
         // Where b is within a, a itself.
-        let (c, f) = larger_of(&a, &(a * 0.5));
+        let (c, f) = larger_of(&a, &(a * 0.5), 6);
         assert!((c - a).norm() < 1e-12 && f == 1.0);
+    }
+
+    #[test]
+    fn directions_few_poses_cannot_see_take_the_mean_widening() {
+        let a = Matrix6::identity();
+        let b = Matrix6::from_diagonal(&nalgebra::Vector6::new(9.0, 4.0, 0.0, 0.0, 0.0, 0.0));
+        let (c, f) = larger_of(&a, &b, 2);
+        let want = nalgebra::Vector6::new(9.0, 6.5, 6.5, 6.5, 6.5, 6.5);
+        assert!((c - Matrix6::from_diagonal(&want)).norm() < 1e-9, "{c}");
+        assert!((f - 3.0).abs() < 1e-9);
+        // Every direction informative: only raised to 1.
+        let (c, _) = larger_of(&a, &b, 6);
+        let want = nalgebra::Vector6::new(9.0, 4.0, 1.0, 1.0, 1.0, 1.0);
+        assert!((c - Matrix6::from_diagonal(&want)).norm() < 1e-9, "{c}");
     }
 
     #[test]
