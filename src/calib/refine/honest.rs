@@ -24,8 +24,7 @@ pub struct Honest {
     pub covariance: Matrix6<f64>,
     /// Distinct flange poses the residuals came from (0: not known, every residual alone).
     pub clusters: usize,
-    /// Degrees of freedom of the quantiles: poses - 1 less the specimen's parameters when
-    /// clustered, else residuals - parameters.
+    /// Degrees of freedom of the quantiles: poses - 1 when clustered, else residuals - parameters.
     pub dof: usize,
     /// The transform's directions the scatter between poses was measured in (at most 6; 0:
     /// not clustered, or too few poses for the parameters); the rest take their mean widening.
@@ -96,8 +95,7 @@ impl Honest {
         Honest {
             covariance,
             clusters: g,
-            // The specimen's parameters take their share of the poses' degrees of freedom.
-            dof: (g - 1).saturating_sub(p.saturating_sub(6)).max(1),
+            dof: g - 1,
             pose_directions: informative,
             inflation,
         }
