@@ -564,6 +564,24 @@ pub fn extraction_sensor<'a>(
     std::borrow::Cow::Owned(s)
 }
 
+/// The refinement options of an estimator's last fit (also its leave-one-out runs').
+pub fn refine_options(estimator: Estimator) -> Options {
+    match estimator {
+        // Hundreds of points per profile: a stray one (a blend at the rim, a speck) must not
+        // pull, so the robust loss.
+        Estimator::FullProfile => Options {
+            loss: crate::calib::refine::Loss::Huber { k: 1.5 },
+            ..Default::default()
+        },
+        // Censored rims and edges (any-pose disk and bar) converge only linearly.
+        Estimator::AnyPose => Options {
+            max_iterations: 500,
+            ..Default::default()
+        },
+        Estimator::ClosedForm | Estimator::Refined => Options::default(),
+    }
+}
+
 /// Run an estimator on captures: the closed form, then (for `Refined`) the joint refinement from
 /// it, whose estimate and specimen centre replace the closed form's; or the any-pose estimator.
 pub fn estimate(
@@ -585,15 +603,9 @@ pub fn estimate(
                     .full_profile
                     .as_ref()
                     .ok_or(CaptureError::NoFullProfile { method: id.kind })?;
-                // Hundreds of points per profile: a stray one (a blend at the rim, a speck)
-                // must not pull, so the robust loss.
-                let opts = Options {
-                    loss: crate::calib::refine::Loss::Huber { k: 1.5 },
-                    ..Default::default()
-                };
-                p.refine(&cal.flange_to_sensor, &opts)?
+                p.refine(&cal.flange_to_sensor, &refine_options(id.estimator))?
             } else {
-                cal.refine(&Default::default())?
+                cal.refine(&refine_options(id.estimator))?
             };
             cal.flange_to_sensor = r.flange_to_sensor;
             cal.status = r.status;

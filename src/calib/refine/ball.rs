@@ -46,6 +46,18 @@ impl Model for BallModel {
             .collect()
     }
 
+    fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> BallModel {
+        let mut kept = BallModel::new(self.radius);
+        for (k, f) in self.poses.iter().enumerate() {
+            if !drop(f) {
+                let k = k as u32;
+                let points = self.points.iter().filter(|(i, _)| *i == k).map(|(_, p)| *p);
+                kept.add(f, points);
+            }
+        }
+        kept
+    }
+
     fn eval(
         &self,
         x: &Transform,

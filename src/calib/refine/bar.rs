@@ -75,6 +75,30 @@ impl Model for BarModel {
         face.chain(edges).chain(walls).collect()
     }
 
+    fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> BarModel {
+        BarModel {
+            face: self
+                .face
+                .iter()
+                .filter(|(f, _)| !drop(f))
+                .copied()
+                .collect(),
+            edges: self
+                .edges
+                .iter()
+                .filter(|e| !drop(&e.base_to_flange))
+                .copied()
+                .collect(),
+            n_edges: self.n_edges,
+            walls: self
+                .walls
+                .iter()
+                .filter(|w| !drop(&w.base_to_flange))
+                .copied()
+                .collect(),
+        }
+    }
+
     fn eval(
         &self,
         x: &Transform,

@@ -150,6 +150,39 @@ impl Model for DiskModel {
         ends.chain(face).chain(rims).chain(walls).collect()
     }
 
+    fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> DiskModel {
+        let kept_ends: Vec<usize> = (0..self.ends.len())
+            .filter(|&i| !drop(&self.ends[i].0))
+            .collect();
+        DiskModel {
+            radius: self.radius,
+            ends: kept_ends.iter().map(|&i| self.ends[i]).collect(),
+            end_weights: if self.end_weights.is_empty() {
+                Vec::new()
+            } else {
+                kept_ends.iter().map(|&i| self.end_weights[i]).collect()
+            },
+            face: self
+                .face
+                .iter()
+                .filter(|(f, _)| !drop(f))
+                .copied()
+                .collect(),
+            rims: self
+                .rims
+                .iter()
+                .filter(|(f, _, _)| !drop(f))
+                .copied()
+                .collect(),
+            walls: self
+                .walls
+                .iter()
+                .filter(|(f, _, _)| !drop(f))
+                .copied()
+                .collect(),
+        }
+    }
+
     fn eval(
         &self,
         x: &Transform,

@@ -53,6 +53,17 @@ impl Model for EdgeModel {
         self.points.iter().flat_map(|(f, _)| [f, f]).collect()
     }
 
+    fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> EdgeModel {
+        EdgeModel {
+            points: self
+                .points
+                .iter()
+                .filter(|(f, _)| !drop(f))
+                .copied()
+                .collect(),
+        }
+    }
+
     fn eval(
         &self,
         x: &Transform,

@@ -198,6 +198,10 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
     fn residual_flanges(&self) -> Vec<&Isometry3<f64>> {
         Vec::new()
     }
+
+    /// The same model without the features seen from the flange poses `drop` picks (the
+    /// verdict's leave-one-out runs, warm-started from the full result).
+    fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Self;
 }
 
 /// The sensor's depth direction in the base frame when the flange is at `f`.
@@ -291,6 +295,8 @@ pub trait Refinable: Send + Sync + fmt::Debug {
     fn n_params(&self) -> usize;
     /// Each residual's cluster (its flange pose), numbered from 0 (`honest::clusters`).
     fn clusters(&self) -> Vec<u32>;
+    /// The same problem without the features seen from the flange poses `drop` picks.
+    fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable>;
     /// The sums the figures at `x` need (`Sums`), streamed in parts where the problem is tall.
     fn sums(&self, x: &Isometry3<f64>) -> Sums;
 }
@@ -400,6 +406,12 @@ impl<M: Model + 'static> Refinable for Problem<M> {
     }
     fn clusters(&self) -> Vec<u32> {
         honest::clusters(&self.model.residual_flanges(), self.model.n_residuals())
+    }
+    fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable> {
+        Box::new(Problem {
+            model: self.model.without_poses(drop),
+            specimen: self.specimen,
+        })
     }
     fn sums(&self, x: &Isometry3<f64>) -> Sums {
         let clusters = self.clusters();

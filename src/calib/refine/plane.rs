@@ -53,6 +53,17 @@ impl Model for PlaneModel {
         self.points.iter().map(|(f, _)| f).collect()
     }
 
+    fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> PlaneModel {
+        PlaneModel {
+            points: self
+                .points
+                .iter()
+                .filter(|(f, _)| !drop(f))
+                .copied()
+                .collect(),
+        }
+    }
+
     fn eval(
         &self,
         x: &Transform,
