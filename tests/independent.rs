@@ -1093,14 +1093,14 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
     ];
     let (mut false_alarms, mut missed) = (Vec::new(), Vec::new());
     println!(
-        "| specimen | robot error | results | right | suspect of right | wrong | wrong judged ok | refused | covered |"
+        "| specimen | robot error | results | right | suspect of right | imprecise of right | wrong | wrong judged ok | refused | covered |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     for (name, kind, case) in cases {
         let (s, fan, solids) = case();
         let sensor = with_sigma(&common::declared(&fan, "fan-295"), 0.1);
         for (robot_mm, stated_mm) in [(0.0, 0.0), (0.3, 0.2)] {
-            let mut row = [0usize; 7];
+            let mut row = [0usize; 8];
             for t in 0..n {
                 let caps = trial_captures(&s, kind, 27, t).0.unwrap();
                 let mut moved = caps.clone();
@@ -1148,6 +1148,7 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
                         row[2] += 1;
                         false_alarms.push(what.clone());
                     }
+                    row[7] += usize::from(d.judged.verdict == Verdict::Imprecise);
                 } else {
                     row[3] += 1;
                     if d.judged.verdict == Verdict::Ok {
@@ -1162,8 +1163,8 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
                 }
             }
             println!(
-                "| {name} | {robot_mm} mm | {} | {} | {} | {} | {} | {} | {} |",
-                row[0], row[1], row[2], row[3], row[4], row[5], row[6]
+                "| {name} | {robot_mm} mm | {} | {} | {} | {} | {} | {} | {} | {} |",
+                row[0], row[1], row[2], row[7], row[3], row[4], row[5], row[6]
             );
         }
     }

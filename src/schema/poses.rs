@@ -17,9 +17,13 @@ pub struct PoseSet {
     /// drawn in [min, max] deg, turned at random about the normal and about its own axis...
     #[serde(default = "d_tilt")]
     pub tilt_deg: [f64; 2],
-    /// ...and the aim moved up to this far (mm) across the laser line.
+    /// ...and the aim moved up to this far (mm) across the laser line...
     #[serde(default = "d_spread")]
     pub spread_mm: f64,
+    /// ...the turns about the normal drawn at random (`random`), or evenly spaced around it
+    /// (`circle`: a real plane set's 48 poses around a circular pattern).
+    #[serde(default)]
+    pub pattern: Pattern,
     /// Or list the flange (tool0) poses: [x_mm, y_mm, z_mm, qw, qx, qy, qz] each (ABB order).
     #[serde(default)]
     pub tcp_mm_wxyz: Vec<[f64; 7]>,
@@ -36,6 +40,15 @@ pub struct PoseSet {
     /// Or list the joint angles (deg) of each pose.
     #[serde(default)]
     pub joints_deg: Vec<[f64; 6]>,
+}
+
+/// How generated poses turn about the specimen's normal.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Pattern {
+    #[default]
+    Random,
+    Circle,
 }
 
 /// A controller convention's rotation as a unit quaternion (w, x, y, z).
@@ -129,7 +142,15 @@ impl PoseSet {
                 count,
                 tilt: (lo.to_radians(), hi.to_radians()),
                 spread: self.spread_mm * 1e-3,
+                circle: self.pattern == Pattern::Circle,
             });
+        }
+        if self.pattern != Pattern::Random {
+            return Err(v.bad(
+                &format!("{key}.pattern"),
+                "circle",
+                "a pattern shapes generated poses only: give count, or leave pattern out",
+            ));
         }
         if let Some((name, list, convention)) = euler.iter().find(|e| !e.1.is_empty()) {
             let mut out = Vec::with_capacity(list.len());

@@ -12,6 +12,8 @@ pub enum PoseSource {
         count: usize,
         tilt: (f64, f64),
         spread: f64,
+        /// Pose i turned i / count of a full turn about the normal (else at random).
+        circle: bool,
     },
     /// Flange poses: position (m) and unit quaternion (w, x, y, z).
     Tcp(Vec<([f64; 3], [f64; 4])>),
@@ -54,11 +56,13 @@ pub fn poses(
             count,
             tilt,
             spread,
+            circle,
         } => (0..*count)
             .map(|i| {
                 let mut last = String::new();
+                let azimuth = circle.then(|| std::f64::consts::TAU * i as f64 / *count as f64);
                 for _ in 0..100 {
-                    let f = draw(rig, aim, *tilt, *spread, rng);
+                    let f = draw(rig, aim, *tilt, *spread, azimuth, rng);
                     if !aim.crosses(rig, &f) {
                         last = "the laser plane crossed the edge at under 30 deg".into();
                         continue;
@@ -108,20 +112,24 @@ pub fn poses(
     }
 }
 
-/// One generated pose: the laser tilted from -normal by an angle in `tilt`, turned at random
-/// about the normal and about its own axis; the aim point at a random depth within the middle 70 %
-/// of the range, up to `spread` along the laser line and `off_plane` across it.
+/// One generated pose: the laser tilted from -normal by an angle in `tilt`, turned about the
+/// normal by `azimuth` (None: at random) and at random about its own axis; the aim point at a
+/// random depth within the middle 70 % of the range, up to `spread` along the laser line and
+/// `off_plane` across it.
 fn draw(
     rig: &Rig,
     aim: &Aim,
     tilt: (f64, f64),
     spread: f64,
+    azimuth: Option<f64>,
     g: &mut crate::rng::Rng,
 ) -> Isometry3<f64> {
     let s = &rig.sensor;
     let mut u = || g.random::<f64>();
     let theta = tilt.0 + (tilt.1 - tilt.0) * u();
-    let (azimuth, roll) = (std::f64::consts::TAU * u(), std::f64::consts::TAU * u());
+    // Drawn either way, so a circle's other draws are a random set's.
+    let drawn = std::f64::consts::TAU * u();
+    let (azimuth, roll) = (azimuth.unwrap_or(drawn), std::f64::consts::TAU * u());
     let to_normal =
         UnitQuaternion::rotation_between(&Vector3::z(), &aim.normal).unwrap_or_else(|| {
             UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)

@@ -33,6 +33,12 @@ pub struct Honest {
     /// direction, as a factor on the standard deviation (1: the sensor noise explains the
     /// scatter between poses).
     pub inflation: f64,
+    /// The residual-level covariance (`covariance` holds it and the clustered one).
+    pub residual: Matrix6<f64>,
+    /// The covariance a shift of each flange pose's points by its own independent error of unit
+    /// standard deviation per axis (m) would give the transform: what a robot's stated accuracy
+    /// predicts from the pose set's design, where too few poses cannot measure it.
+    pub per_pose_shift: Matrix6<f64>,
 }
 
 /// 95 % bounds on the transform's error: per axis and on the whole rotation and translation.
@@ -53,6 +59,8 @@ impl Honest {
             dof: 0,
             pose_directions: 0,
             inflation: f64::NAN,
+            residual: Matrix6::from_element(f64::INFINITY),
+            per_pose_shift: Matrix6::zeros(),
         }
     }
 
@@ -66,12 +74,24 @@ impl Honest {
         cov: &Matrix6<f64>,
     ) -> Honest {
         let (n, p, g) = (sums.n, used.len(), sums.scores.ncols());
+        let per_pose_shift = inv
+            .filter(|_| sums.shifts.ncols() == 3 * g && g > 0)
+            .map_or_else(Matrix6::zeros, |inv| {
+                // sum_c S_c S_c^T, S_c the cluster's J_c^T J_c over the translation columns: a
+                // shift d_c of pose c's points moves its residuals by J_c,t R^T d_c, and R drops
+                // out of an isotropic shift's covariance.
+                let s = sums.shifts.select_rows(used);
+                let full = inv * (&s * s.transpose()) * inv;
+                Matrix6::from_fn(|r, c| full[(r, c)])
+            });
         let alone = Honest {
             covariance: *cov,
             clusters: 0,
             dof: n.saturating_sub(p).max(1),
             pose_directions: 0,
             inflation: 1.0,
+            residual: *cov,
+            per_pose_shift,
         };
         if g < 2 || n <= p || !cov.iter().all(|v| v.is_finite()) {
             return alone;
@@ -90,7 +110,7 @@ impl Honest {
         // says nothing in the transform's remaining directions. There the residual-level one is
         // raised by the mean widening of the directions it does see (pose error is no smaller
         // where it cannot be measured).
-        let informative = (g - 1).saturating_sub(p.saturating_sub(6)).min(6);
+        let informative = pose_directions(g, p);
         let (covariance, inflation) = larger_of(cov, &clustered, informative);
         Honest {
             covariance,
@@ -98,6 +118,8 @@ impl Honest {
             dof: g - 1,
             pose_directions: informative,
             inflation,
+            residual: *cov,
+            per_pose_shift,
         }
     }
 
@@ -105,8 +127,19 @@ impl Honest {
     /// robot's absolute error over the small region a pose set spans moves every pose alike, so
     /// the fit takes it into the transform), of standard deviation `rotation` (rad) and
     /// `translation` (m) per axis.
+    ///
+    /// Where too few poses measure the scatter between them in every direction
+    /// (`pose_directions` < 6), the same accuracy, independent from pose to pose, is also a
+    /// floor: what it predicts through the pose set's design (`per_pose_shift`) with the
+    /// residual-level covariance. With poses enough the scatter is measured, and the floor
+    /// (which takes a robot's smooth, pose-to-pose correlated error for an independent one)
+    /// would only widen the bound.
     pub fn with_systematic(&self, rotation: f64, translation: f64) -> Honest {
         let mut c = self.covariance;
+        let floor = self.residual + self.per_pose_shift * (translation * translation);
+        if translation > 0.0 && self.pose_directions < 6 && floor.iter().all(|v| v.is_finite()) {
+            c = larger_of(&c, &floor, 6).0;
+        }
         for i in 0..3 {
             c[(i, i)] += rotation * rotation;
             c[(3 + i, 3 + i)] += translation * translation;
@@ -140,14 +173,7 @@ pub fn scores(r: &DVector<f64>, j: &DMatrix<f64>, clusters: &[u32], g: usize) ->
     if clusters.len() != n || n == 0 {
         return DMatrix::zeros(p, 0);
     }
-    let mut runs: Vec<(usize, usize, usize)> = Vec::new();
-    let mut start = 0;
-    for i in 1..=n {
-        if i == n || clusters[i] != clusters[start] {
-            runs.push((start, i, clusters[start] as usize));
-            start = i;
-        }
-    }
+    let runs = runs(clusters);
     let mut sums = vec![0.0; p * g];
     let rs = r.as_slice();
     for k in 0..p {
@@ -159,6 +185,50 @@ pub fn scores(r: &DVector<f64>, j: &DMatrix<f64>, clusters: &[u32], g: usize) ->
         }
     }
     DMatrix::from_column_slice(p, g, &sums)
+}
+
+/// The transform's directions the scatter between `g` poses measures when the fit has `p`
+/// parameters: their scores span g - 1 directions, the specimen's parameters take p - 6.
+pub fn pose_directions(g: usize, p: usize) -> usize {
+    g.saturating_sub(1)
+        .saturating_sub(p.saturating_sub(6))
+        .min(6)
+}
+
+/// Each cluster's J_c^T J_c over the translation columns 3..6 of J (p x 3 `g`, cluster c in
+/// columns 3c..3c+3), by runs as `scores`. Only `with_systematic`'s few-pose floor uses them:
+/// with poses enough (or no clusters), p x 0.
+pub fn shifts(j: &DMatrix<f64>, clusters: &[u32], g: usize) -> DMatrix<f64> {
+    let (n, p) = (j.nrows(), j.ncols());
+    if clusters.len() != n || n == 0 || p < 6 || pose_directions(g, p) >= 6 {
+        return DMatrix::zeros(p, 0);
+    }
+    let runs = runs(clusters);
+    let mut sums = vec![0.0; p * 3 * g];
+    let col = |k: usize| &j.as_slice()[k * n..(k + 1) * n];
+    for k in 0..p {
+        for t in 0..3 {
+            let (a_col, t_col) = (col(k), col(3 + t));
+            for &(a, b, cl) in &runs {
+                sums[(3 * cl + t) * p + k] += super::dot(&a_col[a..b], &t_col[a..b]);
+            }
+        }
+    }
+    DMatrix::from_column_slice(p, 3 * g, &sums)
+}
+
+/// The runs of one cluster: (first row, end, cluster).
+fn runs(clusters: &[u32]) -> Vec<(usize, usize, usize)> {
+    let n = clusters.len();
+    let mut runs = Vec::new();
+    let mut start = 0;
+    for i in 1..=n {
+        if i == n || clusters[i] != clusters[start] {
+            runs.push((start, i, clusters[start] as usize));
+            start = i;
+        }
+    }
+    runs
 }
 
 /// Each residual's cluster: residuals seen from one flange pose (bit for bit) share a number.
@@ -331,6 +401,58 @@ mod tests {
         let f = [&p[0], &p[0], &p[1], &p[2], &p[0]];
         assert_eq!(clusters(&f, 5), vec![0, 0, 1, 2, 0]);
         assert!(clusters(&f, 4).is_empty());
+    }
+
+    /// The covariance per-pose shifts predict (`per_pose_shift`) is the one their least-squares
+    /// steps show: 5 poses of 40 rows each, every pose's rows moved by the translation columns
+    /// times its own standard normal shift, 4,000 draws. Five poses see the scatter between
+    /// them in 4 directions only, so a stated accuracy raises the bound to the prediction.
+    #[test]
+    fn per_pose_shifts_predict_the_scatter_they_cause() {
+        let (poses, per) = (5usize, 40usize);
+        let n = poses * per;
+        let mut seed = 12345u64;
+        let mut uniform = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        let j = DMatrix::from_fn(n, 6, |_, _| uniform() - 0.5);
+        let cl: Vec<u32> = (0..n).map(|i| (i / per) as u32).collect();
+        let inv = (j.transpose() * &j).try_inverse().unwrap();
+        let sums = super::super::Sums::of(&DVector::zeros(n), &j, &cl, poses);
+        let used: Vec<usize> = (0..6).collect();
+        let h = Honest::of(Some(&inv), &sums, &used, &Matrix6::identity());
+        let mut gauss = || {
+            let (a, b) = (uniform(), uniform());
+            (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+        };
+        let draws = 4000;
+        let mut mc = Matrix6::zeros();
+        for _ in 0..draws {
+            let d: Vec<Vector3<f64>> = (0..poses)
+                .map(|_| Vector3::new(gauss(), gauss(), gauss()))
+                .collect();
+            let r = DVector::from_fn(n, |i, _| {
+                (0..3).map(|t| j[(i, 3 + t)] * d[i / per][t]).sum::<f64>()
+            });
+            let step = &inv * j.transpose() * r;
+            mc += Matrix6::from_fn(|a, b| step[a] * step[b]) / draws as f64;
+        }
+        for i in 0..6 {
+            let (want, got) = (h.per_pose_shift[(i, i)], mc[(i, i)]);
+            assert!(
+                (got / want - 1.0).abs() < 0.1,
+                "{i}: predicted {want}, seen {got}"
+            );
+        }
+        assert_eq!(h.pose_directions, 4);
+        let with = h.with_systematic(0.0, 1.0);
+        for i in 0..6 {
+            assert!(with.covariance[(i, i)] >= h.per_pose_shift[(i, i)] * (1.0 - 1e-9));
+        }
+        assert_eq!(h.with_systematic(0.0, 0.0).covariance, h.covariance);
     }
 
     /// Points of 20 poses, each pose shifted by its own error much larger than the noise: the
