@@ -1348,3 +1348,41 @@ fn noise_the_sensor_does_not_declare_is_read_from_the_profiles() {
         assert!(worst.0 < 0.5 && worst.1 < 1.0, "{kind}: {worst:?}");
     }
 }
+
+/// `pattern = "circle"` turns generated pose i by i / count of a full turn about the normal: the
+/// lasers' directions, projected on the table, step evenly round it; a pattern on a listed set
+/// is refused naming the key.
+#[test]
+fn circle_patterns_step_evenly_round_the_normal() {
+    let full = std::fs::read_to_string(common::scen("plane-48-circle.toml")).unwrap();
+    let s = plane_setup(&full).unwrap();
+    let plan = s.plan(Kind::Plane).unwrap();
+    let poses = &plan
+        .as_any()
+        .downcast_ref::<lasercal::method::plane::PlanePlan>()
+        .unwrap()
+        .poses;
+    assert_eq!(poses.len(), 48);
+    // The laser's direction in the base frame (the sensor's z; the table's normal is base z).
+    let azimuth = |f: &nalgebra::Isometry3<f64>| {
+        let z = (f * s.rig.flange_to_sensor).rotation * nalgebra::Vector3::z();
+        z.y.atan2(z.x)
+    };
+    let step = std::f64::consts::TAU / 48.0;
+    for (i, w) in poses.windows(2).enumerate() {
+        let d = (azimuth(&w[1]) - azimuth(&w[0])).rem_euclid(std::f64::consts::TAU);
+        assert!(
+            (d - step).abs() < 1e-9,
+            "pose {i} to {}: {} deg",
+            i + 1,
+            d.to_degrees()
+        );
+    }
+    let pose = "[-300.0, -250.0, 650.0, 0.0, 0.7071068, 0.7071068, 0.0]";
+    let listed = full.replace(
+        "count = 48",
+        &format!("tcp_mm_wxyz = [{}]", vec![pose; 7].join(", ")),
+    );
+    let err = plane_setup(&listed).unwrap_err();
+    assert!(err.contains("plane.poses.pattern"), "{err}");
+}
