@@ -1196,6 +1196,9 @@ fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
             }
         }
     }
+    for f in &flagged {
+        eprintln!("  flagged: {f}");
+    }
     assert!(
         flagged.len() as u64 <= 1 + seeds / 25,
         "correct results judged suspect or imprecise: {flagged:#?}"

@@ -302,8 +302,8 @@ pub trait Refinable: Send + Sync + fmt::Debug {
 }
 
 /// What a fit's figures need from its residuals r and Jacobian J, summed over the rows: J^T J,
-/// J^T r, sum r_i^2 J_i^T J_i, each cluster's score J_c^T r_c (every column) and its J_c^T J_c
-/// over the translation columns, r^T r and the number of rows. A tall problem is summed part by part and J is never whole.
+/// J^T r, sum r_i^2 J_i^T J_i, each cluster's score J_c^T r_c (every column) and, for a few
+/// clusters, its J_c^T J_c, r^T r and the number of rows. A tall problem is summed part by part and J is never whole.
 #[derive(Debug, Clone)]
 pub struct Sums {
     pub ata: DMatrix<f64>,
@@ -311,8 +311,9 @@ pub struct Sums {
     pub meat: DMatrix<f64>,
     /// p x clusters (0 columns: no clusters).
     pub scores: DMatrix<f64>,
-    /// p x 3 clusters: each cluster's J_c^T J_c over the translation columns (`honest::shifts`).
-    pub shifts: DMatrix<f64>,
+    /// p x p clusters: each cluster's J_c^T J_c (`honest::grams`; 0 columns when there are
+    /// more than `honest::MAX_JACKKNIFE` clusters).
+    pub grams: DMatrix<f64>,
     pub rss: f64,
     pub n: usize,
 }
@@ -334,7 +335,7 @@ impl Sums {
             atr: atb(j, r),
             meat: ata_scaled(j, &all, r),
             scores: honest::scores(r, j, clusters, g),
-            shifts: honest::shifts(j, clusters, g),
+            grams: honest::grams(j, clusters, g),
             rss: r.norm_squared(),
             n: r.len(),
         }
@@ -345,7 +346,7 @@ impl Sums {
         self.atr += o.atr;
         self.meat += o.meat;
         self.scores += o.scores;
-        self.shifts += o.shifts;
+        self.grams += o.grams;
         self.rss += o.rss;
         self.n += o.n;
     }
