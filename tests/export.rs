@@ -349,3 +349,104 @@ fn import_builds_the_capture_file_a_rig_would_have_written() {
     assert_eq!(code, 2);
     assert!(err.contains("long.csv"), "{err}");
 }
+
+/// The controllers' and vision libraries' own pose files: a FANUC `.ls` program, ABB RAPID
+/// robtargets, a JSON list and text lines of x y z w p r, and a folder of HALCON pose files, each
+/// written here from a simulated capture, import to the capture file whose calibration the
+/// simulated one gives; their mistakes are refused naming the file, the place and the fix.
+#[test]
+fn import_reads_the_controllers_own_pose_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let (caps, doc) = common::simulated_capture(dir.path(), "ball-free.toml", "sim.json");
+    let want = calibrated(caps.to_str().unwrap(), dir.path(), "sim");
+    let profiles = doc["profiles"].as_array().unwrap();
+    // Unpadded names: natural order puts pose_2 before pose_10.
+    let per_pose = dir.path().join("profiles");
+    std::fs::create_dir_all(&per_pose).unwrap();
+    for (i, p) in profiles.iter().enumerate() {
+        let mut csv = String::from("x_mm,z_mm\n");
+        for pt in p["points_mm"].as_array().unwrap() {
+            match pt.as_array() {
+                Some(xz) => csv += &format!("{},{}\n", xz[0], xz[1]),
+                None => csv += ",\n",
+            }
+        }
+        std::fs::write(per_pose.join(format!("pose_{i}.csv")), csv).unwrap();
+    }
+    let written = common::pose_files(&doc, dir.path());
+    let ls = std::fs::read_to_string(dir.path().join("cell.ls")).unwrap();
+    assert_eq!(
+        written,
+        ["cell.ls", "cell.mod", "poses.json", "poses.txt", "halcon"]
+    );
+    let import = |poses: &std::path::Path, tag: &str| {
+        let out = dir.path().join(format!("{tag}-caps.json"));
+        let r = common::lasercal(&[
+            "import",
+            "--poses",
+            poses.to_str().unwrap(),
+            "--profiles",
+            per_pose.to_str().unwrap(),
+            "--sensor",
+            doc["sensor"].as_str().unwrap(),
+            "--method",
+            "ball",
+            "--specimen",
+            "ball",
+            "--radius-mm",
+            &doc["specimen"]["radius_mm"].to_string(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        (r, out)
+    };
+    for name in written {
+        let path = dir.path().join(name);
+        let ((code, _, err), out) = import(&path, name);
+        assert_eq!(code, 0, "{name}: {err}");
+        if name == "cell.ls" {
+            assert!(err.contains("user frame 1, tool frame 2"), "{err}");
+        }
+        let got = calibrated(out.to_str().unwrap(), dir.path(), name);
+        for i in 0..3 {
+            for j in 0..4 {
+                assert!(
+                    (got[i][j] - want[i][j]).abs() < 1e-6,
+                    "{name}: [{i}][{j}] {} vs {}",
+                    got[i][j],
+                    want[i][j]
+                );
+            }
+        }
+    }
+    // Mistakes: poses in two frames, a HALCON pose of another type, an empty list, a short row.
+    let bad = [
+        (
+            "frames.ls",
+            ls.replacen("UF : 1, UT : 2", "UF : 3, UT : 2", 2).replacen(
+                "UF : 3, UT : 2",
+                "UF : 1, UT : 2",
+                1,
+            ),
+            "give every pose in one frame",
+        ),
+        ("empty.json", "[]".to_string(), "no pose in it"),
+        ("short.txt", "1 2 3 4 5\n".to_string(), "line 1"),
+    ];
+    for (name, content, want) in bad {
+        let path = dir.path().join(name);
+        std::fs::write(&path, content).unwrap();
+        let ((code, _, err), _) = import(&path, name);
+        assert_eq!(code, 2, "{name}: {err}");
+        assert!(err.contains(name) && err.contains(want), "{name}: {err}");
+    }
+    let other = dir.path().join("halcon-2");
+    std::fs::create_dir_all(&other).unwrap();
+    std::fs::write(other.join("a.dat"), "f 2\nr 0 0 0\nt 0 0 1\n").unwrap();
+    let ((code, _, err), _) = import(&other, "halcon-2");
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("a.dat") && err.contains("convert_pose_type"),
+        "{err}"
+    );
+}

@@ -61,8 +61,8 @@ fn blocks(text: &str) -> Vec<Vec<(usize, String)>> {
     out
 }
 
-/// The rig recording the import example names: the ball-free scenario's captures written out as
-/// a pose list and one profile CSV per pose.
+/// The rig recording the import examples name: the ball-free scenario's captures written out as
+/// a pose list (CSV, and in the controllers' own formats) and one profile CSV per pose.
 fn rig_recording(dir: &Path) {
     let (_, doc) = common::simulated_capture(dir, "ball-free.toml", ".sim-rig.json");
     let mut poses = String::from("x_mm,y_mm,z_mm,qw,qx,qy,qz\n");
@@ -84,6 +84,7 @@ fn rig_recording(dir: &Path) {
         std::fs::write(dir.join(format!("profiles/pose_{i:03}.csv")), csv).unwrap();
     }
     std::fs::write(dir.join("poses.csv"), poses).unwrap();
+    common::pose_files(&doc, dir);
 }
 
 #[test]

@@ -92,18 +92,52 @@ pub fn pose_rows(text: &str, file: &str) -> Result<(&'static str, Vec<Vec<f64>>)
     Ok((key, rows))
 }
 
-/// Flange poses from a pose list's rows (`io::csv::pose_list`): the key says the convention;
-/// joint angles need the robot.
+/// A pose list from a file or folder: a folder of HALCON pose files, a FANUC `.ls` program, ABB
+/// RAPID robtargets, a JSON or text list of x y z w p r (`io::poses`), or a CSV whose header
+/// names its convention (`pose_rows`). `text` is the file's text (None for a folder).
+pub fn pose_list(
+    path: &std::path::Path,
+    text: Option<&str>,
+) -> Result<super::poses::PoseList, FormatError> {
+    let file = path.display().to_string();
+    let Some(text) = text else {
+        return super::poses::halcon_folder(path);
+    };
+    if let Some(format) = super::poses::detect(text) {
+        return super::poses::read(text, &file, format);
+    }
+    let (key, rows) = pose_rows(text, &file)?;
+    if rows.is_empty() {
+        return Err(field(
+            &file,
+            "line 2".into(),
+            "no pose under the header; give one row per profile".into(),
+        ));
+    }
+    Ok(super::poses::PoseList {
+        key,
+        at: (0..rows.len()).map(|i| format!("line {}", i + 2)).collect(),
+        summary: format!("{} poses ({key})", rows.len()),
+        rows,
+    })
+}
+
+/// Flange poses from a pose list's rows (`io::csv::pose_list`, `pose_list`): the key says the
+/// convention, `at` where each row came from; joint angles need the robot.
 pub fn flange_poses(
     key: &str,
     rows: &[Vec<f64>],
+    at: &[String],
     robot: Option<&Robot>,
     file: &str,
 ) -> Result<Vec<Isometry3<f64>>, FormatError> {
     rows.iter()
         .enumerate()
         .map(|(i, r)| {
-            let at = format!("line {}", i + 2);
+            let at = at
+                .get(i)
+                .cloned()
+                .unwrap_or_else(|| format!("line {}", i + 2));
             if key == "matrix_mm" {
                 let m = nalgebra::Matrix3::from_fn(|a, b| r[4 * a + b]);
                 let off = (m.transpose() * m - nalgebra::Matrix3::identity()).norm();

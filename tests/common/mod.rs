@@ -168,3 +168,102 @@ pub fn bar_solid(
         lz: height,
     }
 }
+
+/// The poses of a simulated capture file (`doc`) written into `dir` in the controllers' and
+/// vision libraries' own formats: a FANUC `.ls` program (`cell.ls`, user frame 1, tool frame 2),
+/// ABB RAPID robtargets (`cell.mod`), a JSON list and text lines of x y z w p r (`poses.json`,
+/// `poses.txt`) and a folder of HALCON pose files (`halcon/pose_N.dat`). Returns their names.
+pub fn pose_files(doc: &serde_json::Value, dir: &std::path::Path) -> Vec<&'static str> {
+    use nalgebra::UnitQuaternion;
+    let poses: Vec<(Vec<f64>, UnitQuaternion<f64>)> = doc["profiles"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| {
+            let t: Vec<f64> = serde_json::from_value(p["tcp_position_mm"].clone()).unwrap();
+            let q: Vec<f64> = serde_json::from_value(p["tcp_quaternion_wxyz"].clone()).unwrap();
+            let q = nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]);
+            (t, UnitQuaternion::from_quaternion(q))
+        })
+        .collect();
+    // FANUC W, P, R: R = Rz(r) Ry(p) Rx(w), nalgebra's roll, pitch, yaw.
+    let wpr = |q: &UnitQuaternion<f64>| {
+        let (w, p, r) = q.euler_angles();
+        [w.to_degrees(), p.to_degrees(), r.to_degrees()]
+    };
+    let mut ls = String::from("/PROG  CALIB\n/MN\n");
+    for i in 0..poses.len() {
+        ls += &format!("   {}:L P[{}] 100mm/sec FINE ;\n", i + 1, i + 1);
+    }
+    ls += "/POS\n";
+    for (i, (t, q)) in poses.iter().enumerate() {
+        let [w, p, r] = wpr(q);
+        ls += &format!(
+            "P[{}:\"scan\"]{{\n   GP1:\n\tUF : 1, UT : 2,\t\tCONFIG : 'N U T, 0, 0, 0',\n\t\
+             X = {} mm,\tY = {} mm,\tZ = {} mm,\n\tW = {w} deg,\tP = {p} deg,\tR = {r} deg\n}};\n",
+            i + 1,
+            t[0],
+            t[1],
+            t[2]
+        );
+    }
+    ls += "/END\n";
+    let mut rapid = String::from("MODULE Calib\n");
+    for (i, (t, q)) in poses.iter().enumerate() {
+        rapid += &format!(
+            "  CONST robtarget p{i}:=[[{},{},{}],[{},{},{},{}],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\n",
+            t[0], t[1], t[2], q.w, q.i, q.j, q.k
+        );
+    }
+    rapid += "ENDMODULE\n";
+    let rows: Vec<Vec<f64>> = poses
+        .iter()
+        .map(|(t, q)| [t[0], t[1], t[2]].into_iter().chain(wpr(q)).collect())
+        .collect();
+    let text: String = rows
+        .iter()
+        .map(|r| {
+            r.iter()
+                .map(|v| v.to_string())
+                .collect::<Vec<_>>()
+                .join(" ")
+                + "\n"
+        })
+        .collect();
+    std::fs::write(dir.join("cell.ls"), ls).unwrap();
+    std::fs::write(dir.join("cell.mod"), rapid).unwrap();
+    std::fs::write(
+        dir.join("poses.json"),
+        serde_json::to_string(&rows).unwrap(),
+    )
+    .unwrap();
+    std::fs::write(dir.join("poses.txt"), text).unwrap();
+    let halcon = dir.join("halcon");
+    std::fs::create_dir_all(&halcon).unwrap();
+    for (i, (t, q)) in poses.iter().enumerate() {
+        // HALCON's type 0: R = Rx(a) Ry(b) Rz(g), so m02 = sin b, a = atan2(-m12, m22),
+        // g = atan2(-m01, m00); t in metres.
+        let m = q.to_rotation_matrix().into_inner();
+        let (a, b, g) = (
+            (-m[(1, 2)]).atan2(m[(2, 2)]),
+            m[(0, 2)].asin(),
+            (-m[(0, 1)]).atan2(m[(0, 0)]),
+        );
+        std::fs::write(
+            halcon.join(format!("pose_{i}.dat")),
+            format!(
+                "# 3D POSE PARAMETERS: rotation and translation\n\n# Used representation \
+                 type:\nf 0\n\n# Rotation angles [deg] or Rodriguez vector:\nr {} {} {}\n\n\
+                 # Translational vector (x y z [m]):\nt {} {} {}\n",
+                a.to_degrees(),
+                b.to_degrees(),
+                g.to_degrees(),
+                t[0] / 1e3,
+                t[1] / 1e3,
+                t[2] / 1e3
+            ),
+        )
+        .unwrap();
+    }
+    vec!["cell.ls", "cell.mod", "poses.json", "poses.txt", "halcon"]
+}

@@ -4,10 +4,12 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Pose list (CSV, one row per profile); its header names the convention: x_mm,y_mm,z_mm
-    /// with qw,qx,qy,qz (ABB) or qx,qy,qz,qw (ROS) or w_deg,p_deg,r_deg (FANUC, Yaskawa) or
+    /// Poses, one per profile: a CSV whose header names the convention (x_mm,y_mm,z_mm with
+    /// qw,qx,qy,qz (ABB) or qx,qy,qz,qw (ROS) or w_deg,p_deg,r_deg (FANUC, Yaskawa) or
     /// a_deg,b_deg,c_deg (KUKA) or rx_rad,ry_rad,rz_rad (UR); m00..m33 (4x4, translation
-    /// m03_mm, m13_mm, m23_mm); or j1_deg..j6_deg with --robot
+    /// m03_mm, m13_mm, m23_mm); or j1_deg..j6_deg with --robot); a FANUC .ls program (P[n]
+    /// blocks); ABB RAPID robtargets; a JSON list or text lines of x y z w p r (mm, deg, FANUC
+    /// W, P, R); or a folder of HALCON pose files (.dat, type 0, one per pose)
     #[arg(long)]
     poses: PathBuf,
     /// Profiles: a folder of one CSV per pose (x_mm,z_mm; name order = pose order) or one CSV
@@ -53,15 +55,19 @@ pub fn run(a: Args) -> Result<()> {
             meta.len()
         );
     }
-    let text =
-        std::fs::read_to_string(&a.poses).with_context(|| format!("{pname}: cannot read"))?;
-    let (key, rows) = lasercal::io::import::pose_rows(&text, &pname)?;
+    let text = if meta.is_dir() {
+        None
+    } else {
+        Some(std::fs::read_to_string(&a.poses).with_context(|| format!("{pname}: cannot read"))?)
+    };
+    let list = lasercal::io::import::pose_list(&a.poses, text.as_deref())?;
     let robot = a
         .robot
         .as_deref()
         .map(lasercal::robot::Robot::resolve)
         .transpose()?;
-    let poses = flange_poses(key, &rows, robot.as_ref(), &pname)?;
+    let poses = flange_poses(list.key, &list.rows, &list.at, robot.as_ref(), &pname)?;
+    eprintln!("{pname}: {}", list.summary);
     for (v, name) in [(a.radius_mm, "--radius-mm"), (a.z_sigma_mm, "--z-sigma-mm")] {
         if let Some(x) = v
             && !(x > 0.0 && x <= 1e5)
@@ -81,7 +87,9 @@ pub fn run(a: Args) -> Result<()> {
                     .is_some_and(|x| x.eq_ignore_ascii_case("csv") || x.eq_ignore_ascii_case("npy"))
             })
             .collect();
-        files.sort();
+        files.sort_by(|x, y| {
+            lasercal::io::poses::natural_cmp(&x.to_string_lossy(), &y.to_string_lossy())
+        });
         let mut readers: Vec<(String, Box<dyn std::io::Read>)> = Vec::new();
         for p in files {
             let name = p.display().to_string();
@@ -106,9 +114,10 @@ pub fn run(a: Args) -> Result<()> {
     let text = capture_file(&header, &pname, &poses, source)?;
     lasercal::io::write(&a.out, text.as_bytes())?;
     eprintln!(
-        "{}: {} poses ({key}) with their profiles; calibrate it with `lasercal calibrate {}`",
+        "{}: {} poses ({}) with their profiles; calibrate it with `lasercal calibrate {}`",
         a.out.display(),
         poses.len(),
+        list.key,
         a.out.display()
     );
     Ok(())

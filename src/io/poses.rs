@@ -1,0 +1,532 @@
+//! Pose lists in the controllers' and vision libraries' own files, for `lasercal import`: FANUC
+//! `.ls` programs (`P[n]{ GP1: UF, UT, X = .. mm, .., R = .. deg }`), ABB RAPID `robtarget`
+//! declarations, JSON or plain-text lists of x y z w p r, and HALCON pose files (one `.dat` per
+//! pose). Each is read into the rows of one of the CSV pose lists' conventions
+//! (`io::import::flange_poses` turns them into flange poses), with a label per row for messages
+//! and a line saying what was read.
+//!
+//! Written by hand: these are small line formats no maintained crate reads.
+
+use crate::error::FormatError;
+use std::path::Path;
+
+/// A pose list read from a file: the convention's key (`tcp_mm_wpr_deg`, `tcp_mm_wxyz`,
+/// `joints_deg`, `matrix_mm`), one row per pose, where each row came from, and what was read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseList {
+    pub key: &'static str,
+    pub rows: Vec<Vec<f64>>,
+    pub at: Vec<String>,
+    pub summary: String,
+}
+
+/// At most this many poses in one list.
+const MAX_POSES: usize = 10_000;
+
+fn field(file: &str, at: impl Into<String>, message: impl Into<String>) -> FormatError {
+    FormatError::Field {
+        file: file.to_string(),
+        at: at.into(),
+        message: message.into(),
+    }
+}
+
+fn number(file: &str, at: &str, name: &str, text: &str) -> Result<f64, FormatError> {
+    text.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| {
+            field(
+                file,
+                at,
+                format!("{name} '{}' is not a finite number", text.trim()),
+            )
+        })
+}
+
+/// The format a pose file's text is in, when it is one of these (None: a CSV pose list).
+pub fn detect(text: &str) -> Option<&'static str> {
+    let t = text.trim_start();
+    if t.starts_with('[') {
+        Some("json")
+    } else if text.contains("/POS") || (text.contains("P[") && text.contains("GP1")) {
+        Some("fanuc")
+    } else if text.to_ascii_lowercase().contains("robtarget") {
+        Some("rapid")
+    } else if halcon_like(text) {
+        Some("halcon")
+    } else if t
+        .lines()
+        .find(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
+        .is_some_and(|l| {
+            l.split(|c: char| c.is_whitespace() || c == ',')
+                .find(|s| !s.is_empty())
+                .is_some_and(|s| s.parse::<f64>().is_ok())
+        })
+    {
+        Some("text")
+    } else {
+        None
+    }
+}
+
+fn halcon_like(text: &str) -> bool {
+    let starts = |c: &str| {
+        text.lines()
+            .any(|l| l.trim_start().starts_with(c) && !l.trim_start().starts_with('#'))
+    };
+    starts("f ") && starts("r ") && starts("t ")
+}
+
+/// Reads a pose file in the format `detect` found.
+pub fn read(text: &str, file: &str, format: &str) -> Result<PoseList, FormatError> {
+    let list = match format {
+        "json" => json(text, file)?,
+        "fanuc" => fanuc(text, file)?,
+        "rapid" => rapid(text, file)?,
+        "halcon" => {
+            let row = halcon(text, file)?;
+            PoseList {
+                key: "matrix_mm",
+                rows: vec![row],
+                at: vec!["pose".into()],
+                summary: "a HALCON pose file".into(),
+            }
+        }
+        _ => text_list(text, file)?,
+    };
+    if list.rows.is_empty() {
+        return Err(field(
+            file,
+            "the whole file",
+            "no pose in it; give one pose per profile",
+        ));
+    }
+    if list.rows.len() > MAX_POSES {
+        return Err(field(
+            file,
+            "the whole file",
+            format!("{} poses; at most {MAX_POSES}", list.rows.len()),
+        ));
+    }
+    Ok(list)
+}
+
+/// A folder of HALCON pose files (`*.dat`, one pose each, in natural name order: `pose_2`
+/// before `pose_10`).
+pub fn halcon_folder(dir: &Path) -> Result<PoseList, FormatError> {
+    let name = dir.display().to_string();
+    let mut files: Vec<std::path::PathBuf> = std::fs::read_dir(dir)
+        .map_err(|e| field(&name, "the folder", format!("cannot list it: {e}")))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x.eq_ignore_ascii_case("dat")))
+        .collect();
+    files.sort_by(|a, b| natural_cmp(&a.to_string_lossy(), &b.to_string_lossy()));
+    if files.is_empty() {
+        return Err(field(
+            &name,
+            "the folder",
+            "no .dat file in it; give a folder of HALCON pose files (one per pose) or a pose list",
+        ));
+    }
+    if files.len() > MAX_POSES {
+        return Err(field(
+            &name,
+            "the folder",
+            format!("{} pose files; at most {MAX_POSES}", files.len()),
+        ));
+    }
+    let mut rows = Vec::new();
+    let mut at = Vec::new();
+    for f in &files {
+        let fname = f.display().to_string();
+        let meta = std::fs::metadata(f).map_err(|e| field(&fname, "the file", e.to_string()))?;
+        if meta.len() > 1 << 20 {
+            return Err(field(
+                &fname,
+                "the file",
+                "over 1 MB: not a HALCON pose file",
+            ));
+        }
+        let text =
+            std::fs::read_to_string(f).map_err(|e| field(&fname, "the file", e.to_string()))?;
+        rows.push(halcon(&text, &fname)?);
+        at.push(fname);
+    }
+    Ok(PoseList {
+        key: "matrix_mm",
+        summary: format!(
+            "{} HALCON pose files (f 0: R = Rx Ry Rz, t in m)",
+            rows.len()
+        ),
+        rows,
+        at,
+    })
+}
+
+/// Orders names with their digit runs compared as numbers.
+pub fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
+    fn chunks(s: &str) -> Vec<(bool, String)> {
+        let mut out: Vec<(bool, String)> = Vec::new();
+        for c in s.chars() {
+            let d = c.is_ascii_digit();
+            match out.last_mut() {
+                Some((kind, run)) if *kind == d => run.push(c),
+                _ => out.push((d, c.to_string())),
+            }
+        }
+        out
+    }
+    let (ca, cb) = (chunks(a), chunks(b));
+    for (x, y) in ca.iter().zip(&cb) {
+        let o = match (x.0, y.0) {
+            (true, true) => {
+                let (tx, ty) = (x.1.trim_start_matches('0'), y.1.trim_start_matches('0'));
+                tx.len().cmp(&ty.len()).then_with(|| tx.cmp(ty))
+            }
+            _ => x.1.cmp(&y.1),
+        };
+        if o != std::cmp::Ordering::Equal {
+            return o;
+        }
+    }
+    ca.len().cmp(&cb.len()).then_with(|| a.cmp(b))
+}
+
+/// `[[x, y, z, w, p, r], ...]`: mm and deg, FANUC's W, P, R (R = Rz(r) Ry(p) Rx(w)).
+fn json(text: &str, file: &str) -> Result<PoseList, FormatError> {
+    let rows: Vec<Vec<f64>> = serde_json::from_str(text).map_err(|e| {
+        field(
+            file,
+            format!("line {}, column {}", e.line(), e.column()),
+            format!("not a JSON list of [x, y, z, w, p, r] lists: {e}"),
+        )
+    })?;
+    for (i, r) in rows.iter().enumerate() {
+        if r.len() != 6 {
+            return Err(field(
+                file,
+                format!("pose {}", i + 1),
+                format!(
+                    "{} numbers; give [x_mm, y_mm, z_mm, w_deg, p_deg, r_deg]",
+                    r.len()
+                ),
+            ));
+        }
+    }
+    Ok(PoseList {
+        key: "tcp_mm_wpr_deg",
+        at: (1..=rows.len()).map(|i| format!("pose {i}")).collect(),
+        summary: format!(
+            "{} poses from a JSON list, read as x, y, z mm and FANUC W, P, R deg \
+             (R = Rz(r) Ry(p) Rx(w))",
+            rows.len()
+        ),
+        rows,
+    })
+}
+
+/// Lines of six numbers (spaces or commas), `#` comments: x y z w p r as in `json`.
+fn text_list(text: &str, file: &str) -> Result<PoseList, FormatError> {
+    let (mut rows, mut at) = (Vec::new(), Vec::new());
+    for (i, line) in text.lines().enumerate() {
+        let l = line.split('#').next().unwrap_or("").trim();
+        if l.is_empty() {
+            continue;
+        }
+        let here = format!("line {}", i + 1);
+        let cells: Vec<&str> = l
+            .split(|c: char| c.is_whitespace() || c == ',')
+            .filter(|s| !s.is_empty())
+            .collect();
+        if cells.len() != 6 {
+            return Err(field(
+                file,
+                here,
+                format!(
+                    "{} values; give x_mm y_mm z_mm w_deg p_deg r_deg per line (or a CSV with \
+                     a header naming its convention)",
+                    cells.len()
+                ),
+            ));
+        }
+        let row = cells
+            .iter()
+            .zip(["x", "y", "z", "w", "p", "r"])
+            .map(|(c, n)| number(file, &here, n, c))
+            .collect::<Result<Vec<f64>, _>>()?;
+        rows.push(row);
+        at.push(here);
+    }
+    Ok(PoseList {
+        key: "tcp_mm_wpr_deg",
+        summary: format!(
+            "{} poses from a text list, read as x, y, z mm and FANUC W, P, R deg \
+             (R = Rz(r) Ry(p) Rx(w))",
+            rows.len()
+        ),
+        rows,
+        at,
+    })
+}
+
+/// The 1-based line of byte offset `pos` in `text`.
+fn line_of(text: &str, pos: usize) -> usize {
+    text[..pos.min(text.len())].matches('\n').count() + 1
+}
+
+/// FANUC `.ls`: every `P[n]{ ... };` block's group 1, Cartesian (X..R) or joints (J1..J6). The
+/// user and tool frame numbers are reported; poses in different frames are refused.
+fn fanuc(text: &str, file: &str) -> Result<PoseList, FormatError> {
+    let (mut rows, mut at) = (Vec::new(), Vec::new());
+    let mut frames: Option<(String, String)> = None;
+    let mut joints: Option<bool> = None;
+    let mut from = 0;
+    while let Some(k) = text[from..].find("P[") {
+        let start = from + k;
+        let here = format!("line {}", line_of(text, start));
+        let label_end = text[start..]
+            .find(']')
+            .map(|e| start + e)
+            .ok_or_else(|| field(file, &here, "P[ without its closing ]"))?;
+        let label = &text[start..=label_end];
+        let open = text[label_end..].find('{').map(|o| label_end + o);
+        // `P[n]` inside an instruction (L P[1] 100mm/sec FINE) has no block after it.
+        let Some(open) = open.filter(|&o| text[label_end + 1..o].trim().is_empty()) else {
+            from = label_end + 1;
+            continue;
+        };
+        let close = text[open..]
+            .find('}')
+            .map(|c| open + c)
+            .ok_or_else(|| field(file, &here, format!("{label}: block not closed with }}")))?;
+        let body = &text[open + 1..close];
+        // Group 1 only (other groups are extended axes).
+        let gp1 = match body.find("GP1") {
+            Some(g) => {
+                let rest = &body[g + 3..];
+                match rest.find("GP2") {
+                    Some(e) => &rest[..e],
+                    None => rest,
+                }
+            }
+            None => body,
+        };
+        let mut values: Vec<(String, String)> = Vec::new();
+        for piece in gp1.split([',', '\n', '\r', '\t']) {
+            let piece = piece.trim().trim_start_matches(':').trim();
+            if let Some((name, value)) = piece.split_once('=').or_else(|| piece.split_once(':')) {
+                values.push((name.trim().to_ascii_uppercase(), value.trim().to_string()));
+            }
+        }
+        let get = |n: &str| values.iter().find(|(k, _)| k == n).map(|(_, v)| v.clone());
+        let strip = |v: String| {
+            v.trim_end_matches("deg")
+                .trim_end_matches("mm")
+                .trim()
+                .to_string()
+        };
+        let uf = get("UF").unwrap_or_else(|| "?".into());
+        let ut = get("UT").unwrap_or_else(|| "?".into());
+        match &frames {
+            None => frames = Some((uf.clone(), ut.clone())),
+            Some((f0, t0)) if *f0 != uf || *t0 != ut => {
+                return Err(field(
+                    file,
+                    &here,
+                    format!(
+                        "{label} is in user frame {uf}, tool frame {ut}; the first pose in user \
+                         frame {f0}, tool frame {t0}: give every pose in one frame"
+                    ),
+                ));
+            }
+            _ => {}
+        }
+        let cart = ["X", "Y", "Z", "W", "P", "R"];
+        let joint = ["J1", "J2", "J3", "J4", "J5", "J6"];
+        let is_joint = get("X").is_none() && get("J1").is_some();
+        if *joints.get_or_insert(is_joint) != is_joint {
+            return Err(field(
+                file,
+                &here,
+                format!("{label}: joints and Cartesian poses mixed; give one kind"),
+            ));
+        }
+        let names = if is_joint { joint } else { cart };
+        let row = names
+            .iter()
+            .map(|n| {
+                let v = get(n).ok_or_else(|| {
+                    field(file, &here, format!("{label}: no {n} = value in group 1"))
+                })?;
+                number(file, &here, &format!("{label} {n}"), &strip(v))
+            })
+            .collect::<Result<Vec<f64>, _>>()?;
+        rows.push(row);
+        at.push(format!("{here} ({label})"));
+        from = close + 1;
+    }
+    let (uf, ut) = frames.unwrap_or_default();
+    let kind = if joints == Some(true) {
+        "joint positions"
+    } else {
+        "positions (x, y, z mm; W, P, R deg: R = Rz(r) Ry(p) Rx(w))"
+    };
+    Ok(PoseList {
+        key: if joints == Some(true) {
+            "joints_deg"
+        } else {
+            "tcp_mm_wpr_deg"
+        },
+        summary: format!(
+            "{} FANUC {kind} in user frame {uf}, tool frame {ut} (lasercal takes them as the \
+             flange's pose in the robot's base: with a user or tool frame other than 0, the \
+             result is the transform from that tool frame)",
+            rows.len()
+        ),
+        rows,
+        at,
+    })
+}
+
+/// ABB RAPID: every `robtarget name := [[x, y, z], [q1, q2, q3, q4], ...]` (mm; q1 = w).
+fn rapid(text: &str, file: &str) -> Result<PoseList, FormatError> {
+    let (mut rows, mut at) = (Vec::new(), Vec::new());
+    let lower = text.to_ascii_lowercase();
+    let mut from = 0;
+    while let Some(k) = lower[from..].find("robtarget") {
+        let start = from + k;
+        let here = format!("line {}", line_of(text, start));
+        from = start + "robtarget".len();
+        let Some(assign) = text[from..].find(":=").map(|a| from + a) else {
+            continue;
+        };
+        let name = text[from..assign].trim().to_string();
+        // Only a declaration (`robtarget p10 := [...]`), not a parameter or a type name.
+        if name.is_empty() || name.contains(|c: char| c == ';' || c == '\n' || c == '(') {
+            continue;
+        }
+        let rest = &text[assign + 2..];
+        let end = rest.find(';').unwrap_or(rest.len());
+        let value = &rest[..end];
+        // The first two bracketed groups: translation and quaternion.
+        let groups: Vec<&str> = value
+            .split('[')
+            .filter_map(|s| s.split(']').next())
+            .map(str::trim)
+            .filter(|s| !s.is_empty())
+            .take(2)
+            .collect();
+        let parse = |s: &str, n: usize, what: &str| -> Result<Vec<f64>, FormatError> {
+            let v = s
+                .split(',')
+                .map(|c| number(file, &here, &format!("{name} {what}"), c))
+                .collect::<Result<Vec<f64>, _>>()?;
+            if v.len() != n {
+                return Err(field(
+                    file,
+                    &here,
+                    format!("{name}: {what} has {} values, want {n}", v.len()),
+                ));
+            }
+            Ok(v)
+        };
+        if groups.len() < 2 {
+            return Err(field(
+                file,
+                &here,
+                format!("{name}: want [[x, y, z], [q1, q2, q3, q4], ...]"),
+            ));
+        }
+        let mut row = parse(groups[0], 3, "trans")?;
+        row.extend(parse(groups[1], 4, "rot")?);
+        rows.push(row);
+        at.push(format!("{here} ({name})"));
+        from = assign + 2 + end;
+    }
+    Ok(PoseList {
+        key: "tcp_mm_wxyz",
+        summary: format!(
+            "{} ABB RAPID robtargets (x, y, z mm; q1..q4 = w, x, y, z)",
+            rows.len()
+        ),
+        rows,
+        at,
+    })
+}
+
+/// One HALCON pose file (`write_pose`): `f 0` (R p + T, R = Rx(a) Ry(b) Rz(g), a point's
+/// transform), `r a b g` in degrees, `t x y z` in metres. Returns a 4x4 row (translation mm).
+fn halcon(text: &str, file: &str) -> Result<Vec<f64>, FormatError> {
+    let (mut f, mut r, mut t) = (None, None, None);
+    for (i, line) in text.lines().enumerate() {
+        let l = line.trim();
+        if l.is_empty() || l.starts_with('#') {
+            continue;
+        }
+        let here = format!("line {}", i + 1);
+        let mut parts = l.split_whitespace();
+        let tag = parts.next().unwrap_or("");
+        let vals: Vec<&str> = parts.collect();
+        let three = |what: &str| -> Result<[f64; 3], FormatError> {
+            if vals.len() != 3 {
+                return Err(field(
+                    file,
+                    &here,
+                    format!("'{tag}' has {} values, want 3 ({what})", vals.len()),
+                ));
+            }
+            Ok([
+                number(file, &here, tag, vals[0])?,
+                number(file, &here, tag, vals[1])?,
+                number(file, &here, tag, vals[2])?,
+            ])
+        };
+        match tag {
+            "f" => f = Some((vals.join(" "), here)),
+            "r" => r = Some(three("rotation angles, deg")?),
+            "t" => t = Some(three("translation, m")?),
+            _ => {}
+        }
+    }
+    let (Some((f, fat)), Some(r), Some(t)) = (f, r, t) else {
+        return Err(field(
+            file,
+            "the file",
+            "not a HALCON pose file: want the lines 'f 0', 'r a b g' (deg) and 't x y z' (m)",
+        ));
+    };
+    if f != "0" {
+        return Err(field(
+            file,
+            fat,
+            format!(
+                "pose type {f}: lasercal reads type 0 (R p + T, 'gba', 'point'), what write_pose \
+                 writes by default; convert the pose with convert_pose_type first"
+            ),
+        ));
+    }
+    let rot = nalgebra::Rotation3::from_axis_angle(&nalgebra::Vector3::x_axis(), r[0].to_radians())
+        * nalgebra::Rotation3::from_axis_angle(&nalgebra::Vector3::y_axis(), r[1].to_radians())
+        * nalgebra::Rotation3::from_axis_angle(&nalgebra::Vector3::z_axis(), r[2].to_radians());
+    let m = rot.matrix();
+    Ok(vec![
+        m[(0, 0)],
+        m[(0, 1)],
+        m[(0, 2)],
+        t[0] * 1e3,
+        m[(1, 0)],
+        m[(1, 1)],
+        m[(1, 2)],
+        t[1] * 1e3,
+        m[(2, 0)],
+        m[(2, 1)],
+        m[(2, 2)],
+        t[2] * 1e3,
+        0.0,
+        0.0,
+        0.0,
+        1.0,
+    ])
+}
