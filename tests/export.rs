@@ -450,3 +450,121 @@ fn import_reads_the_controllers_own_pose_files() {
         "{err}"
     );
 }
+
+/// Profiles in the profilers' and vision libraries' own files import to the capture file whose
+/// calibration the simulated one gives: OpenCV YAML (an `!!opencv-matrix` of (x, 0, z) with an
+/// extracted feature point beside it, or a list of [x, 0, z]; `.nan` for no point) and two-row
+/// x/z text with 0 for no point (`--missing-z-mm 0`). A point cloud (y not 0) is refused.
+#[test]
+fn import_reads_profiles_in_the_profilers_own_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let (caps, doc) = common::simulated_capture(dir.path(), "ball-free.toml", "sim.json");
+    let want = calibrated(caps.to_str().unwrap(), dir.path(), "sim");
+    let profiles = doc["profiles"].as_array().unwrap();
+    let (yml, txt) = (dir.path().join("yml"), dir.path().join("txt"));
+    std::fs::create_dir_all(&yml).unwrap();
+    std::fs::create_dir_all(&txt).unwrap();
+    let mut poses = String::from("x_mm,y_mm,z_mm,qw,qx,qy,qz\n");
+    for (i, p) in profiles.iter().enumerate() {
+        let (t, q) = (&p["tcp_position_mm"], &p["tcp_quaternion_wxyz"]);
+        poses += &format!(
+            "{},{},{},{},{},{},{}\n",
+            t[0], t[1], t[2], q[0], q[1], q[2], q[3]
+        );
+        let pts: Vec<Option<(f64, f64)>> = p["points_mm"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|pt| {
+                pt.as_array()
+                    .map(|xz| (xz[0].as_f64().unwrap(), xz[1].as_f64().unwrap()))
+            })
+            .collect();
+        let triple = |p: &Option<(f64, f64)>| match p {
+            Some((x, z)) => format!("{x}, 0., {z}"),
+            None => ".nan, .nan, .nan".to_string(),
+        };
+        let yaml = if i % 2 == 0 {
+            let data: Vec<String> = pts.iter().map(triple).collect();
+            format!(
+                "%YAML:1.0\n---\nfeature_point: !!opencv-matrix\n   rows: 1\n   cols: 3\n   \
+                 dt: d\n   data: [ 1.5, 0., 300. ]\nprofile: !!opencv-matrix\n   rows: {}\n   \
+                 cols: 3\n   dt: d\n   data: [ {} ]\n",
+                pts.len(),
+                data.join(",\n       ")
+            )
+        } else {
+            let items: Vec<String> = pts
+                .iter()
+                .map(|p| format!("   - [ {} ]", triple(p)))
+                .collect();
+            format!("%YAML:1.0\n---\npoints:\n{}\n", items.join("\n"))
+        };
+        std::fs::write(yml.join(format!("p{}.yml", i + 1)), yaml).unwrap();
+        let (xs, zs): (Vec<String>, Vec<String>) = pts
+            .iter()
+            .map(|p| match p {
+                Some((x, z)) => (x.to_string(), z.to_string()),
+                None => ("0".to_string(), "0".to_string()),
+            })
+            .unzip();
+        std::fs::write(
+            txt.join(format!("scan{}.txt", i + 1)),
+            format!("{}\n{}\n", xs.join(" "), zs.join(" ")),
+        )
+        .unwrap();
+    }
+    let pose_list = dir.path().join("poses.csv");
+    std::fs::write(&pose_list, poses).unwrap();
+    let import = |folder: &std::path::Path, extra: &[&str], tag: &str| {
+        let out = dir.path().join(format!("{tag}.json"));
+        let mut args = vec![
+            "import",
+            "--poses",
+            pose_list.to_str().unwrap(),
+            "--profiles",
+            folder.to_str().unwrap(),
+            "--sensor",
+            doc["sensor"].as_str().unwrap(),
+            "--method",
+            "ball",
+            "--specimen",
+            "ball",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        let radius = doc["specimen"]["radius_mm"].to_string();
+        args.extend(["--radius-mm", &radius]);
+        args.extend(extra);
+        let r = common::lasercal(&args);
+        (r, out)
+    };
+    for (folder, extra, tag) in [
+        (&yml, &[][..], "opencv"),
+        (&txt, &["--missing-z-mm", "0"][..], "two-row"),
+    ] {
+        let ((code, _, err), out) = import(folder, extra, tag);
+        assert_eq!(code, 0, "{tag}: {err}");
+        let got = calibrated(out.to_str().unwrap(), dir.path(), tag);
+        for i in 0..3 {
+            for j in 0..4 {
+                assert!(
+                    (got[i][j] - want[i][j]).abs() < 1e-6,
+                    "{tag}: [{i}][{j}] {} vs {}",
+                    got[i][j],
+                    want[i][j]
+                );
+            }
+        }
+    }
+    // A point cloud (a point off y = 0) is refused naming the file.
+    let first = yml.join("p2.yml");
+    let text = std::fs::read_to_string(&first).unwrap();
+    std::fs::write(&first, text.replacen(", 0., ", ", 2.5, ", 1)).unwrap();
+    let ((code, _, err), _) = import(&yml, &[], "cloud");
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("p2.yml") && err.contains("point cloud"),
+        "{err}"
+    );
+}

@@ -353,19 +353,56 @@ fn npy_points<R: Read>(
 }
 
 fn any_points<R: Read>(
-    reader: R,
+    mut reader: R,
     file: &str,
     pose_column: bool,
+    missing: Option<f64>,
 ) -> Result<Vec<(usize, Option<[f64; 2]>)>, FormatError> {
-    if file.to_ascii_lowercase().ends_with(".npy") {
-        npy_points(reader, file, pose_column)
+    let lower = file.to_ascii_lowercase();
+    let text = |r: &mut R| -> Result<String, FormatError> {
+        let mut s = String::new();
+        r.take(256 << 20)
+            .read_to_string(&mut s)
+            .map_err(|e| field(file, "the file".into(), e.to_string()))?;
+        Ok(s)
+    };
+    let per_pose = |p: Vec<Option<[f64; 2]>>| p.into_iter().map(|p| (0, p)).collect();
+    let mut pts: Vec<(usize, Option<[f64; 2]>)> = if lower.ends_with(".npy") {
+        npy_points(reader, file, pose_column)?
+    } else if lower.ends_with(".yml") || lower.ends_with(".yaml") {
+        per_pose(super::poses::opencv_profile(&text(&mut reader)?, file)?)
+    } else if lower.ends_with(".txt") {
+        per_pose(super::poses::two_row_profile(&text(&mut reader)?, file)?)
     } else {
-        points(reader, file, pose_column)
+        points(reader, file, pose_column)?
+    };
+    // A stated sentinel for no point (a profiler's 0 or -999 in z).
+    if let Some(m) = missing {
+        for p in &mut pts {
+            if p.1.is_some_and(|[_, z]| z == m) {
+                p.1 = None;
+            }
+        }
     }
+    for (i, p) in pts.iter().enumerate() {
+        if let Some([x, z]) = p.1
+            && !(x.abs() < 1e5 && z.abs() < 1e5)
+        {
+            return Err(field(
+                file,
+                format!("point {i}"),
+                format!(
+                    "({x}, {z}) is no point in mm (|x|, |z| < 100000); a sentinel for no point \
+                     is stated with --missing-z-mm"
+                ),
+            ));
+        }
+    }
+    Ok(pts)
 }
 
-/// Where the profiles are: one CSV per pose (a folder's `*.csv`, in name order) or one long CSV
-/// with a `pose` column.
+/// Where the profiles are: one file per pose (a folder's CSV, NPY, OpenCV YAML or two-row text
+/// files, in natural name order) or one long CSV or NPY with a `pose` column.
 pub enum ProfileSource<'a> {
     PerPose(Vec<(String, Box<dyn Read + 'a>)>),
     Long(String, Box<dyn Read + 'a>),
@@ -382,6 +419,9 @@ pub struct Header<'a> {
     pub z_sigma_mm: Option<f64>,
     /// The robot's pose accuracy (mm) for the verdict (docs/verdict.md).
     pub robot_accuracy_mm: Option<f64>,
+    /// The z value (mm) the profiler writes where a column has no point (0, -999, ...), besides
+    /// NaN and empty cells.
+    pub missing_z_mm: Option<f64>,
 }
 
 /// Assemble a capture file (JSON text) and check it by reading it back; errors name the file,
@@ -393,6 +433,7 @@ pub fn capture_file(
     profiles: ProfileSource,
 ) -> Result<String, FormatError> {
     let mut per_pose: Vec<Vec<Option<[f64; 2]>>> = vec![Vec::new(); poses.len()];
+    let profiles_missing = h.missing_z_mm;
     match profiles {
         ProfileSource::PerPose(files) => {
             if files.len() != poses.len() {
@@ -408,14 +449,14 @@ pub fn capture_file(
                 ));
             }
             for (i, (name, r)) in files.into_iter().enumerate() {
-                per_pose[i] = any_points(r, &name, false)?
+                per_pose[i] = any_points(r, &name, false, profiles_missing)?
                     .into_iter()
                     .map(|p| p.1)
                     .collect();
             }
         }
         ProfileSource::Long(name, r) => {
-            for (pose, p) in any_points(r, &name, true)? {
+            for (pose, p) in any_points(r, &name, true, profiles_missing)? {
                 let slot = per_pose.get_mut(pose).ok_or_else(|| {
                     field(
                         &name,

@@ -530,3 +530,195 @@ fn halcon(text: &str, file: &str) -> Result<Vec<f64>, FormatError> {
         1.0,
     ])
 }
+
+/// One profile's points (x, z mm, sensor frame; None: no point) from an OpenCV `FileStorage`
+/// YAML file: a `!!opencv-matrix` of (x, y, z) or (x, z) per point (`cols` times the channels of
+/// `dt`), or a list of `[x, y, z]` / `[x, z]` entries. With several (an extracted feature point
+/// beside the profile), the one with the most points is the profile. y must be 0 (a profile,
+/// not a point cloud).
+pub fn opencv_profile(text: &str, file: &str) -> Result<Vec<Option<[f64; 2]>>, FormatError> {
+    // Candidates: (key, width, values).
+    let mut found: Vec<(String, usize, Vec<f64>)> = Vec::new();
+    let lines: Vec<&str> = text.lines().filter(|l| !l.starts_with('%')).collect();
+    let mut i = 0;
+    let mut key = String::new();
+    while i < lines.len() {
+        let l = lines[i].trim();
+        if let Some((k, rest)) = l.split_once(':')
+            && !k.trim().starts_with('-')
+            && !k.contains('[')
+        {
+            let (k, rest) = (k.trim(), rest.trim());
+            // A new entry's name (the matrix's or the list's).
+            if (rest.starts_with("!!opencv-matrix") || rest.is_empty())
+                && !matches!(k, "rows" | "cols" | "dt" | "data")
+            {
+                key = k.to_string();
+            }
+            if k == "data" {
+                // The matrix this data belongs to: its rows, cols and dt just above.
+                let (mut cols, mut channels) = (0usize, 1usize);
+                for back in lines[..i].iter().rev().take(4) {
+                    let b = back.trim();
+                    if let Some(v) = b.strip_prefix("cols:") {
+                        cols = v.trim().parse().unwrap_or(0);
+                    } else if let Some(v) = b.strip_prefix("dt:") {
+                        let v = v.trim().trim_matches('"');
+                        channels = v.trim_end_matches(char::is_alphabetic).parse().unwrap_or(1);
+                    }
+                }
+                let mut body = rest.to_string();
+                while !body.contains(']') && i + 1 < lines.len() {
+                    i += 1;
+                    body.push(' ');
+                    body.push_str(lines[i].trim());
+                }
+                let values = numbers(&body, file, i + 1)?;
+                found.push((key.clone(), cols * channels, values));
+            } else if rest.starts_with("[[") || rest.starts_with("[ [") {
+                let mut body = rest.to_string();
+                while !body.trim_end().ends_with("]]") && i + 1 < lines.len() {
+                    i += 1;
+                    body.push(' ');
+                    body.push_str(lines[i].trim());
+                }
+                let rows: Vec<Vec<f64>> = body
+                    .trim()
+                    .trim_start_matches('[')
+                    .trim_end_matches(']')
+                    .split(']')
+                    .map(|r| numbers(r, file, i + 1))
+                    .collect::<Result<Vec<_>, _>>()?
+                    .into_iter()
+                    .filter(|r| !r.is_empty())
+                    .collect();
+                push_rows(&mut found, k, rows, file, i + 1)?;
+            } else if rest.is_empty() {
+                // A block list of `- [x, y, z]` entries.
+                let mut rows = Vec::new();
+                while i + 1 < lines.len() && lines[i + 1].trim().starts_with('-') {
+                    i += 1;
+                    rows.push(numbers(
+                        lines[i].trim().trim_start_matches('-'),
+                        file,
+                        i + 1,
+                    )?);
+                }
+                if !rows.is_empty() {
+                    push_rows(&mut found, k, rows, file, i + 1)?;
+                }
+            }
+        }
+        i += 1;
+    }
+    let Some((key, width, values)) = found.into_iter().max_by_key(|f| f.2.len()) else {
+        return Err(field(
+            file,
+            "the whole file",
+            "no profile in it: want an !!opencv-matrix of (x, 0, z) per point or a list of \
+             [x, 0, z] entries",
+        ));
+    };
+    if !(width == 2 || width == 3) || values.len() % width != 0 {
+        return Err(field(
+            file,
+            key,
+            format!(
+                "{} values of width {width}: want (x, 0, z) or (x, z) per point",
+                values.len()
+            ),
+        ));
+    }
+    values
+        .chunks(width)
+        .enumerate()
+        .map(|(k, p)| {
+            let (x, z) = (p[0], p[width - 1]);
+            if width == 3 && p[1].is_finite() && p[1].abs() > 1e-6 {
+                return Err(field(
+                    file,
+                    format!("{key}, point {k}"),
+                    format!(
+                        "y = {}: a profile's points have y = 0 (x, 0, z); this looks like a \
+                         point cloud",
+                        p[1]
+                    ),
+                ));
+            }
+            Ok((x.is_finite() && z.is_finite()).then_some([x, z]))
+        })
+        .collect()
+}
+
+fn push_rows(
+    found: &mut Vec<(String, usize, Vec<f64>)>,
+    key: &str,
+    rows: Vec<Vec<f64>>,
+    file: &str,
+    line: usize,
+) -> Result<(), FormatError> {
+    let width = rows.first().map_or(0, Vec::len);
+    if rows.iter().any(|r| r.len() != width) {
+        return Err(field(
+            file,
+            format!("line {line}, {key}"),
+            "entries of different lengths: want [x, 0, z] or [x, z] each",
+        ));
+    }
+    found.push((key.to_string(), width, rows.concat()));
+    Ok(())
+}
+
+/// The numbers of a bracketed list (commas or spaces; `.nan`, `nan` for no value).
+fn numbers(s: &str, file: &str, line: usize) -> Result<Vec<f64>, FormatError> {
+    s.split(|c: char| c == ',' || c == '[' || c == ']' || c.is_whitespace())
+        .filter(|t| !t.is_empty())
+        .map(|t| {
+            let lower = t.to_ascii_lowercase();
+            if matches!(lower.as_str(), ".nan" | "nan" | "-nan") {
+                return Ok(f64::NAN);
+            }
+            t.parse::<f64>().map_err(|_| {
+                field(
+                    file,
+                    format!("line {line}"),
+                    format!("'{t}' is not a number"),
+                )
+            })
+        })
+        .collect()
+}
+
+/// One profile's points from two lines of text: the x values, then the z values (mm; spaces,
+/// tabs or commas), as many of each.
+pub fn two_row_profile(text: &str, file: &str) -> Result<Vec<Option<[f64; 2]>>, FormatError> {
+    let rows: Vec<(usize, &str)> = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
+        .collect();
+    if rows.len() != 2 {
+        return Err(field(
+            file,
+            "the whole file",
+            format!(
+                "{} lines of values: a two-row profile has the x values on one line and the z \
+                 values on the next",
+                rows.len()
+            ),
+        ));
+    }
+    let x = numbers(rows[0].1, file, rows[0].0 + 1)?;
+    let z = numbers(rows[1].1, file, rows[1].0 + 1)?;
+    if x.len() != z.len() {
+        return Err(field(
+            file,
+            format!("line {}", rows[1].0 + 1),
+            format!("{} z values for {} x values", z.len(), x.len()),
+        ));
+    }
+    Ok(x.iter()
+        .zip(&z)
+        .map(|(x, z)| (x.is_finite() && z.is_finite()).then_some([*x, *z]))
+        .collect())
+}

@@ -12,11 +12,16 @@ pub struct Args {
     /// W, P, R); or a folder of HALCON pose files (.dat, type 0, one per pose)
     #[arg(long)]
     poses: PathBuf,
-    /// Profiles: a folder of one CSV per pose (x_mm,z_mm; name order = pose order) or one CSV
-    /// with pose,x_mm,z_mm (pose: 0-based row of the pose list); NPY float64 arrays likewise:
-    /// (n, 2) per pose or (n, 3) pose, x_mm, z_mm, NaN where a column has no point
+    /// Profiles: a folder of one file per pose (natural name order = pose order): CSV
+    /// (x_mm,z_mm), NPY float64 (n, 2), OpenCV YAML (.yml: an !!opencv-matrix or a list of
+    /// (x, 0, z) per point) or two-row text (.txt: the x values, then the z values); or one CSV
+    /// with pose,x_mm,z_mm (pose: 0-based row of the pose list) or one NPY (n, 3) likewise. NaN
+    /// or an empty cell where a column has no point
     #[arg(long)]
     profiles: PathBuf,
+    /// The z value (mm) the profiler writes where a column has no point (e.g. 0 or -999)
+    #[arg(long, allow_negative_numbers = true)]
+    missing_z_mm: Option<f64>,
     /// Sensor preset (gocator-2340, vlm350, ...)
     #[arg(long)]
     sensor: String,
@@ -83,8 +88,11 @@ pub fn run(a: Args) -> Result<()> {
             .with_context(|| format!("{}: cannot list", a.profiles.display()))?
             .filter_map(|e| e.ok().map(|e| e.path()))
             .filter(|p| {
-                p.extension()
-                    .is_some_and(|x| x.eq_ignore_ascii_case("csv") || x.eq_ignore_ascii_case("npy"))
+                p.extension().is_some_and(|x| {
+                    ["csv", "npy", "yml", "yaml", "txt"]
+                        .iter()
+                        .any(|e| x.eq_ignore_ascii_case(e))
+                })
             })
             .collect();
         files.sort_by(|x, y| {
@@ -110,6 +118,7 @@ pub fn run(a: Args) -> Result<()> {
         feature_sigma_mm: None,
         z_sigma_mm: a.z_sigma_mm,
         robot_accuracy_mm: a.robot_accuracy_mm,
+        missing_z_mm: a.missing_z_mm,
     };
     let text = capture_file(&header, &pname, &poses, source)?;
     lasercal::io::write(&a.out, text.as_bytes())?;
