@@ -48,7 +48,7 @@ fn number(file: &str, at: &str, name: &str, text: &str) -> Result<f64, FormatErr
 /// The format a pose file's text is in, when it is one of these (None: a CSV pose list).
 pub fn detect(text: &str) -> Option<&'static str> {
     let t = text.trim_start();
-    if t.starts_with('[') {
+    if t.starts_with('[') || t.starts_with('{') {
         Some("json")
     } else if text.contains("/POS") || (text.contains("P[") && text.contains("GP1")) {
         Some("fanuc")
@@ -194,15 +194,44 @@ pub fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
     ca.len().cmp(&cb.len()).then_with(|| a.cmp(b))
 }
 
-/// `[[x, y, z, w, p, r], ...]`: mm and deg, FANUC's W, P, R (R = Rz(r) Ry(p) Rx(w)).
+/// `[[x, y, z, w, p, r], ...]`, or an object whose one list-valued key holds it
+/// (`{"RobPoses": [...]}`): mm and deg, FANUC's W, P, R (R = Rz(r) Ry(p) Rx(w)).
 fn json(text: &str, file: &str) -> Result<PoseList, FormatError> {
-    let rows: Vec<Vec<f64>> = serde_json::from_str(text).map_err(|e| {
+    let bad = |e: serde_json::Error| {
         field(
             file,
             format!("line {}, column {}", e.line(), e.column()),
             format!("not a JSON list of [x, y, z, w, p, r] lists: {e}"),
         )
-    })?;
+    };
+    let value: serde_json::Value = serde_json::from_str(text).map_err(bad)?;
+    let list = match value {
+        serde_json::Value::Object(map) => {
+            let lists: Vec<(String, serde_json::Value)> =
+                map.into_iter().filter(|(_, v)| v.is_array()).collect();
+            match <[_; 1]>::try_from(lists) {
+                Ok([(_, v)]) => v,
+                Err(lists) => {
+                    return Err(field(
+                        file,
+                        "the object",
+                        format!(
+                            "{} list-valued keys ({}): want one key holding the [x, y, z, w, p, \
+                             r] lists",
+                            lists.len(),
+                            lists
+                                .iter()
+                                .map(|l| l.0.as_str())
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
+                    ));
+                }
+            }
+        }
+        v => v,
+    };
+    let rows: Vec<Vec<f64>> = serde_json::from_value(list).map_err(bad)?;
     for (i, r) in rows.iter().enumerate() {
         if r.len() != 6 {
             return Err(field(
@@ -575,6 +604,22 @@ pub fn opencv_profile(text: &str, file: &str) -> Result<Vec<Option<[f64; 2]>>, F
                 }
                 let values = numbers(&body, file, i + 1)?;
                 found.push((key.clone(), cols * channels, values));
+            } else if rest.starts_with('[') && !rest[1..].trim_start().starts_with('[') {
+                // A flat list: x, y, z per point when every second of three is 0, else x, z.
+                let mut body = rest.to_string();
+                while !body.contains(']') && i + 1 < lines.len() {
+                    i += 1;
+                    body.push(' ');
+                    body.push_str(lines[i].trim());
+                }
+                let values = numbers(&body, file, i + 1)?;
+                let triples = values.len() % 3 == 0
+                    && values
+                        .iter()
+                        .skip(1)
+                        .step_by(3)
+                        .all(|y| *y == 0.0 || y.is_nan());
+                found.push((k.to_string(), if triples { 3 } else { 2 }, values));
             } else if rest.starts_with("[[") || rest.starts_with("[ [") {
                 let mut body = rest.to_string();
                 while !body.trim_end().ends_with("]]") && i + 1 < lines.len() {

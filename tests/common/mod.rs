@@ -171,8 +171,9 @@ pub fn bar_solid(
 
 /// The poses of a simulated capture file (`doc`) written into `dir` in the controllers' and
 /// vision libraries' own formats: a FANUC `.ls` program (`cell.ls`, user frame 1, tool frame 2),
-/// ABB RAPID robtargets (`cell.mod`), a JSON list and text lines of x y z w p r (`poses.json`,
-/// `poses.txt`) and a folder of HALCON pose files (`halcon/pose_N.dat`). Returns their names.
+/// ABB RAPID robtargets (`cell.mod`), a JSON list, a JSON object holding it and text lines of
+/// x y z w p r (`poses.json`, `robposes.rob`, `poses.txt`) and a folder of HALCON pose files
+/// (`halcon/pose_N.dat`). Returns their names.
 pub fn pose_files(doc: &serde_json::Value, dir: &std::path::Path) -> Vec<&'static str> {
     use nalgebra::UnitQuaternion;
     let poses: Vec<(Vec<f64>, UnitQuaternion<f64>)> = doc["profiles"]
@@ -237,6 +238,11 @@ pub fn pose_files(doc: &serde_json::Value, dir: &std::path::Path) -> Vec<&'stati
         serde_json::to_string(&rows).unwrap(),
     )
     .unwrap();
+    std::fs::write(
+        dir.join("robposes.rob"),
+        serde_json::json!({ "RobPoses": rows }).to_string(),
+    )
+    .unwrap();
     std::fs::write(dir.join("poses.txt"), text).unwrap();
     let halcon = dir.join("halcon");
     std::fs::create_dir_all(&halcon).unwrap();
@@ -265,5 +271,12 @@ pub fn pose_files(doc: &serde_json::Value, dir: &std::path::Path) -> Vec<&'stati
         )
         .unwrap();
     }
-    vec!["cell.ls", "cell.mod", "poses.json", "poses.txt", "halcon"]
+    vec![
+        "cell.ls",
+        "cell.mod",
+        "poses.json",
+        "robposes.rob",
+        "poses.txt",
+        "halcon",
+    ]
 }
