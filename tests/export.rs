@@ -45,12 +45,72 @@ fn yaml_round_trips_with_its_covariance() {
         close(&back.flange_to_sensor, &e.flange_to_sensor, 1e-14);
         assert_eq!(back.parent_frame, e.parent_frame);
         assert_eq!(back.child_frame, e.child_frame);
-        assert_eq!(back.covariance, e.covariance);
+        let (b, c) = (back.covariance.unwrap(), e.covariance.unwrap());
+        assert!((b - c).abs().max() < 1e-20, "{b} vs {c}");
     }
     let err = from_yaml("eye_on_hand: true\n", "bad.yaml")
         .unwrap_err()
         .to_string();
     assert!(err.contains("bad.yaml"), "{err}");
+}
+
+/// The YAML in the layout easy_handeye's current loader reads (its `parameters` passed as
+/// keyword arguments, so only the keys it takes, `namespace` among them), the frames also at the
+/// top level for its older versions, w >= 0, and the covariance in ROS's order and frame: a
+/// variance of the rotation about the sensor's x alone is, in ROS's (x y z, then rotation, all
+/// in the flange frame), the rotation block R e_x e_x^T R^T.
+#[test]
+fn yaml_is_laid_out_as_easy_handeye_reads_it() {
+    let allowed = [
+        "namespace",
+        "move_group_namespace",
+        "move_group",
+        "eye_on_hand",
+        "robot_base_frame",
+        "robot_effector_frame",
+        "tracking_base_frame",
+        "tracking_marker_frame",
+    ];
+    for seed in 0..8 {
+        let mut e = example(seed);
+        let mut c = Matrix6::zeros();
+        c[(0, 0)] = 4e-6;
+        e.covariance = Some(c);
+        let doc: serde_norway::Value = serde_norway::from_str(&to_yaml(&e).unwrap()).unwrap();
+        let params = doc["parameters"].as_mapping().unwrap();
+        for (k, _) in params {
+            assert!(allowed.contains(&k.as_str().unwrap()), "{k:?}");
+        }
+        assert!(params.contains_key("namespace"));
+        assert_eq!(doc["parameters"]["eye_on_hand"].as_bool(), Some(true));
+        assert_eq!(
+            doc["parameters"]["robot_effector_frame"].as_str(),
+            Some("tool0")
+        );
+        assert_eq!(doc["robot_effector_frame"].as_str(), Some("tool0"));
+        assert!(doc["transformation"]["qw"].as_f64().unwrap() >= 0.0);
+        let rows: Vec<Vec<f64>> = serde_norway::from_value(doc["covariance"].clone()).unwrap();
+        let r = e
+            .flange_to_sensor
+            .rotation
+            .to_rotation_matrix()
+            .into_inner();
+        let want = r.column(0) * r.column(0).transpose() * 4e-6;
+        for a in 0..6 {
+            for b in 0..6 {
+                let w = if a >= 3 && b >= 3 {
+                    want[(a - 3, b - 3)]
+                } else {
+                    0.0
+                };
+                assert!(
+                    (rows[a][b] - w).abs() < 1e-18,
+                    "[{a}][{b}] {} vs {w}",
+                    rows[a][b]
+                );
+            }
+        }
+    }
 }
 
 #[test]
@@ -133,7 +193,16 @@ fn calibrate_exports_what_it_prints() {
         "gocator",
     ]);
     assert_eq!(code, 0, "{out} {err}");
-    assert!(out.contains("static_transform_publisher") && out.contains("--child-frame-id gocator"));
+    // With --ros2, standard output is the command alone (the report is on standard error).
+    assert_eq!(out.lines().count(), 1, "{out}");
+    assert!(
+        out.starts_with("ros2 run tf2_ros static_transform_publisher"),
+        "{out}"
+    );
+    assert!(
+        out.contains("--child-frame-id gocator") && err.contains("verdict"),
+        "{err}"
+    );
     let y = from_yaml(&std::fs::read_to_string(&yaml).unwrap(), "r.yaml").unwrap();
     let doc: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();

@@ -1,6 +1,6 @@
-//! A calibration result in the formats ROS users expect: YAML (easy_handeye's keys, metres,
-//! quaternion x, y, z, w, with the covariance), a URDF fixed joint, and a ROS 2
-//! `static_transform_publisher` command. Each reads back to the same transform (tests).
+//! A calibration result in the formats ROS users expect: YAML (easy_handeye's layout, metres,
+//! quaternion x, y, z, w with w >= 0, the covariance in ROS's order and frame), a URDF fixed
+//! joint, and a ROS 2 `static_transform_publisher` command. Each reads back to the same transform (tests).
 
 use crate::error::FormatError;
 use nalgebra::{Isometry3, Matrix6, Quaternion, Translation3, UnitQuaternion};
@@ -18,9 +18,21 @@ pub struct Exported {
     pub covariance: Option<Matrix6<f64>>,
 }
 
-/// The order of the covariance's rows and columns, written beside it.
-pub const COVARIANCE_ORDER: &str =
-    "rx ry rz (rad, about the sensor's axes), tx ty tz (m, along the flange's axes)";
+/// The order of the YAML covariance's rows and columns, written beside it: ROS's
+/// (geometry_msgs/PoseWithCovariance), all in the parent (flange) frame.
+pub const COVARIANCE_ORDER: &str = "x y z (m), then rotation about x y z (rad), all along the parent (flange) frame's axes, as geometry_msgs/PoseWithCovariance";
+
+/// The change of variables from lasercal's covariance (rotation about the sensor's axes, then
+/// translation along the flange's) to ROS's (translation, then rotation, both in the flange
+/// frame): a rotation w about the sensor's axes is R w about the flange's (R = flange_to_sensor).
+fn to_ros_order(x: &Isometry3<f64>) -> Matrix6<f64> {
+    let r = x.rotation.to_rotation_matrix().into_inner();
+    let mut t = Matrix6::zeros();
+    t.fixed_view_mut::<3, 3>(0, 3)
+        .copy_from(&nalgebra::Matrix3::identity());
+    t.fixed_view_mut::<3, 3>(3, 0).copy_from(&r);
+    t
+}
 
 #[derive(Serialize, Deserialize, Debug, PartialEq)]
 struct Transformation {
@@ -33,8 +45,26 @@ struct Transformation {
     qw: f64,
 }
 
+/// easy_handeye's calibration parameters (its loader passes them as keyword arguments: only
+/// these keys).
+#[derive(Serialize, Deserialize, Debug)]
+struct Parameters {
+    namespace: String,
+    move_group_namespace: String,
+    move_group: String,
+    eye_on_hand: bool,
+    robot_base_frame: Option<String>,
+    robot_effector_frame: String,
+    tracking_base_frame: String,
+    tracking_marker_frame: Option<String>,
+}
+
+/// The frames under `parameters:` as the current easy_handeye loader reads them, and at the top
+/// level as its older versions did.
 #[derive(Serialize, Deserialize, Debug)]
 struct YamlFile {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    parameters: Option<Parameters>,
     eye_on_hand: bool,
     robot_effector_frame: String,
     tracking_base_frame: String,
@@ -66,7 +96,13 @@ pub fn check_frame(name: &str, what: &str) -> Result<(), FormatError> {
 }
 
 fn transformation(x: &Isometry3<f64>) -> Transformation {
-    let (t, q) = (x.translation.vector, x.rotation);
+    let t = x.translation.vector;
+    // q and -q are one rotation; w >= 0 as ROS tools print it.
+    let q = if x.rotation.w < 0.0 {
+        -x.rotation.into_inner()
+    } else {
+        x.rotation.into_inner()
+    };
     Transformation {
         x: t.x,
         y: t.y,
@@ -81,6 +117,16 @@ fn transformation(x: &Isometry3<f64>) -> Transformation {
 /// easy_handeye's YAML (eye on hand: the effector is the parent, the tracking frame the sensor).
 pub fn to_yaml(e: &Exported) -> Result<String, FormatError> {
     let file = YamlFile {
+        parameters: Some(Parameters {
+            namespace: "/lasercal_eye_on_hand/".into(),
+            move_group_namespace: "/".into(),
+            move_group: "manipulator".into(),
+            eye_on_hand: true,
+            robot_base_frame: None,
+            robot_effector_frame: e.parent_frame.clone(),
+            tracking_base_frame: e.child_frame.clone(),
+            tracking_marker_frame: None,
+        }),
         eye_on_hand: true,
         robot_effector_frame: e.parent_frame.clone(),
         tracking_base_frame: e.child_frame.clone(),
@@ -89,6 +135,8 @@ pub fn to_yaml(e: &Exported) -> Result<String, FormatError> {
             .covariance
             .filter(|c| c.iter().all(|v| v.is_finite()))
             .map(|c| {
+                let t = to_ros_order(&e.flange_to_sensor);
+                let c = t * c * t.transpose();
                 (0..6)
                     .map(|r| (0..6).map(|k| c[(r, k)]).collect())
                     .collect()
@@ -119,10 +167,16 @@ pub fn from_yaml(text: &str, file: &str) -> Result<Exported, FormatError> {
             message: "the translation must be finite and the quaternion of unit length".into(),
         });
     }
+    let flange_to_sensor = Isometry3::from_parts(
+        Translation3::new(t.x, t.y, t.z),
+        UnitQuaternion::from_quaternion(q),
+    );
     let covariance = match &f.covariance {
         None => None,
         Some(rows) if rows.len() == 6 && rows.iter().all(|r| r.len() == 6) => {
-            Some(Matrix6::from_fn(|r, k| rows[r][k]))
+            // Back from ROS's order and frame (`to_ros_order` is orthogonal).
+            let t = to_ros_order(&flange_to_sensor);
+            Some(t.transpose() * Matrix6::from_fn(|r, k| rows[r][k]) * t)
         }
         Some(_) => {
             return Err(FormatError::Field {
@@ -132,13 +186,14 @@ pub fn from_yaml(text: &str, file: &str) -> Result<Exported, FormatError> {
             });
         }
     };
+    let (parent_frame, child_frame) = match f.parameters {
+        Some(p) => (p.robot_effector_frame, p.tracking_base_frame),
+        None => (f.robot_effector_frame, f.tracking_base_frame),
+    };
     Ok(Exported {
-        parent_frame: f.robot_effector_frame,
-        child_frame: f.tracking_base_frame,
-        flange_to_sensor: Isometry3::from_parts(
-            Translation3::new(t.x, t.y, t.z),
-            UnitQuaternion::from_quaternion(q),
-        ),
+        parent_frame,
+        child_frame,
+        flange_to_sensor,
         covariance,
     })
 }

@@ -41,7 +41,9 @@ pub struct Args {
     /// Write the sensor link and its fixed joint on the flange as a URDF fragment
     #[arg(long)]
     urdf: Option<PathBuf>,
-    /// Print the ROS 2 static_transform_publisher command for the transform
+    /// Print the ROS 2 static_transform_publisher command for the transform, alone on standard
+    /// output (the report goes to standard error): `$(lasercal calibrate FILE --ros2)` is the
+    /// command
     #[arg(long)]
     ros2: bool,
     /// The flange frame's name in the exports
@@ -66,6 +68,9 @@ pub const SUSPECT: i32 = 3;
 pub const IMPRECISE: i32 = 4;
 
 pub fn run(a: Args) -> Result<i32> {
+    if a.ros2 {
+        crate::REPORT_TO_STDERR.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
     let name = a.file.display().to_string();
     lasercal::io::export::check_frame(&a.parent_frame, "--parent-frame")?;
     lasercal::io::export::check_frame(&a.child_frame, "--child-frame")?;
@@ -246,7 +251,13 @@ fn export(
         lasercal::io::write(p, lasercal::io::export::to_urdf(&exported).as_bytes())?;
     }
     if a.ros2 {
-        say!("{}", lasercal::io::export::ros2_command(&exported));
+        use std::io::Write as _;
+        writeln!(
+            std::io::stdout(),
+            "{}",
+            lasercal::io::export::ros2_command(&exported)
+        )
+        .map_err(|e| anyhow::anyhow!("cannot write to standard output: {e}"))?;
     }
     Ok(())
 }

@@ -2,11 +2,20 @@
 
 /// `println!` that returns an error instead of panicking when standard output is gone (a closed
 /// pipe, a full disk): the enclosing function returns `anyhow::Result`.
+/// While set (`calibrate --ros2`), the report goes to standard error so that standard output
+/// holds only the command a shell captures.
+static REPORT_TO_STDERR: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 macro_rules! say {
     ($($t:tt)*) => {{
         use std::io::Write as _;
-        writeln!(std::io::stdout(), $($t)*)
-            .map_err(|e| anyhow::anyhow!("cannot write to standard output: {e}"))?;
+        if crate::REPORT_TO_STDERR.load(std::sync::atomic::Ordering::Relaxed) {
+            writeln!(std::io::stderr(), $($t)*)
+                .map_err(|e| anyhow::anyhow!("cannot write to standard error: {e}"))?;
+        } else {
+            writeln!(std::io::stdout(), $($t)*)
+                .map_err(|e| anyhow::anyhow!("cannot write to standard output: {e}"))?;
+        }
     }};
 }
 
