@@ -639,3 +639,103 @@ fn import_reads_profiles_in_the_profilers_own_files() {
         "{err}"
     );
 }
+
+/// A sensor no preset describes is declared to `import` as a JSON file holding the record a
+/// capture file's `sensor` holds: the imported file calibrates through that fan's own rays, as
+/// the simulated file does.
+#[test]
+fn import_takes_a_declared_sensor() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(common::scen("ball-free.toml"))
+        .unwrap()
+        .replace("preset = \"gocator-2340\"\n", "")
+        + "\n[sensor.geometry]\nname = \"fan-295\"\ncolumns = 1280\nspacing = \"equal-angle\"\n\
+           z_axis = \"toward\"\napex_z_mm = 295.0\nhalf_angle_deg = 14.0\n\
+           range_z_mm = [-105.0, 105.0]\ncamera_mm = [0.0, 120.0, 295.0]\n";
+    let scenario = dir.path().join("fan.toml");
+    std::fs::write(&scenario, text).unwrap();
+    let caps = dir.path().join("sim.json");
+    let (code, _, err) = common::lasercal(&[
+        "simulate",
+        scenario.to_str().unwrap(),
+        "--out",
+        caps.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&caps).unwrap()).unwrap();
+    assert!(doc["sensor"].is_object(), "the file declares its fan");
+    let want = calibrated(caps.to_str().unwrap(), dir.path(), "sim");
+    let sensor = dir.path().join("fan-295.json");
+    std::fs::write(&sensor, doc["sensor"].to_string()).unwrap();
+    let per_pose = dir.path().join("profiles");
+    std::fs::create_dir_all(&per_pose).unwrap();
+    let mut poses = String::from("x_mm,y_mm,z_mm,qw,qx,qy,qz\n");
+    for (i, p) in doc["profiles"].as_array().unwrap().iter().enumerate() {
+        let (t, q) = (&p["tcp_position_mm"], &p["tcp_quaternion_wxyz"]);
+        poses += &format!(
+            "{},{},{},{},{},{},{}\n",
+            t[0], t[1], t[2], q[0], q[1], q[2], q[3]
+        );
+        let mut csv = String::from("x_mm,z_mm\n");
+        for pt in p["points_mm"].as_array().unwrap() {
+            match pt.as_array() {
+                Some(xz) => csv += &format!("{},{}\n", xz[0], xz[1]),
+                None => csv += ",\n",
+            }
+        }
+        std::fs::write(per_pose.join(format!("pose_{i}.csv")), csv).unwrap();
+    }
+    let pose_list = dir.path().join("poses.csv");
+    std::fs::write(&pose_list, poses).unwrap();
+    let out = dir.path().join("imported.json");
+    let radius = doc["specimen"]["radius_mm"].to_string();
+    let args = |sensor: &str| {
+        vec![
+            "import".to_string(),
+            "--poses".into(),
+            pose_list.to_str().unwrap().into(),
+            "--profiles".into(),
+            per_pose.to_str().unwrap().into(),
+            "--sensor".into(),
+            sensor.into(),
+            "--method".into(),
+            "ball".into(),
+            "--specimen".into(),
+            "ball".into(),
+            "--radius-mm".into(),
+            radius.clone(),
+            "--out".into(),
+            out.to_str().unwrap().into(),
+        ]
+    };
+    let run = |sensor: &str| {
+        let a = args(sensor);
+        common::lasercal(&a.iter().map(String::as_str).collect::<Vec<_>>())
+    };
+    let (code, _, err) = run(sensor.to_str().unwrap());
+    assert_eq!(code, 0, "{err}");
+    let got = calibrated(out.to_str().unwrap(), dir.path(), "imported");
+    for i in 0..3 {
+        for j in 0..4 {
+            assert!(
+                (got[i][j] - want[i][j]).abs() < 1e-6,
+                "[{i}][{j}] {} vs {}",
+                got[i][j],
+                want[i][j]
+            );
+        }
+    }
+    // A declaration with a bad field is refused naming it.
+    let bad = dir.path().join("bad.json");
+    std::fs::write(
+        &bad,
+        doc["sensor"]
+            .to_string()
+            .replace("\"half_angle_deg\":14.0", "\"half_angle_deg\":95.0"),
+    )
+    .unwrap();
+    let (code, _, err) = run(bad.to_str().unwrap());
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("half_angle"), "{err}");
+}

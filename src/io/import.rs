@@ -411,7 +411,9 @@ pub enum ProfileSource<'a> {
 /// What the capture file says besides the data.
 pub struct Header<'a> {
     pub method: &'a str,
-    pub sensor: &'a str,
+    /// A preset's name, or a declared sensor: the record a capture file's `sensor` holds
+    /// (docs/sensors.md).
+    pub sensor: serde_json::Value,
     pub specimen: &'a str,
     pub radius_mm: Option<f64>,
     pub feature_sigma_mm: Option<f64>,
@@ -493,7 +495,7 @@ pub fn capture_file(
         "format": super::captures::FORMAT,
         "version": super::captures::VERSION,
         "method": h.method,
-        "sensor": h.sensor,
+        "sensor": h.sensor.clone(),
         "specimen": { "kind": h.specimen },
         "groups": groups,
         "profiles": profiles,

@@ -22,7 +22,9 @@ pub struct Args {
     /// The z value (mm) the profiler writes where a column has no point (e.g. 0 or -999)
     #[arg(long, allow_negative_numbers = true)]
     missing_z_mm: Option<f64>,
-    /// Sensor preset (gocator-2340, vlm350, ...)
+    /// Sensor preset (gocator-2340, vlm350, ...), or a JSON file declaring the sensor (the
+    /// record a capture file's `sensor` holds: name, columns, spacing, z_axis, apex_z_mm, ...;
+    /// docs/sensors.md)
     #[arg(long)]
     sensor: String,
     /// Specimen method: ball, disk, edge or plane
@@ -110,9 +112,31 @@ pub fn run(a: Args) -> Result<()> {
         let f = std::fs::File::open(&a.profiles).with_context(|| format!("{name}: cannot read"))?;
         ProfileSource::Long(name, Box::new(f))
     };
+    // A preset's name, or a file declaring the sensor.
+    let sensor = if std::path::Path::new(&a.sensor).is_file() {
+        let text = std::fs::read_to_string(&a.sensor)
+            .with_context(|| format!("{}: cannot read", a.sensor))?;
+        let v: serde_json::Value = serde_json::from_str(&text).with_context(|| {
+            format!(
+                "{}: not a sensor declaration (a JSON object as a capture file's \"sensor\"; \
+                 docs/sensors.md)",
+                a.sensor
+            )
+        })?;
+        if !v.is_object() {
+            bail!(
+                "{}: a sensor declaration is a JSON object (name, columns, spacing, z_axis, \
+                 apex_z_mm, ...; docs/sensors.md)",
+                a.sensor
+            );
+        }
+        v
+    } else {
+        serde_json::Value::String(a.sensor.clone())
+    };
     let header = Header {
         method: &a.method,
-        sensor: &a.sensor,
+        sensor,
         specimen: &a.specimen,
         radius_mm: a.radius_mm,
         feature_sigma_mm: None,
