@@ -649,10 +649,7 @@ fn without_group(
         Estimator::FullProfile => cal.full_profile.as_ref(),
         Estimator::Refined | Estimator::AnyPose => cal.refinable.as_ref(),
     };
-    let key = |f: &Isometry3<f64>| {
-        let (t, q) = (f.translation.vector, f.rotation.coords);
-        [t.x, t.y, t.z, q.x, q.y, q.z, q.w].map(f64::to_bits)
-    };
+    let key = crate::calib::refine::honest::pose_key;
     let (mut dropped, mut kept) = (
         std::collections::HashSet::new(),
         std::collections::HashSet::new(),

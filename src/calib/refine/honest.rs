@@ -312,16 +312,18 @@ fn runs(clusters: &[u32]) -> Vec<(usize, usize, usize)> {
     runs
 }
 
+/// A flange pose bit for bit, as a hashable key (one pose, one cluster).
+pub fn pose_key(f: &Isometry3<f64>) -> [u64; 7] {
+    let (q, t) = (f.rotation.coords, f.translation.vector);
+    [q.x, q.y, q.z, q.w, t.x, t.y, t.z].map(f64::to_bits)
+}
+
 /// Each residual's cluster: residuals seen from one flange pose (bit for bit) share a number.
 /// Empty when the poses are not known or not one per residual.
 pub fn clusters(flanges: &[&Isometry3<f64>], n_residuals: usize) -> Vec<u32> {
     if flanges.len() != n_residuals {
         return Vec::new();
     }
-    let key = |f: &Isometry3<f64>| -> [u64; 7] {
-        let (q, t) = (f.rotation.coords, f.translation.vector);
-        [q.x, q.y, q.z, q.w, t.x, t.y, t.z].map(f64::to_bits)
-    };
     // Room for a pose per four residuals (a disk chord's two ends): rarely a rehash.
     let mut ids: FxHashMap<[u64; 7], u32> =
         FxHashMap::with_capacity_and_hasher((n_residuals / 4).min(1 << 16), Default::default());
@@ -333,7 +335,7 @@ pub fn clusters(flanges: &[&Isometry3<f64>], n_residuals: usize) -> Vec<u32> {
             Some((g, id)) if std::ptr::eq(g, f) || g == f => id,
             _ => {
                 let next = ids.len() as u32;
-                *ids.entry(key(f)).or_insert(next)
+                *ids.entry(pose_key(f)).or_insert(next)
             }
         };
         last = Some((f, id));
