@@ -317,3 +317,62 @@ fn fuzz_pose_csv_parser() {
     let (ok, refused) = fuzz("pose csv", csv, 4, pose_csv_parse);
     println!("pose csv: {ok} parsed, {refused} refused");
 }
+
+fn pose_file_parse(text: &str) -> Option<bool> {
+    let format = lasercal::io::poses::detect(text)?;
+    let list = lasercal::io::poses::read(text, "fuzz.ls", format).ok()?;
+    Some(list.rows.iter().all(|r| finite(r.iter().copied())))
+}
+
+fn profile_file_parse(text: &str) -> Option<bool> {
+    let a = lasercal::io::poses::opencv_profile(text, "fuzz.yml").ok();
+    let b = lasercal::io::poses::two_row_profile(text, "fuzz.txt").ok();
+    if a.is_none() && b.is_none() {
+        return None;
+    }
+    let all = a.into_iter().chain(b).flatten().flatten().flatten();
+    Some(finite(all))
+}
+
+/// The controllers' own pose files (a FANUC `.ls` program, RAPID robtargets, a JSON list) and the
+/// profilers' own profile files (OpenCV YAML, two-row text).
+#[test]
+fn fuzz_pose_and_profile_files() {
+    let mut ls = String::from("/PROG  CALIB\n/MN\n   1:L P[1] 100mm/sec FINE ;\n/POS\n");
+    let mut rapid = String::from("MODULE M\n");
+    let mut json = Vec::new();
+    for i in 0..6 {
+        let x = 300.0 + 10.0 * i as f64;
+        ls += &format!(
+            "P[{}]{{\n   GP1:\n\tUF : 0, UT : 1,\t\tCONFIG : 'N U T, 0, 0, 0',\n\tX = {x} mm,\t\
+             Y = -20.0 mm,\tZ = 400.0 mm,\n\tW = 180.0 deg,\tP = {} deg,\tR = 0.0 deg\n}};\n",
+            i + 1,
+            i as f64
+        );
+        rapid +=
+            &format!("  CONST robtarget p{i}:=[[{x},-20,400],[0,1,0,0],[0,0,0,0],[9E9,9E9]];\n");
+        json.push(vec![x, -20.0, 400.0, 180.0, i as f64, 0.0]);
+    }
+    ls += "/END\n";
+    rapid += "ENDMODULE\n";
+    for (i, text) in [ls, rapid, serde_json::to_string(&json).unwrap()]
+        .into_iter()
+        .enumerate()
+    {
+        let (ok, refused) = fuzz("pose file", text, 5 + i as u64, pose_file_parse);
+        println!("pose file {i}: {ok} parsed, {refused} refused");
+    }
+    let pts: Vec<String> = (0..40)
+        .map(|i| format!("{}, 0., {}", i as f64 * 0.1, 300.0 + (i as f64 * 0.3).sin()))
+        .collect();
+    let yml = format!(
+        "%YAML:1.0\n---\nfeature: !!opencv-matrix\n   rows: 1\n   cols: 3\n   dt: d\n   data: [ 1., \
+         0., 2. ]\nprofile: !!opencv-matrix\n   rows: 40\n   cols: 3\n   dt: d\n   data: [ {} ]\n",
+        pts.join(",\n       ")
+    );
+    let (ok, refused) = fuzz("opencv yaml", yml, 8, profile_file_parse);
+    println!("opencv yaml: {ok} parsed, {refused} refused");
+    let two = "0.1 0.2 0.3 0.4\n300.1 300.2 0 300.4\n".to_string();
+    let (ok, refused) = fuzz("two-row", two, 9, profile_file_parse);
+    println!("two-row: {ok} parsed, {refused} refused");
+}

@@ -359,11 +359,20 @@ fn any_points<R: Read>(
     missing: Option<f64>,
 ) -> Result<Vec<(usize, Option<[f64; 2]>)>, FormatError> {
     let lower = file.to_ascii_lowercase();
+    // A profile file of text: a 100,000-point profile in YAML is about 6 MB.
     let text = |r: &mut R| -> Result<String, FormatError> {
+        const MAX: u64 = 64 << 20;
         let mut s = String::new();
-        r.take(256 << 20)
+        r.take(MAX + 1)
             .read_to_string(&mut s)
             .map_err(|e| field(file, "the file".into(), e.to_string()))?;
+        if s.len() as u64 > MAX {
+            return Err(field(
+                file,
+                "the file".into(),
+                "over 64 MB: not one profile".into(),
+            ));
+        }
         Ok(s)
     };
     let per_pose = |p: Vec<Option<[f64; 2]>>| p.into_iter().map(|p| (0, p)).collect();
@@ -376,6 +385,13 @@ fn any_points<R: Read>(
     } else {
         points(reader, file, pose_column)?
     };
+    if !pose_column && pts.len() > MAX_POINTS {
+        return Err(field(
+            file,
+            "the file".into(),
+            format!("{} points; one profile has at most {MAX_POINTS}", pts.len()),
+        ));
+    }
     // A stated sentinel for no point (a profiler's 0 or -999 in z).
     if let Some(m) = missing {
         for p in &mut pts {
