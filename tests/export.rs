@@ -428,20 +428,7 @@ fn import_reads_the_controllers_own_pose_files() {
     let dir = tempfile::tempdir().unwrap();
     let (caps, doc) = common::simulated_capture(dir.path(), "ball-free.toml", "sim.json");
     let want = calibrated(caps.to_str().unwrap(), dir.path(), "sim");
-    let profiles = doc["profiles"].as_array().unwrap();
-    // Unpadded names: natural order puts pose_2 before pose_10.
-    let per_pose = dir.path().join("profiles");
-    std::fs::create_dir_all(&per_pose).unwrap();
-    for (i, p) in profiles.iter().enumerate() {
-        let mut csv = String::from("x_mm,z_mm\n");
-        for pt in p["points_mm"].as_array().unwrap() {
-            match pt.as_array() {
-                Some(xz) => csv += &format!("{},{}\n", xz[0], xz[1]),
-                None => csv += ",\n",
-            }
-        }
-        std::fs::write(per_pose.join(format!("pose_{i}.csv")), csv).unwrap();
-    }
+    let (_, per_pose) = common::rig_recording(&doc, dir.path());
     let written = common::pose_files(&doc, dir.path());
     let ls = std::fs::read_to_string(dir.path().join("cell.ls")).unwrap();
     assert_eq!(written.len(), 6);
@@ -668,26 +655,7 @@ fn import_takes_a_declared_sensor() {
     let want = calibrated(caps.to_str().unwrap(), dir.path(), "sim");
     let sensor = dir.path().join("fan-295.json");
     std::fs::write(&sensor, doc["sensor"].to_string()).unwrap();
-    let per_pose = dir.path().join("profiles");
-    std::fs::create_dir_all(&per_pose).unwrap();
-    let mut poses = String::from("x_mm,y_mm,z_mm,qw,qx,qy,qz\n");
-    for (i, p) in doc["profiles"].as_array().unwrap().iter().enumerate() {
-        let (t, q) = (&p["tcp_position_mm"], &p["tcp_quaternion_wxyz"]);
-        poses += &format!(
-            "{},{},{},{},{},{},{}\n",
-            t[0], t[1], t[2], q[0], q[1], q[2], q[3]
-        );
-        let mut csv = String::from("x_mm,z_mm\n");
-        for pt in p["points_mm"].as_array().unwrap() {
-            match pt.as_array() {
-                Some(xz) => csv += &format!("{},{}\n", xz[0], xz[1]),
-                None => csv += ",\n",
-            }
-        }
-        std::fs::write(per_pose.join(format!("pose_{i}.csv")), csv).unwrap();
-    }
-    let pose_list = dir.path().join("poses.csv");
-    std::fs::write(&pose_list, poses).unwrap();
+    let (pose_list, per_pose) = common::rig_recording(&doc, dir.path());
     let out = dir.path().join("imported.json");
     let radius = doc["specimen"]["radius_mm"].to_string();
     let args = |sensor: &str| {

@@ -65,25 +65,7 @@ fn blocks(text: &str) -> Vec<Vec<(usize, String)>> {
 /// a pose list (CSV, and in the controllers' own formats) and one profile CSV per pose.
 fn rig_recording(dir: &Path) {
     let (_, doc) = common::simulated_capture(dir, "ball-free.toml", ".sim-rig.json");
-    let mut poses = String::from("x_mm,y_mm,z_mm,qw,qx,qy,qz\n");
-    std::fs::create_dir_all(dir.join("profiles")).unwrap();
-    for (i, p) in doc["profiles"].as_array().unwrap().iter().enumerate() {
-        let t = &p["tcp_position_mm"];
-        let q = &p["tcp_quaternion_wxyz"];
-        poses += &format!(
-            "{},{},{},{},{},{},{}\n",
-            t[0], t[1], t[2], q[0], q[1], q[2], q[3]
-        );
-        let mut csv = String::from("x_mm,z_mm\n");
-        for pt in p["points_mm"].as_array().unwrap() {
-            csv += &match pt.as_array() {
-                Some(xz) => format!("{},{}\n", xz[0], xz[1]),
-                None => ",\n".to_string(),
-            };
-        }
-        std::fs::write(dir.join(format!("profiles/pose_{i:03}.csv")), csv).unwrap();
-    }
-    std::fs::write(dir.join("poses.csv"), poses).unwrap();
+    common::rig_recording(&doc, dir);
     common::pose_files(&doc, dir);
 }
 

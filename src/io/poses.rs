@@ -596,22 +596,12 @@ pub fn opencv_profile(text: &str, file: &str) -> Result<Vec<Option<[f64; 2]>>, F
                         channels = v.trim_end_matches(char::is_alphabetic).parse().unwrap_or(1);
                     }
                 }
-                let mut body = rest.to_string();
-                while !body.contains(']') && i + 1 < lines.len() {
-                    i += 1;
-                    body.push(' ');
-                    body.push_str(lines[i].trim());
-                }
+                let body = joined(&lines, &mut i, rest, |b| b.contains(']'));
                 let values = numbers(&body, file, i + 1)?;
                 found.push((key.clone(), cols * channels, values));
             } else if rest.starts_with('[') && !rest[1..].trim_start().starts_with('[') {
                 // A flat list: x, y, z per point when every second of three is 0, else x, z.
-                let mut body = rest.to_string();
-                while !body.contains(']') && i + 1 < lines.len() {
-                    i += 1;
-                    body.push(' ');
-                    body.push_str(lines[i].trim());
-                }
+                let body = joined(&lines, &mut i, rest, |b| b.contains(']'));
                 let values = numbers(&body, file, i + 1)?;
                 let triples = values.len() % 3 == 0
                     && values
@@ -621,12 +611,7 @@ pub fn opencv_profile(text: &str, file: &str) -> Result<Vec<Option<[f64; 2]>>, F
                         .all(|y| *y == 0.0 || y.is_nan());
                 found.push((k.to_string(), if triples { 3 } else { 2 }, values));
             } else if rest.starts_with("[[") || rest.starts_with("[ [") {
-                let mut body = rest.to_string();
-                while !body.trim_end().ends_with("]]") && i + 1 < lines.len() {
-                    i += 1;
-                    body.push(' ');
-                    body.push_str(lines[i].trim());
-                }
+                let body = joined(&lines, &mut i, rest, |b| b.trim_end().ends_with("]]"));
                 let rows: Vec<Vec<f64>> = body
                     .trim()
                     .trim_start_matches('[')
@@ -693,6 +678,18 @@ pub fn opencv_profile(text: &str, file: &str) -> Result<Vec<Option<[f64; 2]>>, F
             Ok((x.is_finite() && z.is_finite()).then_some([x, z]))
         })
         .collect()
+}
+
+/// `rest` and the lines after line `i` joined until `done` holds of the whole (a flow list
+/// spread over lines); `i` is left on the last line taken.
+fn joined(lines: &[&str], i: &mut usize, rest: &str, done: impl Fn(&str) -> bool) -> String {
+    let mut body = rest.to_string();
+    while !done(&body) && *i + 1 < lines.len() {
+        *i += 1;
+        body.push(' ');
+        body.push_str(lines[*i].trim());
+    }
+    body
 }
 
 fn push_rows(

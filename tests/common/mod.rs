@@ -280,3 +280,34 @@ pub fn pose_files(doc: &serde_json::Value, dir: &std::path::Path) -> Vec<&'stati
         "halcon",
     ]
 }
+
+/// A simulated capture file's recording (`doc`) written into `dir` as a rig would have it: the
+/// poses as `poses.csv` (x_mm, y_mm, z_mm, qw, qx, qy, qz) and one profile CSV per pose in
+/// `profiles/` (x_mm, z_mm; an empty row where the sensor saw nothing), named `pose_N.csv` with N
+/// unpadded (natural order puts pose_2 before pose_10). Returns the two paths.
+pub fn rig_recording(
+    doc: &serde_json::Value,
+    dir: &std::path::Path,
+) -> (std::path::PathBuf, std::path::PathBuf) {
+    let per_pose = dir.join("profiles");
+    std::fs::create_dir_all(&per_pose).unwrap();
+    let mut poses = String::from("x_mm,y_mm,z_mm,qw,qx,qy,qz\n");
+    for (i, p) in doc["profiles"].as_array().unwrap().iter().enumerate() {
+        let (t, q) = (&p["tcp_position_mm"], &p["tcp_quaternion_wxyz"]);
+        poses += &format!(
+            "{},{},{},{},{},{},{}\n",
+            t[0], t[1], t[2], q[0], q[1], q[2], q[3]
+        );
+        let mut csv = String::from("x_mm,z_mm\n");
+        for pt in p["points_mm"].as_array().unwrap() {
+            match pt.as_array() {
+                Some(xz) => csv += &format!("{},{}\n", xz[0], xz[1]),
+                None => csv += ",\n",
+            }
+        }
+        std::fs::write(per_pose.join(format!("pose_{i}.csv")), csv).unwrap();
+    }
+    let pose_list = dir.join("poses.csv");
+    std::fs::write(&pose_list, poses).unwrap();
+    (pose_list, per_pose)
+}
