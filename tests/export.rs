@@ -252,6 +252,58 @@ fn npy(rows: &[Vec<f64>], width: usize) -> Vec<u8> {
     out
 }
 
+/// `lasercal import` of a ball recording into `out`: its poses and profiles, `sensor` (a preset's
+/// name or a declaration file), the radius of `doc`'s ball, and `extra` flags.
+fn import_ball(
+    doc: &serde_json::Value,
+    sensor: &str,
+    poses: &std::path::Path,
+    profiles: &std::path::Path,
+    out: &std::path::Path,
+    extra: &[&str],
+) -> (i32, String, String) {
+    let radius = doc["specimen"]["radius_mm"].to_string();
+    let mut args = vec![
+        "import",
+        "--poses",
+        poses.to_str().unwrap(),
+        "--profiles",
+        profiles.to_str().unwrap(),
+        "--sensor",
+        sensor,
+        "--method",
+        "ball",
+        "--specimen",
+        "ball",
+        "--radius-mm",
+        &radius,
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend(extra);
+    common::lasercal(&args)
+}
+
+/// The capture file `file` calibrates to `want` (mm rows) within 1e-6 mm.
+fn assert_calibrates_to(
+    file: &std::path::Path,
+    dir: &std::path::Path,
+    tag: &str,
+    want: &[Vec<f64>],
+) {
+    let got = calibrated(file.to_str().unwrap(), dir, tag);
+    for i in 0..3 {
+        for j in 0..4 {
+            assert!(
+                (got[i][j] - want[i][j]).abs() < 1e-6,
+                "{tag}: [{i}][{j}] {} vs {}",
+                got[i][j],
+                want[i][j]
+            );
+        }
+    }
+}
+
 /// The transform `calibrate` writes for a capture file (JSON, mm rows).
 fn calibrated(file: &str, dir: &std::path::Path, tag: &str) -> Vec<Vec<f64>> {
     let json = dir.join(format!("{tag}.json"));
@@ -369,35 +421,16 @@ fn import_builds_the_capture_file_a_rig_would_have_written() {
             _ => &long_npy_path,
         };
         let out = dir.path().join(format!("{name}-caps.json"));
-        let (code, _, err) = common::lasercal(&[
-            "import",
-            "--poses",
-            poses.to_str().unwrap(),
-            "--profiles",
-            profiles_arg.to_str().unwrap(),
-            "--sensor",
+        let (code, _, err) = import_ball(
+            &doc,
             doc["sensor"].as_str().unwrap(),
-            "--method",
-            "ball",
-            "--specimen",
-            "ball",
-            "--radius-mm",
-            &doc["specimen"]["radius_mm"].to_string(),
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+            &poses,
+            profiles_arg,
+            &out,
+            &[],
+        );
         assert_eq!(code, 0, "{name}: {err}");
-        let got = calibrated(out.to_str().unwrap(), dir.path(), name);
-        for i in 0..3 {
-            for j in 0..4 {
-                assert!(
-                    (got[i][j] - want[i][j]).abs() < 1e-6,
-                    "{name}: [{i}][{j}] {} vs {}",
-                    got[i][j],
-                    want[i][j]
-                );
-            }
-        }
+        assert_calibrates_to(&out, dir.path(), name, &want);
     }
     // Errors name the file and what to fix.
     let (code, _, err) = common::lasercal(&[
@@ -434,23 +467,14 @@ fn import_reads_the_controllers_own_pose_files() {
     assert_eq!(written.len(), 6);
     let import = |poses: &std::path::Path, tag: &str| {
         let out = dir.path().join(format!("{tag}-caps.json"));
-        let r = common::lasercal(&[
-            "import",
-            "--poses",
-            poses.to_str().unwrap(),
-            "--profiles",
-            per_pose.to_str().unwrap(),
-            "--sensor",
+        let r = import_ball(
+            &doc,
             doc["sensor"].as_str().unwrap(),
-            "--method",
-            "ball",
-            "--specimen",
-            "ball",
-            "--radius-mm",
-            &doc["specimen"]["radius_mm"].to_string(),
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+            poses,
+            &per_pose,
+            &out,
+            &[],
+        );
         (r, out)
     };
     for name in written {
@@ -460,17 +484,7 @@ fn import_reads_the_controllers_own_pose_files() {
         if name == "cell.ls" {
             assert!(err.contains("user frame 1, tool frame 2"), "{err}");
         }
-        let got = calibrated(out.to_str().unwrap(), dir.path(), name);
-        for i in 0..3 {
-            for j in 0..4 {
-                assert!(
-                    (got[i][j] - want[i][j]).abs() < 1e-6,
-                    "{name}: [{i}][{j}] {} vs {}",
-                    got[i][j],
-                    want[i][j]
-                );
-            }
-        }
+        assert_calibrates_to(&out, dir.path(), name, &want);
     }
     // Mistakes: poses in two frames, a HALCON pose of another type, an empty list, a short row.
     let bad = [
@@ -576,26 +590,11 @@ fn import_reads_profiles_in_the_profilers_own_files() {
     std::fs::write(&pose_list, poses).unwrap();
     let import = |folder: &std::path::Path, extra: &[&str], tag: &str| {
         let out = dir.path().join(format!("{tag}.json"));
-        let mut args = vec![
-            "import",
-            "--poses",
-            pose_list.to_str().unwrap(),
-            "--profiles",
-            folder.to_str().unwrap(),
-            "--sensor",
-            doc["sensor"].as_str().unwrap(),
-            "--method",
-            "ball",
-            "--specimen",
-            "ball",
-            "--out",
-            out.to_str().unwrap(),
-        ];
-        let radius = doc["specimen"]["radius_mm"].to_string();
-        args.extend(["--radius-mm", &radius]);
-        args.extend(extra);
-        let r = common::lasercal(&args);
-        (r, out)
+        let sensor = doc["sensor"].as_str().unwrap();
+        (
+            import_ball(&doc, sensor, &pose_list, folder, &out, extra),
+            out,
+        )
     };
     for (folder, extra, tag) in [
         (&yml, &[][..], "opencv"),
@@ -603,17 +602,7 @@ fn import_reads_profiles_in_the_profilers_own_files() {
     ] {
         let ((code, _, err), out) = import(folder, extra, tag);
         assert_eq!(code, 0, "{tag}: {err}");
-        let got = calibrated(out.to_str().unwrap(), dir.path(), tag);
-        for i in 0..3 {
-            for j in 0..4 {
-                assert!(
-                    (got[i][j] - want[i][j]).abs() < 1e-6,
-                    "{tag}: [{i}][{j}] {} vs {}",
-                    got[i][j],
-                    want[i][j]
-                );
-            }
-        }
+        assert_calibrates_to(&out, dir.path(), tag, &want);
     }
     // A point cloud (a point off y = 0) is refused naming the file.
     let first = yml.join("p2.yml");
@@ -657,43 +646,10 @@ fn import_takes_a_declared_sensor() {
     std::fs::write(&sensor, doc["sensor"].to_string()).unwrap();
     let (pose_list, per_pose) = common::rig_recording(&doc, dir.path());
     let out = dir.path().join("imported.json");
-    let radius = doc["specimen"]["radius_mm"].to_string();
-    let args = |sensor: &str| {
-        vec![
-            "import".to_string(),
-            "--poses".into(),
-            pose_list.to_str().unwrap().into(),
-            "--profiles".into(),
-            per_pose.to_str().unwrap().into(),
-            "--sensor".into(),
-            sensor.into(),
-            "--method".into(),
-            "ball".into(),
-            "--specimen".into(),
-            "ball".into(),
-            "--radius-mm".into(),
-            radius.clone(),
-            "--out".into(),
-            out.to_str().unwrap().into(),
-        ]
-    };
-    let run = |sensor: &str| {
-        let a = args(sensor);
-        common::lasercal(&a.iter().map(String::as_str).collect::<Vec<_>>())
-    };
+    let run = |sensor: &str| import_ball(&doc, sensor, &pose_list, &per_pose, &out, &[]);
     let (code, _, err) = run(sensor.to_str().unwrap());
     assert_eq!(code, 0, "{err}");
-    let got = calibrated(out.to_str().unwrap(), dir.path(), "imported");
-    for i in 0..3 {
-        for j in 0..4 {
-            assert!(
-                (got[i][j] - want[i][j]).abs() < 1e-6,
-                "[{i}][{j}] {} vs {}",
-                got[i][j],
-                want[i][j]
-            );
-        }
-    }
+    assert_calibrates_to(&out, dir.path(), "imported", &want);
     // A declaration with a bad field is refused naming it.
     let bad = dir.path().join("bad.json");
     std::fs::write(
