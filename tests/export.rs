@@ -432,6 +432,68 @@ fn import_builds_the_capture_file_a_rig_would_have_written() {
         assert_eq!(code, 0, "{name}: {err}");
         assert_calibrates_to(&out, dir.path(), name, &want);
     }
+    // Without --sensor: a sensor known only by its points (the ball's any-pose estimator needs no
+    // rays), its noise measured from the profiles; --sensor points-only says the same.
+    let abb = dir.path().join("abb.csv");
+    for (tag, sensor) in [("points", None), ("points-named", Some("points-only"))] {
+        let out = dir.path().join(format!("{tag}.json"));
+        let mut args = vec![
+            "import",
+            "--poses",
+            abb.to_str().unwrap(),
+            "--profiles",
+            per_pose.to_str().unwrap(),
+            "--method",
+            "ball",
+            "--specimen",
+            "ball",
+            "--radius-mm",
+        ];
+        let radius = doc["specimen"]["radius_mm"].to_string();
+        args.extend([radius.as_str(), "--out", out.to_str().unwrap()]);
+        if let Some(s) = sensor {
+            args.extend(["--sensor", s]);
+        }
+        let (code, _, err) = common::lasercal(&args);
+        assert_eq!(code, 0, "{tag}: {err}");
+        let written: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        assert!(written["sensor"]["points_only"].is_object(), "{tag}");
+        let got = calibrated(out.to_str().unwrap(), dir.path(), tag);
+        for i in 0..3 {
+            for j in 0..4 {
+                assert!(
+                    (got[i][j] - want[i][j]).abs() < 1e-3,
+                    "{tag}: [{i}][{j}] {} vs {}",
+                    got[i][j],
+                    want[i][j]
+                );
+            }
+        }
+    }
+    // --z-axis belongs to a points-only sensor.
+    let (code, _, err) = common::lasercal(&[
+        "import",
+        "--poses",
+        abb.to_str().unwrap(),
+        "--profiles",
+        per_pose.to_str().unwrap(),
+        "--sensor",
+        "gocator-2340",
+        "--z-axis",
+        "toward",
+        "--method",
+        "ball",
+        "--specimen",
+        "ball",
+        "--out",
+        dir.path().join("y.json").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("--z-axis") && err.contains("gocator-2340"),
+        "{err}"
+    );
     // Errors name the file and what to fix.
     let (code, _, err) = common::lasercal(&[
         "import",

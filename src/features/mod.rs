@@ -148,6 +148,23 @@ fn end_beyond(
     line.intersect(&column_line(sensor, u))
 }
 
+/// A face's end for a sensor known only by its points, which has no rays to say where the next
+/// one met the face: from the last point's foot on the line, one face step on (the spacing of its
+/// last two points, where the next ray would have met the face continued), the end `offset` steps
+/// out. (The last point's foot, one step on, the end.)
+fn end_without_rays(
+    line: &Line2,
+    last: &Vector2<f64>,
+    before_last: &Vector2<f64>,
+    offset: f64,
+) -> (Vector2<f64>, Vector2<f64>, Vector2<f64>) {
+    let u = line.dir.normalize();
+    let foot = |p: &Vector2<f64>| line.point + u * (p - line.point).dot(&u);
+    let at = foot(last);
+    let step = at - foot(before_last);
+    (at, at + step, at + step * offset)
+}
+
 /// True when the profile beyond end `forward` of segment `i` lies farther from the sensor than the
 /// segment's line continued (a step down or a convex corner), or nothing lies beyond.
 fn drops_away(
@@ -165,6 +182,12 @@ fn drops_away(
     let Some(&(k, p)) = pts.get(idx) else {
         return true;
     };
+    if sensor.points_only {
+        // No rays to continue the face along: beyond its end point, a step down or a corner
+        // turning away lies no nearer the sensor than that point.
+        let end = pts[if forward { s.last } else { s.first }].1;
+        return sensor.dir_z * (p.y - end.y) >= -tol;
+    }
     match s.line.intersect(&column_line(sensor, k as f64)) {
         Some(on_line) => {
             sensor.dir_z * (p.y - sensor.apex_z) >= sensor.dir_z * (on_line.y - sensor.apex_z) - tol
@@ -242,6 +265,7 @@ fn tighten(
     // VLM350's 0.1 mm-quantised edges; not taken there.)
     let blend = |j: usize, beyond: Option<usize>| {
         sensor.resampling().is_some()
+            && !sensor.points_only
             && beyond.is_some_and(|b| pts[b].0.abs_diff(pts[j].0) <= 13)
             && line.distance(&pts[j].1).abs() > (2.5 * rms).max(1e-9)
     };
@@ -344,6 +368,25 @@ pub fn disk_profile(
         });
     }
     let end = |idx: usize, forward: bool| {
+        if sensor.points_only {
+            // Nothing measured beyond the face: it may run on out of what the profiler saw.
+            let outer = if forward {
+                idx + 1
+            } else {
+                idx.wrapping_sub(1)
+            };
+            if outer >= pts.len() {
+                return Err(FeatureError::ChordTruncated { column: pts[idx].0 });
+            }
+            let inner = if forward { idx - 1 } else { idx + 1 };
+            let (a, b, point) = end_without_rays(&s.line, &pts[idx].1, &pts[inner].1, 0.5);
+            // Continued one step, the face would leave the range the points show.
+            let depth = sensor.dir_z * (b.y - sensor.apex_z);
+            if depth < sensor.depth_near || depth > sensor.depth_far {
+                return Err(FeatureError::ChordTruncated { column: pts[idx].0 });
+            }
+            return Ok((point, (a, b)));
+        }
         let k = pts[idx].0;
         let k2 = if forward { k + 1 } else { k.wrapping_sub(1) };
         if k2 >= sensor.columns {
@@ -508,6 +551,36 @@ pub fn ball_arc(
             ball_radius * 1.05e3
         ),
     })
+}
+
+/// Which way a sensor looks along its z axis, read from ball arcs: it sees the ball's near side, so
+/// each arc's circle centre lies beyond its points. +1 when the centres lie at larger z than their
+/// arcs (z grows away from the sensor), -1 the other way; None without at least three arcs, nine
+/// in ten of them agreeing.
+pub fn view_direction_from_arcs(profiles: &[Profile], ball_radius: f64) -> Option<f64> {
+    let cfg = SplitMerge::default();
+    let votes: Vec<f64> = profiles
+        .iter()
+        .filter_map(|p| {
+            let c = ball_arc(p, ball_radius, &cfg).ok()?;
+            let arc = arc_points(p, &c);
+            let mean_z = arc.iter().map(|q| q.y).sum::<f64>() / arc.len().max(1) as f64;
+            let d = c.centre.y - mean_z;
+            (d.abs() > 0.05 * c.radius).then_some(d.signum())
+        })
+        .collect();
+    let away = votes.iter().filter(|v| **v > 0.0).count();
+    let n = votes.len();
+    if n < 3 {
+        return None;
+    }
+    if away * 10 >= n * 9 {
+        Some(1.0)
+    } else if (n - away) * 10 >= n * 9 {
+        Some(-1.0)
+    } else {
+        None
+    }
 }
 
 fn trim_and_refit(v: &[Vector2<f64>], mut c: Circle) -> Circle {
@@ -808,6 +881,29 @@ fn walk_to_edge(
                 i = j;
                 continue;
             }
+        }
+        if sensor.points_only {
+            if next >= pts.len() {
+                return Err(FeatureError::NoEdge {
+                    reason: "nothing measured beyond the face: it may run on unseen".into(),
+                });
+            }
+            // No rays to continue the face along: what lies beyond must be no nearer the sensor
+            // than the face's end point.
+            if sensor.dir_z * (pts[next].1.y - pts[idx].1.y) < -cfg.split_tol {
+                return Err(FeatureError::NoEdge {
+                    reason: "the profile rises toward the sensor beyond the face".into(),
+                });
+            }
+            let inner = if forward { idx - 1 } else { idx + 1 };
+            let (from, to, point) = end_without_rays(&line, &pts[idx].1, &pts[inner].1, 0.5);
+            let depth = sensor.dir_z * (to.y - sensor.apex_z);
+            if !(sensor.depth_near..=sensor.depth_far).contains(&depth) {
+                return Err(FeatureError::NoEdge {
+                    reason: "the face runs out of the range the points show".into(),
+                });
+            }
+            return Ok((EdgeEnd { point, from, to }, next));
         }
         let k2 = if forward { k + 1 } else { k.wrapping_sub(1) };
         if k2 >= sensor.columns {

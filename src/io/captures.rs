@@ -6,7 +6,7 @@ use crate::captures::{CaptureProfile, Captures, Group, Judging, ProfileData, Rol
 use crate::features::{Circle, EdgeSense};
 use crate::method::{Kind, method};
 use crate::scene::SpecimenType;
-use crate::schema::sensor::GeometrySection;
+use crate::schema::sensor::{GeometrySection, ZAxis};
 use crate::sensor::{Profile, ProfilePoint, SensorModel};
 use nalgebra::{Isometry3, Matrix3, Quaternion, Translation3, UnitQuaternion, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
@@ -20,7 +20,9 @@ struct FileV1 {
     format: String,
     version: u32,
     method: String,
-    sensor: SensorV1,
+    /// None: a sensor known only by its points (as `"points-only"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    sensor: Option<SensorV1>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     sensor_noise: Option<NoiseV1>,
     specimen: SpecimenV1,
@@ -51,12 +53,25 @@ struct FileV1 {
     profiles: Vec<ProfileV1>,
 }
 
-/// The sensor: a preset's name, or its geometry (docs/sensors.md).
+/// The sensor: a preset's name, its geometry, or only the frame its points are in
+/// (docs/sensors.md).
 #[derive(Serialize, Deserialize)]
 #[serde(untagged)]
 enum SensorV1 {
     Preset(String),
+    PointsOnly { points_only: PointsOnlyV1 },
     Geometry(GeometrySection),
+}
+
+/// The name that stands for a sensor known only by its points.
+pub const POINTS_ONLY: &str = "points-only";
+
+/// A sensor known only by its points: which way its z axis points, when the file says.
+#[derive(Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct PointsOnlyV1 {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    z_axis: Option<ZAxis>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -135,11 +150,21 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
         tolerance_mm: (c.judging.tolerance_mm != Judging::DEFAULT_TOLERANCE_MM)
             .then_some(c.judging.tolerance_mm),
         robot_accuracy_mm: Some(c.judging.robot_accuracy * 1e3),
-        sensor: if sensor.is_preset() {
+        sensor: Some(if sensor.points_only {
+            SensorV1::PointsOnly {
+                points_only: PointsOnlyV1 {
+                    z_axis: Some(if sensor.dir_z > 0.0 {
+                        ZAxis::Away
+                    } else {
+                        ZAxis::Toward
+                    }),
+                },
+            }
+        } else if sensor.is_preset() {
             SensorV1::Preset(sensor.name.clone())
         } else {
             SensorV1::Geometry(GeometrySection::from_geometry(&sensor.geometry()))
-        },
+        }),
         sensor_noise: Some(NoiseV1 {
             z_sigma_near_mm: n.z_sigma_near * 1e3,
             z_sigma_far_mm: n.z_sigma_far * 1e3,
@@ -245,8 +270,11 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
         .method
         .parse()
         .map_err(|e: crate::method::UnknownMethod| err(file, "method", e))?;
-    let sensor = with_measured_grid(sensor_of(&f, file)?, &f);
     let radius = radius_of(&f, kind, file)?;
+    let sensor = match sensor_of(&f, kind, radius, file)? {
+        s if s.points_only => s,
+        s => with_measured_grid(s, &f),
+    };
     let truth = f
         .truth_flange_to_sensor_mm
         .map(|m| transform_of(&m, file, "truth_flange_to_sensor_mm"))
@@ -273,6 +301,7 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
         .enumerate()
         .map(|(i, p)| profile_of(p, i, &groups, &sensor, file))
         .collect::<Result<Vec<_>, _>>()?;
+    let sensor = with_measured_noise(sensor, &profiles, f.sensor_noise.is_some());
     Ok((
         Captures {
             orientation_tolerance_deg: tolerance,
@@ -291,11 +320,25 @@ pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), Form
     ))
 }
 
-/// The preset with the file's noise figures.
-fn sensor_of(f: &FileV1, file: &str) -> Result<SensorModel, FormatError> {
+/// The preset, the declared geometry or the points-only sensor, with the file's noise figures.
+fn sensor_of(
+    f: &FileV1,
+    kind: Kind,
+    radius: Option<f64>,
+    file: &str,
+) -> Result<SensorModel, FormatError> {
     let mut sensor = match &f.sensor {
-        SensorV1::Preset(name) => SensorModel::preset(name).map_err(|e| err(file, "sensor", e))?,
-        SensorV1::Geometry(g) => {
+        None => points_only(f, kind, radius, None, file)?,
+        Some(SensorV1::Preset(name)) if name == POINTS_ONLY => {
+            points_only(f, kind, radius, None, file)?
+        }
+        Some(SensorV1::PointsOnly { points_only: p }) => {
+            points_only(f, kind, radius, p.z_axis, file)?
+        }
+        Some(SensorV1::Preset(name)) => {
+            SensorModel::preset(name).map_err(|e| err(file, "sensor", e))?
+        }
+        Some(SensorV1::Geometry(g)) => {
             let g = g.to_geometry().map_err(|(field, value, reason)| {
                 err(
                     file,
@@ -330,6 +373,129 @@ fn sensor_of(f: &FileV1, file: &str) -> Result<SensorModel, FormatError> {
     Ok(sensor)
 }
 
+/// The sensor a file that names none stands for: known by its points (`SensorModel::points_only`).
+/// Its z axis as the file states it; else, for the ball, read from the arcs (the sensor sees the
+/// ball's near side); a disk's or an edge's raw profiles need it stated (their features are
+/// where a profile drops away from the sensor); a plane's fit does not depend on it.
+fn points_only(
+    f: &FileV1,
+    kind: Kind,
+    radius: Option<f64>,
+    z_axis: Option<ZAxis>,
+    file: &str,
+) -> Result<SensorModel, FormatError> {
+    let field = "sensor.points_only.z_axis";
+    let mm = |q: &[f64; 2]| Some([q[0] * 1e-3, q[1] * 1e-3]);
+    let mut raw = Vec::new();
+    let mut points = Vec::new();
+    for (i, p) in f.profiles.iter().enumerate() {
+        if p.columns.is_some() {
+            return Err(err(
+                file,
+                &format!("profiles[{i}].columns"),
+                "columns number a named sensor's rays; a sensor known only by its points has \
+                 none: drop `columns`, or name the sensor (`sensor`, docs/sensors.md)",
+            ));
+        }
+        let pts: Vec<Option<[f64; 2]>> =
+            match (&p.points_mm, p.chord_mm, &p.arc_mm, p.edge_point_mm) {
+                (Some(v), ..) => v.iter().map(|q| q.as_ref().and_then(mm)).collect(),
+                (_, Some(c), ..) => c.iter().map(mm).collect(),
+                (_, _, Some(a), _) => a.iter().map(mm).collect(),
+                (_, _, _, Some(e)) => vec![mm(&e)],
+                _ => p
+                    .circle_mm
+                    .iter()
+                    .flat_map(|c| {
+                        [-1.0, 1.0].map(|s| mm(&[c.centre[0] + s * c.radius, c.centre[1]]))
+                    })
+                    .collect(),
+            };
+        if p.points_mm.is_some() {
+            raw.push(pts.clone());
+        }
+        points.push(pts);
+    }
+    let stated = z_axis.map(|z| match z {
+        ZAxis::Away => 1.0,
+        ZAxis::Toward => -1.0,
+    });
+    let inferred = || {
+        let r = radius?;
+        let profiles: Vec<Profile> = raw
+            .iter()
+            .map(|pts: &Vec<Option<[f64; 2]>>| {
+                let mut v: Vec<[f64; 2]> = pts.iter().flatten().copied().collect();
+                v.sort_by(|a, b| a[0].total_cmp(&b[0]));
+                Profile {
+                    points: v
+                        .iter()
+                        .map(|q| {
+                            Some(ProfilePoint {
+                                x: q[0],
+                                z: q[1],
+                                intensity: 1.0,
+                            })
+                        })
+                        .collect(),
+                }
+            })
+            .collect();
+        crate::features::view_direction_from_arcs(&profiles, r)
+    };
+    let dir_z = match (stated, kind) {
+        (Some(d), _) => d,
+        (None, Kind::Ball) => inferred().unwrap_or(-1.0),
+        (None, Kind::Disk | Kind::Edge) if !raw.is_empty() => {
+            return Err(err(
+                file,
+                field,
+                format!(
+                    "not given: the {kind}'s features lie where a profile drops away from the \
+                     sensor, so a sensor known only by its points must say which way its z axis \
+                     points: \"away\" (z grows away from the sensor, a distance) or \"toward\" \
+                     (a height, as a Gocator's); or name the sensor (docs/sensors.md)"
+                ),
+            ));
+        }
+        (None, _) => -1.0,
+    };
+    let mut s = SensorModel::points_only(&points, dir_z).map_err(|e| err(file, "profiles", e))?;
+    if stated.is_none() {
+        s.name
+            .push_str(if kind == Kind::Ball && inferred().is_some() {
+                " (z read from the ball's arcs)"
+            } else {
+                " (z axis not stated)"
+            });
+    }
+    Ok(s)
+}
+
+/// A sensor known only by its points, with no noise stated in the file: its noise is the
+/// profiles' own (`features::measured_noise`), for the extraction and the verdict alike.
+fn with_measured_noise(
+    mut sensor: SensorModel,
+    profiles: &[CaptureProfile],
+    stated: bool,
+) -> SensorModel {
+    if !sensor.points_only || stated {
+        return sensor;
+    }
+    let raw = profiles.iter().filter_map(|p| match &p.data {
+        ProfileData::Raw(r) => Some(r),
+        _ => None,
+    });
+    if let Some(n) = crate::features::measured_noise(raw) {
+        sensor.noise.z_sigma_near = n;
+        sensor.noise.z_sigma_far = n;
+        sensor
+            .name
+            .push_str(&format!("; noise {:.4} mm measured", n * 1e3));
+    }
+    sensor
+}
+
 /// Profiles whose points lie on none of the declared sensor's rays but on one uniform x grid (a
 /// profiler's resampled output) are read on that grid: its pitch and offset are measured from the
 /// points, and the sensor becomes the declared one resampled onto it (its name says so). Otherwise
@@ -354,7 +520,11 @@ fn with_measured_grid(sensor: SensorModel, f: &FileV1) -> SensorModel {
     if placed.iter().all(|pts| pts.iter().flatten().all(on_rays)) {
         return sensor;
     }
-    let Some(grid) = measured_grid(&placed) else {
+    let xs: Vec<Vec<f64>> = placed
+        .iter()
+        .map(|pts| pts.iter().flatten().map(|q| q[0] * 1e-3).collect())
+        .collect();
+    let Some(grid) = crate::sensor::uniform_grid(&xs) else {
         return sensor;
     };
     let mut g = sensor.geometry();
@@ -373,52 +543,6 @@ fn with_measured_grid(sensor: SensorModel, f: &FileV1) -> SensorModel {
         }
         Err(_) => sensor,
     }
-}
-
-/// The uniform x grid (metres) every point of these profiles lies on, to a tenth of its pitch: the
-/// pitch from the smallest steps between neighbouring points, the offset from the points' phases.
-/// None when there is no such grid.
-fn measured_grid(profiles: &[&Vec<Option<[f64; 2]>>]) -> Option<crate::sensor::Resample> {
-    let mut steps: Vec<f64> = profiles
-        .iter()
-        .flat_map(|pts| {
-            let xs: Vec<f64> = pts.iter().flatten().map(|q| q[0]).collect();
-            xs.windows(2)
-                .map(|w| (w[1] - w[0]).abs())
-                .filter(|d| *d > 0.0)
-                .collect::<Vec<_>>()
-        })
-        .collect();
-    steps.sort_by(f64::total_cmp);
-    let smallest = *steps.first()?;
-    // Neighbouring slots are the common case: the steps within 1.5x the smallest are one pitch.
-    let ones: Vec<f64> = steps
-        .into_iter()
-        .take_while(|d| *d < 1.5 * smallest)
-        .collect();
-    let pitch = ones[ones.len() / 2];
-    // The offset: the mean phase of the points on a circle of one pitch (no wrap-around trouble).
-    let (mut c, mut s) = (0.0, 0.0);
-    let mut xs = profiles
-        .iter()
-        .flat_map(|pts| pts.iter().flatten().map(|q| q[0]));
-    for x in xs.by_ref() {
-        let a = std::f64::consts::TAU * x / pitch;
-        c += a.cos();
-        s += a.sin();
-    }
-    let offset = s.atan2(c) / std::f64::consts::TAU * pitch;
-    let on_grid = profiles
-        .iter()
-        .flat_map(|pts| pts.iter().flatten())
-        .all(|q| {
-            let m = (q[0] - offset) / pitch;
-            (m - m.round()).abs() <= 0.1
-        });
-    on_grid.then_some(crate::sensor::Resample {
-        pitch: pitch * 1e-3,
-        offset: offset * 1e-3,
-    })
 }
 
 /// The specimen's radius (metres), required by the methods that need it.
@@ -578,6 +702,16 @@ fn raw_profile(
             intensity: inten.and_then(|iv| iv[j]).unwrap_or(1.0),
         })
     };
+    if sensor.points_only {
+        // On a grid: each point in its slot; else in its place in the list.
+        return Ok(ProfileData::Raw(if sensor.resampling().is_some() {
+            points_in_slots(pts, sensor, &point)
+        } else {
+            let mut points: Vec<Option<ProfilePoint>> = (0..pts.len()).map(point).collect();
+            points.resize(sensor.columns, None);
+            Profile { points }
+        }));
+    }
     if p.columns.is_none() && pts.len() == sensor.columns {
         return Ok(ProfileData::Raw(Profile {
             points: (0..pts.len()).map(point).collect(),
@@ -612,6 +746,38 @@ fn raw_profile(
         points[k] = point(j);
     }
     Ok(ProfileData::Raw(Profile { points }))
+}
+
+/// A profile of a sensor known only by its points: the points in x order, each in its slot of the
+/// sensor's grid (`sensor::slots`).
+fn points_in_slots(
+    pts: &[Option<[f64; 2]>],
+    sensor: &SensorModel,
+    point: &dyn Fn(usize) -> Option<ProfilePoint>,
+) -> Profile {
+    let mut order: Vec<usize> = (0..pts.len()).filter(|&j| pts[j].is_some()).collect();
+    order.sort_by(|&a, &b| {
+        pts[a]
+            .map(|q| q[0])
+            .partial_cmp(&pts[b].map(|q| q[0]))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    let mut points = vec![None; sensor.columns];
+    let Some(grid) = sensor.resampling() else {
+        return Profile { points };
+    };
+    let xs: Vec<f64> = order
+        .iter()
+        .filter_map(|&j| pts[j].map(|q| q[0] * 1e-3))
+        .collect();
+    // The column of the grid's slot 0 (an integer: `SensorModel::column_of` on a slot's x).
+    let zero = sensor.column_of(grid.offset, 0.0).unwrap_or(0.0).round() as i64;
+    for (&j, k) in order.iter().zip(crate::sensor::slots(&xs, &grid)) {
+        if let Some(c) = usize::try_from(k + zero).ok().filter(|c| *c < points.len()) {
+            points[c] = point(j);
+        }
+    }
+    Profile { points }
 }
 
 /// The column of each point on the declared sensor's rays (None for a missing point); an error when

@@ -201,6 +201,10 @@ pub fn stated_noise(caps: &Captures, sensor: &SensorModel) -> Option<f64> {
     if !raw {
         return caps.feature_sigma;
     }
+    // A sensor known only by its points whose profiles showed no noise to measure states none.
+    if sensor.points_only && sensor.noise.is_off() {
+        return None;
+    }
     // A point's depth noise, its lateral jitter, and for a feature placed at a profile's end
     // (chord end, edge point) the column spacing: the end lies anywhere within one step, uniform,
     // an RMS of step / sqrt(3) from the last column.

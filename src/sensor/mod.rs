@@ -2,7 +2,9 @@
 //! z quantisation and seeded noise. Presets for the papers' two sensors.
 
 mod noise;
+mod points;
 pub use noise::NoiseModel;
+pub use points::{slots, uniform_grid};
 
 use crate::scene::Scene;
 use nalgebra::{Isometry3, Point3, Vector3};
@@ -186,6 +188,11 @@ pub struct SensorModel {
     tans: Vec<f64>,
     /// Resampled output: the grid and its lowest slot's m (`columns` slots from there).
     resample: Option<(Resample, i64)>,
+    /// Known only by its points (`SensorModel::points_only`): its slots are the points' x grid,
+    /// it has no rays to ray-cast, and its noise is the profiles' own.
+    pub points_only: bool,
+    /// A points-only sensor's step between neighbouring points (metres).
+    point_step: f64,
 }
 
 impl SensorModel {
@@ -317,6 +324,8 @@ impl SensorModel {
             noise: NoiseModel::default(),
             tans,
             resample: resample.map(|r| (r.0, r.1)),
+            points_only: false,
+            point_step: 0.0,
         }
     }
 
@@ -480,6 +489,10 @@ impl SensorModel {
     /// slot on the surface lies up to a pitch before the last ray on it (slots beyond are
     /// interpolated across the end, or empty), so half a pitch plus half a ray spacing.
     pub fn end_offset_columns(&self, depth: f64) -> f64 {
+        if self.points_only {
+            // No rays behind the points: the end lies anywhere up to the next slot.
+            return 0.5;
+        }
         match &self.resample {
             Some((r, _)) => {
                 let ray_step = 2.0 * self.tan_half_fov * depth / (self.tans.len() - 1) as f64;
@@ -491,6 +504,9 @@ impl SensorModel {
 
     /// Spacing of the x samples at a depth (metres).
     pub fn x_step_at_depth(&self, depth: f64) -> f64 {
+        if self.points_only {
+            return self.point_step;
+        }
         match &self.resample {
             Some((r, _)) => r.pitch,
             None => 2.0 * self.tan_half_fov * depth / (self.tans.len() - 1).max(1) as f64,

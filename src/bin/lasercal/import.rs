@@ -24,9 +24,13 @@ pub struct Args {
     missing_z_mm: Option<f64>,
     /// Sensor preset (gocator-2340, vlm350, ...), or a JSON file declaring the sensor (the
     /// record a capture file's `sensor` holds: name, columns, spacing, z_axis, apex_z_mm, ...;
-    /// docs/sensors.md)
-    #[arg(long)]
+    /// docs/sensors.md). Not given (or points-only): a sensor known only by its points
+    #[arg(long, default_value = "points-only")]
     sensor: String,
+    /// A points-only sensor's z axis: away (z grows away from the sensor, a distance) or toward
+    /// (a height, as a Gocator's); a disk's or an edge's profiles need it, a ball's arcs show it
+    #[arg(long, value_parser = ["away", "toward"])]
+    z_axis: Option<String>,
     /// Specimen method: ball, disk, edge or plane
     #[arg(long)]
     method: String,
@@ -112,8 +116,20 @@ pub fn run(a: Args) -> Result<()> {
         let f = std::fs::File::open(&a.profiles).with_context(|| format!("{name}: cannot read"))?;
         ProfileSource::Long(name, Box::new(f))
     };
-    // A preset's name, or a file declaring the sensor.
-    let sensor = if std::path::Path::new(&a.sensor).is_file() {
+    if a.z_axis.is_some() && a.sensor != lasercal::io::captures::POINTS_ONLY {
+        bail!(
+            "--z-axis is for a sensor known only by its points; {} states its own frame (drop \
+             --z-axis, or --sensor)",
+            a.sensor
+        );
+    }
+    // A preset's name, a file declaring the sensor, or points only.
+    let sensor = if a.sensor == lasercal::io::captures::POINTS_ONLY {
+        match &a.z_axis {
+            Some(z) => serde_json::json!({ "points_only": { "z_axis": z } }),
+            None => serde_json::json!({ "points_only": {} }),
+        }
+    } else if std::path::Path::new(&a.sensor).is_file() {
         let text = std::fs::read_to_string(&a.sensor)
             .with_context(|| format!("{}: cannot read", a.sensor))?;
         let v: serde_json::Value = serde_json::from_str(&text).with_context(|| {
