@@ -340,12 +340,22 @@ fn random_disk_setup(seed: u64, n: usize, sigma: f64) -> Setup {
     random_face_setup(seed, n, false, sigma, Target::Disk { radius, height })
 }
 
-/// What the poses look at: a plane, or a bar or a disk lying on it (its top face).
+/// A ridge (or, `groove`, a V groove) whose faces slope 15-50 deg: `n` free poses looking at its
+/// line as `random_bar_setup` does at a bar's edge, the laser crossing it in one sense.
+fn random_wedge_setup(seed: u64, n: usize, sigma: f64, groove: bool) -> Setup {
+    let mut rng = lasercal::testkit::rng(seed ^ 0x7ed9e);
+    let slope = uniform(&mut rng, 15f64.to_radians(), 50f64.to_radians());
+    random_face_setup(seed, n, false, sigma, Target::Wedge { slope, groove })
+}
+
+/// What the poses look at: a plane, or a bar or a disk lying on it (its top face), or a ridge or
+/// groove.
 #[derive(Clone, Copy, PartialEq)]
 enum Target {
     Plane,
     Bar { width: f64, height: f64 },
     Disk { radius: f64, height: f64 },
+    Wedge { slope: f64, groove: bool },
 }
 
 fn random_face_setup(
@@ -407,6 +417,11 @@ fn random_face_setup(
                 normal,
             },
         ],
+        Target::Wedge { slope, groove } => vec![Solid::Wedge {
+            frame: face_frame,
+            slope,
+            groove,
+        }],
     };
     let (mut groups, mut profiles) = (Vec::new(), Vec::new());
     let mut first: Option<UnitQuaternion<f64>> = None;
@@ -427,6 +442,14 @@ fn random_face_setup(
                 // A bar's edges (its x) must cross the laser plane at 30 deg or more.
                 while bar.is_some()
                     && (rot * Vector3::y()).dot(&(face_frame * Vector3::x())).abs() < 0.5
+                {
+                    rot = turned(uniform(&mut rng, 0.0, std::f64::consts::TAU));
+                }
+                // A ridge's line likewise, crossed from its -y face to its +y face.
+                let wedge = matches!(target, Target::Wedge { .. });
+                while wedge
+                    && ((rot * Vector3::y()).dot(&(face_frame * Vector3::x())).abs() < 0.5
+                        || (rot * Vector3::x()).dot(&(face_frame * Vector3::y())) <= 0.0)
                 {
                     rot = turned(uniform(&mut rng, 0.0, std::f64::consts::TAU));
                 }
@@ -457,6 +480,14 @@ fn random_face_setup(
                     * Point3::new(
                         uniform(&mut rng, -0.1, 0.1),
                         uniform(&mut rng, -width - 0.01, 0.01),
+                        0.0,
+                    )
+            }
+            Target::Wedge { .. } => {
+                face_frame
+                    * Point3::new(
+                        uniform(&mut rng, -0.1, 0.1),
+                        uniform(&mut rng, -0.005, 0.005),
                         0.0,
                     )
             }
@@ -493,7 +524,7 @@ fn random_face_setup(
             orientation_tolerance_deg: lasercal::calib::ORIENTATION_TOLERANCE_DEG,
             method: match target {
                 Target::Plane => Kind::Plane,
-                Target::Bar { .. } => Kind::Edge,
+                Target::Bar { .. } | Target::Wedge { .. } => Kind::Edge,
                 Target::Disk { .. } => Kind::Disk,
             },
             sensor: sensor.name.clone(),
@@ -501,6 +532,8 @@ fn random_face_setup(
                 Target::Plane => SpecimenType::Plane,
                 Target::Bar { .. } => SpecimenType::ParallelBar,
                 Target::Disk { .. } => SpecimenType::DiskCylinder,
+                Target::Wedge { groove: false, .. } => SpecimenType::Ridge,
+                Target::Wedge { groove: true, .. } => SpecimenType::VGroove,
             },
             specimen_radius: match target {
                 Target::Disk { radius, .. } => Some(radius),
@@ -555,6 +588,48 @@ fn edge_exact_on_a_hundred_random_bars_rigs_and_pose_sets() {
 }
 
 const DISK: MethodId = MethodId::new(Kind::Disk, Estimator::AnyPose);
+
+/// A ridge's or groove's two faces from 12-50 free poses (some profiles see one face only):
+/// `edge-any-pose` on 100 noise-free random rigs each, exact to 1e-9.
+#[test]
+fn ridge_and_groove_exact_on_a_hundred_random_rigs_and_pose_sets() {
+    for (what, groove, base) in [("ridge", false, 14_000), ("v-groove", true, 15_000)] {
+        let mut worst = (0.0f64, 0.0f64);
+        for seed in 0..100u64 {
+            let n = 12 + (seed as usize * 7) % 39;
+            let s = random_wedge_setup(base + seed, n, 0.0, groove);
+            let (cal, r) = lasercal::method::estimate(EDGE, &s.caps, &s.sensor)
+                .unwrap_or_else(|e| panic!("{what} {seed} ({n} poses): {e}"));
+            assert!(
+                matches!(r.unwrap().status, lasercal::calib::Status::Converged { .. }),
+                "{what} {seed}"
+            );
+            let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
+            worst = (
+                worst.0.max(e.rotation_error_deg),
+                worst.1.max(e.translation_error_mm),
+            );
+            assert!(
+                e.rotation_error_deg < 1e-9 && e.translation_error_mm < 1e-9,
+                "{what} {seed} ({n} poses): {e:?}"
+            );
+        }
+        eprintln!(
+            "{what}, worst of 100: {:.1e} deg, {:.1e} mm",
+            worst.0, worst.1
+        );
+    }
+}
+
+#[test]
+fn ridge_and_groove_with_noise() {
+    for groove in [false, true] {
+        let (rot, tr) = noisy_errors(EDGE, "16 free poses", |seed| {
+            random_wedge_setup(16_000 + seed, 16, 0.1e-3, groove)
+        });
+        assert!(rot[10] < 0.05 && tr[10] < 0.1, "{rot:?} {tr:?}");
+    }
+}
 
 #[test]
 fn disk_exact_on_a_hundred_random_disks_rigs_and_pose_sets() {

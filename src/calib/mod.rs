@@ -8,6 +8,7 @@ pub mod disk;
 pub mod disk_any;
 pub mod edge;
 pub mod ellipse;
+pub mod faces;
 pub mod plane;
 pub mod refine;
 

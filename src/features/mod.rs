@@ -758,6 +758,77 @@ pub struct EdgeProfile {
     pub other: Option<(EdgeEnd, Vec<Vector2<f64>>)>,
 }
 
+/// Two faces meeting at a corner (a ridge, a V groove, a step's face and wall): each face's points
+/// in profile order, the face at lower x first, and the corner where their lines meet.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TwoFaces {
+    pub faces: [Vec<Vector2<f64>>; 2],
+    pub corner: Vector2<f64>,
+}
+
+/// The two faces of a ridge (`outside`: the corner nearer the sensor than both faces, a roof or a
+/// knife's edge) or of a groove (the corner farther, a V groove or a fillet's sides): among
+/// neighbouring segments of the profile that meet (their facing ends within a jump) at 10 deg or
+/// more, the pair with the most points, at least `min_points` each. The two points on either side
+/// of the corner are left to neither face (a rounded tip, a blend); the corner is where the
+/// faces' lines meet.
+pub fn two_faces(
+    profile: &Profile,
+    sensor: &SensorModel,
+    outside: bool,
+    cfg: &SplitMerge,
+) -> Result<TwoFaces, FeatureError> {
+    let (pts, segs) = segments(profile, cfg)?;
+    let size = |s: &Segment| s.last + 1 - s.first;
+    let need = cfg.min_points.max(4) + 2;
+    let mut best: Option<(usize, TwoFaces)> = None;
+    for w in segs.windows(2) {
+        let (a, b) = (&w[0], &w[1]);
+        if size(a) < need || size(b) < need {
+            continue;
+        }
+        if (pts[b.first].1 - pts[a.last].1).norm() > cfg.jump {
+            continue;
+        }
+        // (`angle_to` is the lines' angle, 0 to 90 deg.)
+        if a.line.angle_to(&b.line) < 10f64.to_radians() {
+            continue;
+        }
+        // Refit each face without the two points next to the corner.
+        let fa: Vec<Vector2<f64>> = pts[a.first..=a.last - 2].iter().map(|p| p.1).collect();
+        let fb: Vec<Vector2<f64>> = pts[b.first + 2..=b.last].iter().map(|p| p.1).collect();
+        let (Some(la), Some(lb)) = (Line2::fit(&fa), Line2::fit(&fb)) else {
+            continue;
+        };
+        let Some(corner) = la.intersect(&lb) else {
+            continue;
+        };
+        // Outside: the corner is nearer the sensor than the faces' far ends' chord.
+        let depth = |q: &Vector2<f64>| sensor.dir_z * (q.y - sensor.apex_z);
+        let (far_a, far_b) = (fa[0], fb[fb.len() - 1]);
+        let t = (corner.x - far_a.x) / (far_b.x - far_a.x);
+        let on_chord = far_a + (far_b - far_a) * t;
+        if !t.is_finite() || (depth(&corner) < depth(&on_chord)) != outside {
+            continue;
+        }
+        let n = fa.len() + fb.len();
+        if best.as_ref().is_none_or(|(m, _)| n > *m) {
+            let faces = if sensor.x_reversed {
+                [fb, fa]
+            } else {
+                [fa, fb]
+            };
+            best = Some((n, TwoFaces { faces, corner }));
+        }
+    }
+    best.map(|b| b.1).ok_or_else(|| FeatureError::NoEdge {
+        reason: format!(
+            "no two faces of {need} points or more meet at {} corner",
+            if outside { "an outside" } else { "an inside" }
+        ),
+    })
+}
+
 /// A bar (or plate) seen from any pose: its top face's points and every end of the face that is an
 /// edge (one or both; which edge each is, the caller infers from where they lie).
 #[derive(Debug, Clone, PartialEq)]

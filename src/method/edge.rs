@@ -182,6 +182,14 @@ impl Method for Edge {
         // files), the any-pose estimator's reading: the top face and its edges in both senses.
         let cfg = edge_config(sensor);
         super::each_profile(c, |g, p| match (&p.data, c.edge_sense) {
+            (ProfileData::Raw(prof), _) if c.specimen_kind.two_faces().is_some() => {
+                let outside = c.specimen_kind.two_faces() == Some(true);
+                let t = features::two_faces(prof, sensor, outside, &cfg).ok()?;
+                Some(super::ProfileFeature {
+                    features: vec![t.corner],
+                    surface: t.faces.concat(),
+                })
+            }
             (ProfileData::Raw(prof), None) => {
                 let bar = features::bar_profile(prof, sensor, &cfg).ok()?;
                 Some(super::ProfileFeature {
@@ -379,6 +387,55 @@ fn point_of(
     }
 }
 
+/// A ridge's or groove's edge point: where its two faces' lines meet (no face for `edge-full`,
+/// whose model is a bar's).
+fn corner_of(
+    prof: &crate::sensor::Profile,
+    sensor: &SensorModel,
+    outside: bool,
+    cfg: &SplitMerge,
+) -> Result<EdgeFeature, features::FeatureError> {
+    let t = features::two_faces(prof, sensor, outside, cfg)?;
+    Ok(features::EdgeProfile {
+        end: features::EdgeEnd {
+            point: t.corner,
+            from: t.corner,
+            to: t.corner,
+        },
+        face: Vec::new(),
+        beyond: Vec::new(),
+        other: None,
+    })
+}
+
+/// A ridge's or groove's two faces from any poses (`calib::faces`).
+fn two_face_view(
+    g: &Group,
+    p: &crate::captures::CaptureProfile,
+    sensor: &SensorModel,
+    outside: bool,
+    cfg: &SplitMerge,
+) -> Result<Result<crate::calib::faces::FacesView, CaptureError>, CaptureError> {
+    let ProfileData::Raw(prof) = &p.data else {
+        return Err(CaptureError::WrongData {
+            group: g.id,
+            method: Kind::Edge,
+            need: "raw points (points_mm): the any-pose estimator fits both faces",
+        });
+    };
+    Ok(features::two_faces(prof, sensor, outside, cfg)
+        .map_err(CaptureError::from)
+        .and_then(|t| {
+            let [a, b] = t.faces;
+            Ok(crate::calib::faces::FacesView {
+                faces: [
+                    super::face_view(p.base_to_flange, a)?,
+                    super::face_view(p.base_to_flange, b)?,
+                ],
+            })
+        }))
+}
+
 /// Edges are small features: a fine tolerance for an exact sensor, else the noise's.
 fn edge_config(sensor: &SensorModel) -> SplitMerge {
     let tuned = SplitMerge::for_sensor(sensor);
@@ -417,6 +474,19 @@ fn bar_view(
 /// The bar's face and edges from any poses, whatever the groups (`calib::bar`).
 fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, Refined), Error> {
     let cfg = edge_config(sensor);
+    if let Some(outside) = c.specimen_kind.two_faces() {
+        let (views, reports) = super::free_views(c, Kind::Edge, |g, p| {
+            two_face_view(g, p, sensor, outside, &cfg)
+        })?;
+        let sol = crate::calib::faces::solve(&views, &sensor.apex().coords)?;
+        let cal = super::any_pose_calibration(
+            &sol.refined,
+            None,
+            reports,
+            std::sync::Arc::new(sol.problem),
+        );
+        return Ok((cal, sol.refined));
+    }
     let (views, reports) = super::free_views(c, Kind::Edge, |g, p| bar_view(g, p, sensor, &cfg))?;
     let sol = crate::calib::bar::solve(&views, &sensor.apex().coords)?;
     let cal = super::any_pose_calibration(
@@ -562,7 +632,12 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut report = super::GroupReport::new(g.id);
         for p in c.group_profiles(g.id) {
-            let point = point_of(g, &p.data, sensor, sense, &cfg)?;
+            let point = match (&p.data, c.specimen_kind.two_faces()) {
+                (ProfileData::Raw(prof), Some(outside)) => {
+                    Ok(corner_of(prof, sensor, outside, &cfg))
+                }
+                (data, _) => point_of(g, data, sensor, sense, &cfg),
+            }?;
             report.count(&point);
             match point {
                 Ok(mut seen) => {

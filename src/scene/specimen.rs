@@ -54,6 +54,11 @@ pub enum SpecimenType {
     KnifeBlade,
     /// A flat face: in the simulator, the table's (the plane method's specimen).
     Plane,
+    /// Two faces meeting at an outside angle along a straight line: a roof, a ridge, a knife's
+    /// edge (capture files; the edge method's two-face estimator).
+    Ridge,
+    /// Two faces meeting at an inside angle: a V groove, a fillet weld's sides.
+    VGroove,
 }
 
 impl SpecimenType {
@@ -76,6 +81,18 @@ impl SpecimenType {
             SpecimenType::Scale => "scale",
             SpecimenType::KnifeBlade => "knife-blade",
             SpecimenType::Plane => "plane",
+            SpecimenType::Ridge => "ridge",
+            SpecimenType::VGroove => "v-groove",
+        }
+    }
+
+    /// The line targets read as two faces meeting at a corner (`features::two_faces`): true for
+    /// a ridge (outside angle), false for a groove; None for the others.
+    pub fn two_faces(self) -> Option<bool> {
+        match self {
+            SpecimenType::Ridge => Some(true),
+            SpecimenType::VGroove => Some(false),
+            _ => None,
         }
     }
 

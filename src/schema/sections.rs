@@ -181,6 +181,15 @@ impl SpecimenSection {
                 thickness: opt(self.thickness_mm, 0.6, "thickness_mm")?,
                 bevel: opt(self.bevel_mm, 1.0, "bevel_mm")?,
             },
+            SpecimenType::Ridge | SpecimenType::VGroove => {
+                return Err(v.bad(
+                    &k("kind"),
+                    format!("\"{}\"", self.kind),
+                    "the simulator has no ridge or groove shape yet: such a target's profiles \
+                     calibrate from capture files (method edge, lasercal import --method edge \
+                     --specimen ridge); place parallel-bar, scale or knife-blade here",
+                ));
+            }
             SpecimenType::Plane => {
                 return Err(v.bad(
                     &k("kind"),

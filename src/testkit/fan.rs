@@ -70,6 +70,13 @@ pub enum Solid {
         point: Point3<f64>,
         normal: Vector3<f64>,
     },
+    /// Two faces meeting along the frame's x axis, seen from +z: z = -|y| tan(slope) (a ridge)
+    /// or, `groove`, z = +|y| tan(slope) (a V groove); unbounded.
+    Wedge {
+        frame: Isometry3<f64>,
+        slope: f64,
+        groove: bool,
+    },
 }
 
 /// The nearest hit of a ray (origin o, unit direction d, both in the base frame) beyond `t_min`:
@@ -91,6 +98,28 @@ fn hit(s: &Solid, o: &Point3<f64>, d: &Vector3<f64>, t_min: f64) -> Option<(f64,
             let dn = normal.dot(d);
             if dn.abs() > 1e-15 {
                 keep((point - o).dot(normal) / dn, *normal);
+            }
+        }
+        Solid::Wedge {
+            frame,
+            slope,
+            groove,
+        } => {
+            let (lo, ld) = (
+                frame.inverse_transform_point(o),
+                frame.inverse_transform_vector(d),
+            );
+            let s = if *groove { 1.0 } else { -1.0 } * slope.tan();
+            // Face y >= 0: z = s y; face y <= 0: z = -s y. Outward normals toward +z.
+            for side in [1.0, -1.0] {
+                let n = Vector3::new(0.0, -s * side, 1.0).normalize();
+                let dn = n.dot(&ld);
+                if dn.abs() > 1e-15 {
+                    let t = -n.dot(&lo.coords) / dn;
+                    if (lo.y + ld.y * t) * side >= 0.0 {
+                        keep(t, frame.rotation * n);
+                    }
+                }
             }
         }
         Solid::Sphere { centre, radius } => {

@@ -13,6 +13,7 @@ pub mod ball;
 pub mod bar;
 pub mod disk;
 pub mod edge;
+pub mod faces;
 pub mod honest;
 pub mod plane;
 pub mod slant;
