@@ -54,17 +54,79 @@ fn meet(p: &[Plane; 2]) -> Option<(Point3<f64>, Vector3<f64>)> {
     Some((Point3::from(q), dir.normalize()))
 }
 
-pub fn solve(views: &[FacesView], apex: &Vector3<f64>) -> Result<FacesSolution, CalibError> {
+/// Solve, then leave out the profiles whose faces lie off the two planes by more than five times
+/// the median profile's RMS (at least 1 um): a third surface taken for a face (the plate a ridge
+/// stands on), which no single profile can always tell. Refit from the result until none is left
+/// out (at most three rounds). Returns which views were kept.
+pub fn solve(
+    views: &[FacesView],
+    apex: &Vector3<f64>,
+) -> Result<(Vec<bool>, FacesSolution), CalibError> {
     let (_, first) = super::plane::solve_faces(views, |v| &v.faces[0], apex)?;
-    let x = first.flange_to_sensor;
-    let labels = label(views, &x, &first.plane, None);
+    let mut sol = from_start(views, &first.flange_to_sensor, &first.plane)?;
+    let mut kept = vec![true; views.len()];
+    for _ in 0..3 {
+        let rms: Vec<f64> = views
+            .iter()
+            .map(|v| view_rms(v, &sol.flange_to_sensor, &sol.planes))
+            .collect();
+        let mut sorted: Vec<f64> = rms
+            .iter()
+            .zip(&kept)
+            .filter(|(_, k)| **k)
+            .map(|(r, _)| *r)
+            .collect();
+        sorted.sort_by(f64::total_cmp);
+        let limit = (5.0 * sorted[sorted.len() / 2]).max(1e-6);
+        let next: Vec<bool> = rms.iter().map(|r| *r <= limit).collect();
+        if next == kept || next.iter().filter(|k| **k).count() < super::plane::MIN_VIEWS {
+            break;
+        }
+        kept = next;
+        let used: Vec<FacesView> = views
+            .iter()
+            .zip(&kept)
+            .filter(|(_, k)| **k)
+            .map(|(v, _)| v.clone())
+            .collect();
+        sol = from_start(&used, &sol.flange_to_sensor, &sol.planes[0])?;
+    }
+    Ok((kept, sol))
+}
+
+/// A view's RMS distance from the two planes, its faces on the planes they fit best.
+fn view_rms(v: &FacesView, x: &Isometry3<f64>, planes: &[Plane; 2]) -> f64 {
+    let t = v.faces[0].base_to_flange * x;
+    let sq = |face: &LineView, p: &Plane| -> f64 {
+        let n = p.normal();
+        face.points
+            .iter()
+            .map(|q| {
+                (n.dot(&t.transform_point(&Point3::new(q.x, 0.0, q.y)).coords) - p.offset).powi(2)
+            })
+            .sum()
+    };
+    let [a, b] = &v.faces;
+    let best = (sq(a, &planes[0]) + sq(b, &planes[1])).min(sq(a, &planes[1]) + sq(b, &planes[0]));
+    (best / (a.points.len() + b.points.len()).max(1) as f64).sqrt()
+}
+
+/// Steps 2-3 from a transform and the first face's plane.
+pub fn from_start(
+    views: &[FacesView],
+    x: &Isometry3<f64>,
+    first: &Plane,
+) -> Result<FacesSolution, CalibError> {
+    let x = *x;
+    let first_plane = *first;
+    let labels = label(views, &x, &first_plane, None);
     let second = fit_plane(views, &x, &labels, 1).ok_or(CalibError::TooFewData {
         method: METHOD,
         what: "points on the second face",
         got: 0,
         need: 3,
     })?;
-    let planes = [first.plane, second];
+    let planes = [first_plane, second];
     let (refined, planes, labels) = refine_faces(views, &x, planes, &labels)?;
     // Relabelled from the joint result: once more if any face changed sides.
     let again = label(

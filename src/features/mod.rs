@@ -764,34 +764,65 @@ pub struct EdgeProfile {
 pub struct TwoFaces {
     pub faces: [Vec<Vector2<f64>>; 2],
     pub corner: Vector2<f64>,
+    /// The angle between the faces' lines in the profile (rad, 0 to 90 deg).
+    pub angle: f64,
 }
 
 /// The two faces of a ridge (`outside`: the corner nearer the sensor than both faces, a roof or a
-/// knife's edge) or of a groove (the corner farther, a V groove or a fillet's sides): among
-/// neighbouring segments of the profile that meet (their facing ends within a jump) at 10 deg or
-/// more, the pair with the most points, at least `min_points` each. The two points on either side
-/// of the corner are left to neither face (a rounded tip, a blend); the corner is where the
-/// faces' lines meet.
+/// knife's edge) or of a groove (the corner farther, a V groove or a fillet's sides): the best of
+/// `two_faces_candidates`, or the best whose faces meet at `angle` (rad, the lines' angle in the
+/// profile) within 15 deg, when given.
 pub fn two_faces(
     profile: &Profile,
     sensor: &SensorModel,
     outside: bool,
+    angle: Option<f64>,
     cfg: &SplitMerge,
 ) -> Result<TwoFaces, FeatureError> {
+    let near = |t: &TwoFaces| angle.is_none_or(|a| (t.angle - a).abs() <= 15f64.to_radians());
+    let all = two_faces_candidates(profile, sensor, outside, cfg)?;
+    let n = all.len();
+    all.into_iter()
+        .find(near)
+        .ok_or_else(|| FeatureError::NoEdge {
+            reason: format!(
+                "none of {n} pairs of faces meets at the angle the other profiles show ({:.0} deg)",
+                angle.unwrap_or(0.0).to_degrees()
+            ),
+        })
+}
+
+/// Every pair of segments of the profile that can be the target's two faces, most points first:
+/// segments of `min_points` + 2 points or more meeting at 10 deg or more, at an outside (or
+/// inside) corner, their facing ends within a jump or a quarter of the shorter one (a rounded
+/// or chipped tip between them) and the corner at that tip. The two points on either side of
+/// the corner are left to neither face (a blend); the corner is where the faces' lines meet. A
+/// profile may also cross another corner (the plate a ridge stands on, a chamfer): which pair is
+/// the target's, the caller tells from the angle most profiles agree on.
+pub fn two_faces_candidates(
+    profile: &Profile,
+    sensor: &SensorModel,
+    outside: bool,
+    cfg: &SplitMerge,
+) -> Result<Vec<TwoFaces>, FeatureError> {
     let (pts, segs) = segments(profile, cfg)?;
     let size = |s: &Segment| s.last + 1 - s.first;
     let need = cfg.min_points.max(4) + 2;
-    let mut best: Option<(usize, TwoFaces)> = None;
-    for w in segs.windows(2) {
-        let (a, b) = (&w[0], &w[1]);
+    let mut found: Vec<(usize, TwoFaces)> = Vec::new();
+    let pairs = (0..segs.len()).flat_map(|i| (i + 1..segs.len().min(i + 4)).map(move |j| (i, j)));
+    for (i, j) in pairs {
+        let (a, b) = (&segs[i], &segs[j]);
         if size(a) < need || size(b) < need {
             continue;
         }
-        if (pts[b.first].1 - pts[a.last].1).norm() > cfg.jump {
+        let length = |s: &Segment| (pts[s.last].1 - pts[s.first].1).norm();
+        let tip = (pts[b.first].1 - pts[a.last].1).norm();
+        if tip > cfg.jump.max(0.25 * length(a).min(length(b))) {
             continue;
         }
         // (`angle_to` is the lines' angle, 0 to 90 deg.)
-        if a.line.angle_to(&b.line) < 10f64.to_radians() {
+        let angle = a.line.angle_to(&b.line);
+        if angle < 10f64.to_radians() {
             continue;
         }
         // Refit each face without the two points next to the corner.
@@ -803,6 +834,11 @@ pub fn two_faces(
         let Some(corner) = la.intersect(&lb) else {
             continue;
         };
+        // The corner lies at the tip, not past a face that lies between.
+        let reach = 2.0 * tip + cfg.jump;
+        if (corner - pts[a.last].1).norm() > reach || (corner - pts[b.first].1).norm() > reach {
+            continue;
+        }
         // Outside: the corner is nearer the sensor than the faces' far ends' chord.
         let depth = |q: &Vector2<f64>| sensor.dir_z * (q.y - sensor.apex_z);
         let (far_a, far_b) = (fa[0], fb[fb.len() - 1]);
@@ -812,21 +848,30 @@ pub fn two_faces(
             continue;
         }
         let n = fa.len() + fb.len();
-        if best.as_ref().is_none_or(|(m, _)| n > *m) {
-            let faces = if sensor.x_reversed {
-                [fb, fa]
-            } else {
-                [fa, fb]
-            };
-            best = Some((n, TwoFaces { faces, corner }));
-        }
+        let faces = if sensor.x_reversed {
+            [fb, fa]
+        } else {
+            [fa, fb]
+        };
+        found.push((
+            n,
+            TwoFaces {
+                faces,
+                corner,
+                angle: la.angle_to(&lb),
+            },
+        ));
     }
-    best.map(|b| b.1).ok_or_else(|| FeatureError::NoEdge {
-        reason: format!(
-            "no two faces of {need} points or more meet at {} corner",
-            if outside { "an outside" } else { "an inside" }
-        ),
-    })
+    if found.is_empty() {
+        return Err(FeatureError::NoEdge {
+            reason: format!(
+                "no two faces of {need} points or more meet at {} corner",
+                if outside { "an outside" } else { "an inside" }
+            ),
+        });
+    }
+    found.sort_by(|a, b| b.0.cmp(&a.0));
+    Ok(found.into_iter().map(|f| f.1).collect())
 }
 
 /// A bar (or plate) seen from any pose: its top face's points and every end of the face that is an

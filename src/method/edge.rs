@@ -184,7 +184,7 @@ impl Method for Edge {
         super::each_profile(c, |g, p| match (&p.data, c.edge_sense) {
             (ProfileData::Raw(prof), _) if c.specimen_kind.two_faces().is_some() => {
                 let outside = c.specimen_kind.two_faces() == Some(true);
-                let t = features::two_faces(prof, sensor, outside, &cfg).ok()?;
+                let t = features::two_faces(prof, sensor, outside, None, &cfg).ok()?;
                 Some(super::ProfileFeature {
                     features: vec![t.corner],
                     surface: t.faces.concat(),
@@ -387,15 +387,38 @@ fn point_of(
     }
 }
 
+/// The angle a ridge's or groove's faces meet at in most profiles: the median over the profiles
+/// of their best pair's (most points). A profile whose best pair is another corner (the plate
+/// the target stands on, a chamfer) then takes its pair at that angle instead. None without raw
+/// profiles.
+fn faces_angle(c: &Captures, sensor: &SensorModel, outside: bool, cfg: &SplitMerge) -> Option<f64> {
+    let mut a: Vec<f64> = c
+        .profiles
+        .iter()
+        .filter_map(|p| match &p.data {
+            ProfileData::Raw(prof) => features::two_faces(prof, sensor, outside, None, cfg)
+                .ok()
+                .map(|t| t.angle),
+            _ => None,
+        })
+        .collect();
+    if a.is_empty() {
+        return None;
+    }
+    a.sort_by(f64::total_cmp);
+    Some(a[a.len() / 2])
+}
+
 /// A ridge's or groove's edge point: where its two faces' lines meet (no face for `edge-full`,
 /// whose model is a bar's).
 fn corner_of(
     prof: &crate::sensor::Profile,
     sensor: &SensorModel,
     outside: bool,
+    angle: Option<f64>,
     cfg: &SplitMerge,
 ) -> Result<EdgeFeature, features::FeatureError> {
-    let t = features::two_faces(prof, sensor, outside, cfg)?;
+    let t = features::two_faces(prof, sensor, outside, angle, cfg)?;
     Ok(features::EdgeProfile {
         end: features::EdgeEnd {
             point: t.corner,
@@ -414,6 +437,7 @@ fn two_face_view(
     p: &crate::captures::CaptureProfile,
     sensor: &SensorModel,
     outside: bool,
+    angle: Option<f64>,
     cfg: &SplitMerge,
 ) -> Result<Result<crate::calib::faces::FacesView, CaptureError>, CaptureError> {
     let ProfileData::Raw(prof) = &p.data else {
@@ -423,7 +447,7 @@ fn two_face_view(
             need: "raw points (points_mm): the any-pose estimator fits both faces",
         });
     };
-    Ok(features::two_faces(prof, sensor, outside, cfg)
+    Ok(features::two_faces(prof, sensor, outside, angle, cfg)
         .map_err(CaptureError::from)
         .and_then(|t| {
             let [a, b] = t.faces;
@@ -475,10 +499,18 @@ fn bar_view(
 fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, Refined), Error> {
     let cfg = edge_config(sensor);
     if let Some(outside) = c.specimen_kind.two_faces() {
+        let angle = faces_angle(c, sensor, outside, &cfg);
         let (views, reports) = super::free_views(c, Kind::Edge, |g, p| {
-            two_face_view(g, p, sensor, outside, &cfg)
+            two_face_view(g, p, sensor, outside, angle, &cfg)
         })?;
-        let sol = crate::calib::faces::solve(&views, &sensor.apex().coords)?;
+        let (kept, sol) = crate::calib::faces::solve(&views, &sensor.apex().coords)?;
+        let mut reports = reports;
+        super::leave_out_views(
+            &mut reports,
+            &kept,
+            "its faces lie off the two planes the others share (more than 5 times the median \
+             profile's RMS): a third surface taken for a face, or the pose off",
+        );
         let cal = super::any_pose_calibration(
             &sol.refined,
             None,
@@ -625,6 +657,10 @@ fn full_profile(
 fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
     let sense = c.edge_sense.unwrap_or(EdgeSense::Falling);
     let cfg = edge_config(sensor);
+    let angle = c
+        .specimen_kind
+        .two_faces()
+        .and_then(|outside| faces_angle(c, sensor, outside, &cfg));
     let mut missed = 0;
     let (mut per_group, mut reports) = (Vec::new(), Vec::new());
     for g in &c.groups {
@@ -634,7 +670,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         for p in c.group_profiles(g.id) {
             let point = match (&p.data, c.specimen_kind.two_faces()) {
                 (ProfileData::Raw(prof), Some(outside)) => {
-                    Ok(corner_of(prof, sensor, outside, &cfg))
+                    Ok(corner_of(prof, sensor, outside, angle, &cfg))
                 }
                 (data, _) => point_of(g, data, sensor, sense, &cfg),
             }?;

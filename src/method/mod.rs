@@ -468,6 +468,20 @@ pub fn free_views<V>(
     Ok((views, reports))
 }
 
+/// Views an estimator left out after `free_views` made them (`kept`, in its order: each group's
+/// used profiles in turn), counted in their groups' reports as rejected for `why`.
+pub fn leave_out_views(reports: &mut [GroupReport], kept: &[bool], why: &str) {
+    let mut k = kept.iter();
+    for r in reports.iter_mut().filter(|r| !r.left_out) {
+        let dropped = (0..r.used).filter(|_| k.next() == Some(&false)).count();
+        if dropped > 0 {
+            r.used -= dropped;
+            r.rejected.push((why.to_string(), dropped));
+            r.left_out = r.used == 0;
+        }
+    }
+}
+
 /// An any-pose estimator's calibration: its refined transform, the groups' reports and its
 /// refinement problem (for the covariance and re-refinement).
 pub fn any_pose_calibration(
