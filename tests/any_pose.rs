@@ -1219,18 +1219,24 @@ fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
         sensor
     };
     let any = |k: Kind| MethodId::new(k, Estimator::AnyPose);
-    let cases: [(MethodId, &dyn Fn(u64) -> Setup); 4] = [
-        (any(Kind::Ball), &|seed| {
+    let cases: [(MethodId, &str, &dyn Fn(u64) -> Setup); 6] = [
+        (any(Kind::Ball), "ball", &|seed| {
             random_setup(7000 + seed, 16, 3, sigma)
         }),
-        (any(Kind::Plane), &|seed| {
+        (any(Kind::Plane), "plane", &|seed| {
             random_plane_setup(7100 + seed, 16, false, sigma)
         }),
-        (any(Kind::Edge), &|seed| {
+        (any(Kind::Edge), "bar", &|seed| {
             random_bar_setup(7200 + seed, 16, sigma)
         }),
-        (any(Kind::Disk), &|seed| {
+        (any(Kind::Disk), "disk", &|seed| {
             random_disk_setup(7300 + seed, 16, sigma)
+        }),
+        (any(Kind::Edge), "ridge", &|seed| {
+            random_wedge_setup(7400 + seed, 16, sigma, false)
+        }),
+        (any(Kind::Edge), "v-groove", &|seed| {
+            random_wedge_setup(7500 + seed, 16, sigma, true)
         }),
     ];
     // LASERCAL_VERDICT_SEEDS rigs per estimator (default 10) for a larger measurement.
@@ -1241,7 +1247,7 @@ fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
     let (mut passed, mut flagged, mut covered) = (0, Vec::new(), 0);
     let (mut off, mut refused) = (0u64, 0u64);
     let mut per = std::collections::BTreeMap::new();
-    for (id, setup) in cases {
+    for (id, what, setup) in cases {
         for seed in 0..seeds {
             let s = setup(seed);
             let sensor = told(&s);
@@ -1254,18 +1260,23 @@ fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
             // A wrong answer (beyond 1 deg or 1 mm) must not pass as ok.
             if !(e.rotation_error_deg < 1.0 && e.translation_error_mm < 1.0) {
                 off += 1;
-                assert_ne!(j.verdict, Verdict::Ok, "{id} {seed}: {e:?} judged ok");
+                eprintln!("  wrong, judged {}: {id} ({what}) {seed}: {e:?}", j.verdict);
+                assert_ne!(
+                    j.verdict,
+                    Verdict::Ok,
+                    "{id} ({what}) {seed}: {e:?} judged ok"
+                );
                 continue;
             }
             let (br, bt) = j.quality.error_bound();
             if e.rotation_error_deg <= br && e.translation_error_mm <= bt {
                 covered += 1;
-                *per.entry(id.to_string()).or_insert(0) += 1;
+                *per.entry(format!("{id} ({what})")).or_insert(0) += 1;
             }
             match j.verdict {
                 Verdict::Ok => passed += 1,
                 Verdict::Suspect | Verdict::Imprecise => flagged.push(format!(
-                    "{id} {seed}: {} {:?} {:?}",
+                    "{id} ({what}) {seed}: {} {:?} {:?}",
                     j.verdict, j.reasons, j.precision
                 )),
             }
@@ -1280,7 +1291,7 @@ fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
     );
     // The honest 95 % bound on profiles lasercal did not make: 40 results are too few to show
     // 95 %, but far fewer than 85 % would say the bound is not honest there.
-    let n = 4 * seeds - off - refused;
+    let n = 6 * seeds - off - refused;
     assert!(
         off + refused <= seeds / 10,
         "{off} wrong answers, {refused} refused"
