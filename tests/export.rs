@@ -526,7 +526,7 @@ fn import_reads_the_controllers_own_pose_files() {
     let (_, per_pose) = common::rig_recording(&doc, dir.path());
     let written = common::pose_files(&doc, dir.path());
     let ls = std::fs::read_to_string(dir.path().join("cell.ls")).unwrap();
-    assert_eq!(written.len(), 6);
+    assert_eq!(written.len(), 8);
     let import = |poses: &std::path::Path, tag: &str| {
         let out = dir.path().join(format!("{tag}-caps.json"));
         let r = import_ball(
@@ -571,7 +571,7 @@ fn import_reads_the_controllers_own_pose_files() {
     }
     let other = dir.path().join("halcon-2");
     std::fs::create_dir_all(&other).unwrap();
-    std::fs::write(other.join("a.dat"), "f 2\nr 0 0 0\nt 0 0 1\n").unwrap();
+    std::fs::write(other.join("a.dat"), "f 8\nr 0 0 0\nt 0 0 1\n").unwrap();
     let ((code, _, err), _) = import(&other, "halcon-2");
     assert_eq!(code, 2, "{err}");
     assert!(

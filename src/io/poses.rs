@@ -157,7 +157,7 @@ pub fn halcon_folder(dir: &Path) -> Result<PoseList, FormatError> {
     Ok(PoseList {
         key: "matrix_mm",
         summary: format!(
-            "{} HALCON pose files (f 0: R = Rx Ry Rz, t in m)",
+            "{} HALCON pose files (f 0: R = Rx Ry Rz; f 2: Rz Ry Rx; f 4: Rodriguez; t in m)",
             rows.len()
         ),
         rows,
@@ -486,7 +486,8 @@ fn rapid(text: &str, file: &str) -> Result<PoseList, FormatError> {
 }
 
 /// One HALCON pose file (`write_pose`): `f 0` (R p + T, R = Rx(a) Ry(b) Rz(g), a point's
-/// transform), `r a b g` in degrees, `t x y z` in metres. Returns a 4x4 row (translation mm).
+/// transform), `f 2` (R = Rz(g) Ry(b) Rx(a)) or `f 4` (a Rodriguez vector), `r a b g` in degrees,
+/// `t x y z` in metres. Returns a 4x4 row (translation mm).
 fn halcon(text: &str, file: &str) -> Result<Vec<f64>, FormatError> {
     let (mut f, mut r, mut t) = (None, None, None);
     for (i, line) in text.lines().enumerate() {
@@ -523,22 +524,43 @@ fn halcon(text: &str, file: &str) -> Result<Vec<f64>, FormatError> {
         return Err(field(
             file,
             "the file",
-            "not a HALCON pose file: want the lines 'f 0', 'r a b g' (deg) and 't x y z' (m)",
+            "not a HALCON pose file: want the lines 'f 0' (or 2, 4), 'r a b g' (deg) and 't x y z' \
+             (m)",
         ));
     };
-    if f != "0" {
-        return Err(field(
-            file,
-            fat,
-            format!(
-                "pose type {f}: lasercal reads type 0 (R p + T, 'gba', 'point'), what write_pose \
-                 writes by default; convert the pose with convert_pose_type first"
-            ),
-        ));
-    }
-    let rot = nalgebra::Rotation3::from_axis_angle(&nalgebra::Vector3::x_axis(), r[0].to_radians())
-        * nalgebra::Rotation3::from_axis_angle(&nalgebra::Vector3::y_axis(), r[1].to_radians())
-        * nalgebra::Rotation3::from_axis_angle(&nalgebra::Vector3::z_axis(), r[2].to_radians());
+    use nalgebra::{Rotation3, Vector3};
+    let about = |axis: usize, deg: f64| {
+        let mut v = Vector3::zeros();
+        v[axis] = deg.to_radians();
+        Rotation3::from_scaled_axis(v)
+    };
+    let rot = match f.as_str() {
+        // 'gba': R = Rx(a) Ry(b) Rz(g).
+        "0" => about(0, r[0]) * about(1, r[1]) * about(2, r[2]),
+        // 'abg': R = Rz(g) Ry(b) Rx(a).
+        "2" => about(2, r[2]) * about(1, r[1]) * about(0, r[0]),
+        // 'rodriguez': r = tan(angle / 2) times the unit axis.
+        "4" => {
+            let v = Vector3::from(r);
+            let n = v.norm();
+            if n == 0.0 {
+                Rotation3::identity()
+            } else {
+                Rotation3::from_scaled_axis(v / n * (2.0 * n.atan()))
+            }
+        }
+        _ => {
+            return Err(field(
+                file,
+                fat,
+                format!(
+                    "pose type {f}: lasercal reads types 0, 2 and 4 (R p + T of a point, with \
+                     'gba', 'abg' or 'rodriguez' angles); convert the pose with \
+                     convert_pose_type first"
+                ),
+            ));
+        }
+    };
     let m = rot.matrix();
     Ok(vec![
         m[(0, 0)],

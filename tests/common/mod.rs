@@ -172,8 +172,9 @@ pub fn bar_solid(
 /// The poses of a simulated capture file (`doc`) written into `dir` in the controllers' and
 /// vision libraries' own formats: a FANUC `.ls` program (`cell.ls`, user frame 1, tool frame 2),
 /// ABB RAPID robtargets (`cell.mod`), a JSON list, a JSON object holding it and text lines of
-/// x y z w p r (`poses.json`, `robposes.rob`, `poses.txt`) and a folder of HALCON pose files
-/// (`halcon/pose_N.dat`). Returns their names.
+/// x y z w p r (`poses.json`, `robposes.rob`, `poses.txt`) and folders of HALCON pose files
+/// (`halcon/pose_N.dat` of type 0, `halcon-abg` of type 2, `halcon-rodriguez` of type 4).
+/// Returns their names.
 pub fn pose_files(doc: &serde_json::Value, dir: &std::path::Path) -> Vec<&'static str> {
     use nalgebra::UnitQuaternion;
     let poses: Vec<(Vec<f64>, UnitQuaternion<f64>)> = doc["profiles"]
@@ -244,32 +245,43 @@ pub fn pose_files(doc: &serde_json::Value, dir: &std::path::Path) -> Vec<&'stati
     )
     .unwrap();
     std::fs::write(dir.join("poses.txt"), text).unwrap();
-    let halcon = dir.join("halcon");
-    std::fs::create_dir_all(&halcon).unwrap();
-    for (i, (t, q)) in poses.iter().enumerate() {
-        // HALCON's type 0: R = Rx(a) Ry(b) Rz(g), so m02 = sin b, a = atan2(-m12, m22),
-        // g = atan2(-m01, m00); t in metres.
-        let m = q.to_rotation_matrix().into_inner();
-        let (a, b, g) = (
-            (-m[(1, 2)]).atan2(m[(2, 2)]),
-            m[(0, 2)].asin(),
-            (-m[(0, 1)]).atan2(m[(0, 0)]),
-        );
-        std::fs::write(
-            halcon.join(format!("pose_{i}.dat")),
-            format!(
-                "# 3D POSE PARAMETERS: rotation and translation\n\n# Used representation \
-                 type:\nf 0\n\n# Rotation angles [deg] or Rodriguez vector:\nr {} {} {}\n\n\
-                 # Translational vector (x y z [m]):\nt {} {} {}\n",
-                a.to_degrees(),
-                b.to_degrees(),
-                g.to_degrees(),
-                t[0] / 1e3,
-                t[1] / 1e3,
-                t[2] / 1e3
-            ),
-        )
-        .unwrap();
+    // HALCON pose files of types 0 ('gba'), 2 ('abg') and 4 ('rodriguez'); t in metres.
+    for (folder, kind) in [("halcon", 0), ("halcon-abg", 2), ("halcon-rodriguez", 4)] {
+        let halcon = dir.join(folder);
+        std::fs::create_dir_all(&halcon).unwrap();
+        for (i, (t, q)) in poses.iter().enumerate() {
+            let m = q.to_rotation_matrix().into_inner();
+            let r = match kind {
+                // R = Rx(a) Ry(b) Rz(g): m02 = sin b, a = atan2(-m12, m22), g = atan2(-m01, m00).
+                0 => [
+                    (-m[(1, 2)]).atan2(m[(2, 2)]).to_degrees(),
+                    m[(0, 2)].asin().to_degrees(),
+                    (-m[(0, 1)]).atan2(m[(0, 0)]).to_degrees(),
+                ],
+                // R = Rz(g) Ry(b) Rx(a): nalgebra's roll, pitch, yaw.
+                2 => wpr(q),
+                // tan(angle / 2) times the axis.
+                _ => {
+                    let (axis, angle) = q.axis_angle().unwrap();
+                    (axis.into_inner() * (angle / 2.0).tan()).into()
+                }
+            };
+            std::fs::write(
+                halcon.join(format!("pose_{i}.dat")),
+                format!(
+                    "# 3D POSE PARAMETERS: rotation and translation\n\n# Used representation \
+                     type:\nf {kind}\n\n# Rotation angles [deg] or Rodriguez vector:\n\
+                     r {} {} {}\n\n# Translational vector (x y z [m]):\nt {} {} {}\n",
+                    r[0],
+                    r[1],
+                    r[2],
+                    t[0] / 1e3,
+                    t[1] / 1e3,
+                    t[2] / 1e3
+                ),
+            )
+            .unwrap();
+        }
     }
     vec![
         "cell.ls",
@@ -278,6 +290,8 @@ pub fn pose_files(doc: &serde_json::Value, dir: &std::path::Path) -> Vec<&'stati
         "robposes.rob",
         "poses.txt",
         "halcon",
+        "halcon-abg",
+        "halcon-rodriguez",
     ]
 }
 
