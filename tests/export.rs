@@ -725,3 +725,83 @@ fn import_takes_a_declared_sensor() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("half_angle"), "{err}");
 }
+
+/// `lasercal compare` scores other transforms on a capture file beside lasercal's: its own result
+/// read back from `calibrate --json` and `--yaml` predicts the poses as lasercal's does; a
+/// transform 1 deg off, given as 16 numbers, predicts them worse; a file that holds no transform is
+/// refused naming it.
+#[test]
+fn compare_scores_other_transforms_by_how_they_predict_each_pose() {
+    let dir = tempfile::tempdir().unwrap();
+    let (caps, _) = common::simulated_capture(dir.path(), "ball-free.toml", "sim.json");
+    let (json, yaml) = (dir.path().join("r.json"), dir.path().join("r.yaml"));
+    let (_, out, err) = common::lasercal(&[
+        "calibrate",
+        caps.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+        "--yaml",
+        yaml.to_str().unwrap(),
+    ]);
+    assert!(
+        out.contains("each pose predicted from the others"),
+        "{out}{err}"
+    );
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let own = doc["prediction"]["rms_mm"].as_f64().unwrap();
+    let m: Vec<Vec<f64>> = serde_json::from_value(doc["flange_to_sensor"].clone()).unwrap();
+    // 1 deg about the sensor's x, as a text matrix.
+    let x = nalgebra::Matrix4::from_fn(|i, j| m[i][j]);
+    let turn =
+        nalgebra::Rotation3::from_axis_angle(&nalgebra::Vector3::x_axis(), 1f64.to_radians())
+            .to_homogeneous();
+    let off = x * turn;
+    let text: String = (0..4)
+        .map(|i| {
+            (0..4)
+                .map(|j| off[(i, j)].to_string())
+                .collect::<Vec<_>>()
+                .join(" ")
+                + "\n"
+        })
+        .collect();
+    let txt = dir.path().join("off.txt");
+    std::fs::write(&txt, text).unwrap();
+    let table = dir.path().join("table.json");
+    let (code, out, err) = common::lasercal(&[
+        "compare",
+        caps.to_str().unwrap(),
+        json.to_str().unwrap(),
+        yaml.to_str().unwrap(),
+        txt.to_str().unwrap(),
+        "--json",
+        table.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{out}{err}");
+    let t: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&table).unwrap()).unwrap();
+    let rows = t["transforms"].as_array().unwrap();
+    let rms = |i: usize| rows[i]["prediction"]["rms_mm"].as_f64().unwrap();
+    assert_eq!(rows.len(), 4, "{out}");
+    assert!((rms(0) - own).abs() < 1e-9, "{} vs {own}", rms(0));
+    for i in [1, 2] {
+        assert!((rms(i) - own).abs() < 1e-6 * own.max(1e-3), "{out}");
+        assert!(
+            rows[i]["from_lasercal_deg"].as_f64().unwrap() < 1e-6,
+            "{out}"
+        );
+    }
+    assert!(rms(3) > 2.0 * own, "{out}");
+    assert!(
+        (rows[3]["from_lasercal_deg"].as_f64().unwrap() - 1.0).abs() < 1e-6,
+        "{out}"
+    );
+    // A file without a transform: refused, naming it.
+    let bad = dir.path().join("five.txt");
+    std::fs::write(&bad, "1 2 3 4 5\n").unwrap();
+    let (code, _, err) =
+        common::lasercal(&["compare", caps.to_str().unwrap(), bad.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("five.txt") && err.contains("16"), "{err}");
+}

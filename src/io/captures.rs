@@ -818,7 +818,11 @@ fn columns_on_rays(
 
 /// A 4x4 row-major transform in mm: its 3x3 block must be a rotation (to 1e-2: a matrix printed
 /// with two decimals passes, and is replaced by the nearest rotation), its last row 0 0 0 1.
-fn transform_of(m: &[[f64; 4]; 4], file: &str, at: &str) -> Result<Isometry3<f64>, FormatError> {
+pub(crate) fn transform_of(
+    m: &[[f64; 4]; 4],
+    file: &str,
+    at: &str,
+) -> Result<Isometry3<f64>, FormatError> {
     let r = Matrix3::from_fn(|i, j| m[i][j]);
     let finite = m.iter().flatten().all(|v| v.is_finite());
     let orthonormal = (r.transpose() * r - Matrix3::identity()).abs().max() < 1e-2;

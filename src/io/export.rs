@@ -198,6 +198,96 @@ pub fn from_yaml(text: &str, file: &str) -> Result<Exported, FormatError> {
     })
 }
 
+/// A flange-to-sensor transform from a file another tool wrote: an easy_handeye-style YAML
+/// (metres, quaternion), a JSON file holding a 4x4 matrix in mm (`lasercal calibrate --json`'s
+/// `flange_to_sensor`, or the only 4x4 array in it, as a calibration tool's `HTM`), or text of 16
+/// (or 12: the top three rows) numbers, a 4x4 row-major matrix in mm.
+pub fn read_transform(text: &str, file: &str) -> Result<Isometry3<f64>, FormatError> {
+    let bad = |message: String| FormatError::Field {
+        file: file.into(),
+        at: "the whole file".into(),
+        message,
+    };
+    if text.contains("transformation") && !text.trim_start().starts_with('{') {
+        return Ok(from_yaml(text, file)?.flange_to_sensor);
+    }
+    let rows = if let Ok(v) = serde_json::from_str::<serde_json::Value>(text) {
+        match v.get("flange_to_sensor").and_then(matrix4) {
+            Some(m) => m,
+            None => {
+                let mut all = Vec::new();
+                matrices4(&v, &mut all);
+                match all.as_slice() {
+                    [m] => *m,
+                    [] => {
+                        return Err(bad(
+                            "no 4x4 matrix in it: give `flange_to_sensor` as 4 rows \
+                                        of 4 numbers, mm"
+                                .into(),
+                        ));
+                    }
+                    more => {
+                        return Err(bad(format!(
+                            "{} 4x4 matrices in it: put the one to compare under \
+                             `flange_to_sensor`",
+                            more.len()
+                        )));
+                    }
+                }
+            }
+        }
+    } else {
+        let v: Vec<f64> = text
+            .split(|c: char| c.is_whitespace() || c == ',' || c == ';' || c == '[' || c == ']')
+            .filter(|s| !s.is_empty())
+            .map(|s| s.parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| {
+                bad(format!(
+                    "not a transform: want an easy_handeye YAML, a JSON file with a 4x4 matrix, \
+                     or 16 numbers (a 4x4 matrix, mm); {e}"
+                ))
+            })?;
+        let v = match v.len() {
+            16 => v,
+            12 => v.into_iter().chain([0.0, 0.0, 0.0, 1.0]).collect(),
+            n => {
+                return Err(bad(format!(
+                    "{n} numbers: give 16 (a 4x4 matrix, row by row, mm) or 12 (its top three rows)"
+                )));
+            }
+        };
+        std::array::from_fn(|i| std::array::from_fn(|j| v[4 * i + j]))
+    };
+    super::captures::transform_of(&rows, file, "the matrix")
+}
+
+/// A JSON value that is 4 rows of 4 numbers.
+fn matrix4(v: &serde_json::Value) -> Option<[[f64; 4]; 4]> {
+    let rows = v.as_array().filter(|r| r.len() == 4)?;
+    let mut m = [[0.0; 4]; 4];
+    for (i, r) in rows.iter().enumerate() {
+        let r = r.as_array().filter(|r| r.len() == 4)?;
+        for (j, x) in r.iter().enumerate() {
+            m[i][j] = x.as_f64()?;
+        }
+    }
+    Some(m)
+}
+
+/// Every 4x4 matrix in a JSON value.
+fn matrices4(v: &serde_json::Value, out: &mut Vec<[[f64; 4]; 4]>) {
+    if let Some(m) = matrix4(v) {
+        out.push(m);
+        return;
+    }
+    match v {
+        serde_json::Value::Array(a) => a.iter().for_each(|x| matrices4(x, out)),
+        serde_json::Value::Object(o) => o.values().for_each(|x| matrices4(x, out)),
+        _ => {}
+    }
+}
+
 /// A URDF fragment: the sensor link and the fixed joint that places it on the flange (rpy as
 /// URDF reads it: R = Rz(yaw) Ry(pitch) Rx(roll)).
 pub fn to_urdf(e: &Exported) -> String {

@@ -531,6 +531,15 @@ pub fn leave_out_thin_groups(
 }
 
 impl Calibration {
+    /// The residual problem a variant of this estimator fits: every face point's for the
+    /// full-profile variant (where the captures have it), else the features'.
+    pub fn problem(&self, estimator: Estimator) -> Option<&Arc<dyn Refinable>> {
+        match estimator {
+            Estimator::FullProfile => self.full_profile.as_ref().or(self.refinable.as_ref()),
+            _ => self.refinable.as_ref(),
+        }
+    }
+
     /// Refine jointly over the raw features (see `calib::refine`).
     pub fn refine(&self, opts: &Options) -> Result<Refined, Error> {
         let r = self.refinable.as_ref().ok_or(CaptureError::NoRawFeatures)?;

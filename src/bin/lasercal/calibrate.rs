@@ -206,6 +206,22 @@ pub fn run(a: Args) -> Result<i32> {
         doc["refinement"] = refinement(r);
     }
     doc["quality"] = verdict_text(method, judged, loo)?;
+    // The truth-free figure another transform can be compared by (`lasercal compare`).
+    if let Some(p) = cal
+        .problem(method.estimator)
+        .and_then(|p| p.predict(&cal.flange_to_sensor))
+    {
+        say!(
+            "{method}: each pose predicted from the others (the specimen refitted without it, \
+             the transform held): RMS {:.4} mm, worst pose {:.4} mm (pose {} of {}); `lasercal \
+             compare {name} OTHER` scores another transform the same way",
+            p.rms * 1e3,
+            p.worst * 1e3,
+            p.worst_pose + 1,
+            p.poses
+        );
+        doc["prediction"] = super::compare::prediction_json(&p);
+    }
     if let Some(t) = &caps.truth {
         let e = PoseError::between(&cal.flange_to_sensor, t);
         say!(

@@ -22,6 +22,7 @@ macro_rules! say {
 mod calibrate;
 mod check;
 mod common;
+mod compare;
 mod fk;
 mod ik;
 mod import;
@@ -61,6 +62,9 @@ enum Command {
     Calibrate(calibrate::Args),
     /// Build a capture file from a pose list (any controller's convention) and profile CSVs.
     Import(import::Args),
+    /// Score other flange-to-sensor transforms (a vendor's, a colleague's, another tool's) on a
+    /// capture file beside lasercal's: how well each predicts every pose from the others.
+    Compare(compare::Args),
     /// Combine the folders of a sharded sweep into the files an unsharded run writes.
     Merge(merge::Args),
     /// One profile as the sensor sees it, as CSV (x, z in the sensor frame).
@@ -106,6 +110,7 @@ fn main() {
         Command::Scan(a) => scan::run(a),
         Command::Merge(a) => merge::run(a),
         Command::Import(a) => import::run(a),
+        Command::Compare(a) => compare::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Calibrate(a) => match calibrate::run(a) {
             Ok(code) => std::process::exit(code),

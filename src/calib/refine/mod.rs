@@ -16,6 +16,7 @@ pub mod edge;
 pub mod faces;
 pub mod honest;
 pub mod plane;
+pub mod predict;
 pub mod slant;
 
 use super::{CalibError, Status};
@@ -300,6 +301,8 @@ pub trait Refinable: Send + Sync + fmt::Debug {
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable>;
     /// The sums the figures at `x` need (`Sums`), streamed in parts where the problem is tall.
     fn sums(&self, x: &Isometry3<f64>) -> Sums;
+    /// Each pose predicted from the others with the transform held at `x` (`predict`).
+    fn predict(&self, x: &Isometry3<f64>) -> Option<predict::Prediction>;
 }
 
 /// What a fit's figures need from its residuals r and Jacobian J, summed over the rows: J^T J,
@@ -418,6 +421,9 @@ impl<M: Model + 'static> Refinable for Problem<M> {
             model: self.model.without_poses(drop),
             specimen: self.specimen,
         })
+    }
+    fn predict(&self, x: &Isometry3<f64>) -> Option<predict::Prediction> {
+        predict::of(&self.model, &self.specimen, x)
     }
     fn sums(&self, x: &Isometry3<f64>) -> Sums {
         let clusters = self.clusters();
