@@ -1728,3 +1728,83 @@ fn each_pose_is_predicted_from_the_others_best_by_the_true_transform() {
         }
     }
 }
+
+/// A scenario's text with the sensor made exact (no noise, z not quantised).
+fn exact_scenario(name: &str) -> lasercal::scenario::Setup {
+    let text = std::fs::read_to_string(common::scen(name)).unwrap();
+    let text: String = text
+        .lines()
+        .map(|l| {
+            // The noise off, and the cause study's scale on it (`[causes]`) at 0.
+            if l.starts_with("z_sigma_near_mm")
+                || l.starts_with("z_sigma_far_mm")
+                || l.starts_with("scale =")
+            {
+                format!("{} = 0.0\n", l.split('=').next().unwrap().trim())
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    let sf = lasercal::scenario::ScenarioFile::parse(&text, name).unwrap();
+    sf.scenario.build(&sf.file).unwrap()
+}
+
+/// The simulator's ridge and V groove (ray-cast profiles of `scene::SpecimenKind::{Ridge,
+/// VGroove}`, 16 generated poses): with the sensor exact, edge-any-pose recovers the truth to
+/// 1e-9; trials are deterministic; a capture file round-trips; the two-face model's Jacobian
+/// matches finite differences away from the optimum.
+#[test]
+fn the_simulators_ridge_and_groove_calibrate_exactly() {
+    use lasercal::trial::{run_trial, trial_captures};
+    for name in ["ridge-16-poses.toml", "v-groove-16-poses.toml"] {
+        let s = exact_scenario(name);
+        for trial in 0..3 {
+            let out = run_trial(&s, EDGE, 1, trial);
+            let e = out.result.as_ref().unwrap().error();
+            assert!(
+                e.frobenius_rotation < 1e-9 && e.translation_error_mm < 1e-6,
+                "{name} {trial}: {e:?}"
+            );
+            assert_eq!(
+                out,
+                run_trial(&s, EDGE, 1, trial),
+                "{name}: not deterministic"
+            );
+        }
+        let caps = trial_captures(&s, Kind::Edge, 1, 0).0.unwrap();
+        let json = lasercal::io::captures::to_json(&caps, &s.rig.sensor);
+        let (back, sensor) = lasercal::io::captures::from_json(&json, "c.json").unwrap();
+        let (a, _) = lasercal::method::estimate(EDGE, &caps, &s.rig.sensor).unwrap();
+        let (b, _) = lasercal::method::estimate(EDGE, &back, &sensor).unwrap();
+        let e = PoseError::between(&a.flange_to_sensor, &b.flange_to_sensor);
+        assert!(
+            e.rotation_error_deg < 1e-6 && e.translation_error_mm < 1e-6,
+            "{name}: {e:?}"
+        );
+        // The Jacobian, away from the optimum.
+        let p = a.problem(Estimator::AnyPose).unwrap();
+        let p = p.with_specimen_step(&[1e-3, -2e-3, 1e-3, 2e-3, 1e-3, -1e-3]);
+        let x = a.flange_to_sensor
+            * Isometry3::from_parts(
+                Vector3::new(1e-3, -2e-3, 1.5e-3).into(),
+                UnitQuaternion::from_scaled_axis(Vector3::new(0.01, -0.02, 0.015)),
+            );
+        let (r0, j) = p.residuals_and_jacobian(&x);
+        let h = 1e-6;
+        let mut worst: f64 = 0.0;
+        for c in 0..j.ncols() {
+            let mut dx = nalgebra::DVector::zeros(j.ncols());
+            dx[c] = h;
+            let rp = p.residuals_after_step(&x, &dx);
+            dx[c] = -h;
+            let rm = p.residuals_after_step(&x, &dx);
+            let fd = (rp - rm) / (2.0 * h);
+            worst = worst.max((fd - j.column(c)).amax() / j.column(c).amax().max(1e-3));
+        }
+        assert!(
+            r0.amax() > 1e-5 && worst < 1e-6,
+            "{name}: Jacobian off by {worst:.2e}"
+        );
+    }
+}

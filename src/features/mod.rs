@@ -771,7 +771,8 @@ pub struct TwoFaces {
 /// The two faces of a ridge (`outside`: the corner nearer the sensor than both faces, a roof or a
 /// knife's edge) or of a groove (the corner farther, a V groove or a fillet's sides): the best of
 /// `two_faces_candidates`, or the best whose faces meet at `angle` (rad, the lines' angle in the
-/// profile) within 15 deg, when given.
+/// profile) within 25 deg, when given (the angle a profile shows changes with how the laser
+/// crosses the line).
 pub fn two_faces(
     profile: &Profile,
     sensor: &SensorModel,
@@ -779,7 +780,7 @@ pub fn two_faces(
     angle: Option<f64>,
     cfg: &SplitMerge,
 ) -> Result<TwoFaces, FeatureError> {
-    let near = |t: &TwoFaces| angle.is_none_or(|a| (t.angle - a).abs() <= 15f64.to_radians());
+    let near = |t: &TwoFaces| angle.is_none_or(|a| (t.angle - a).abs() <= 25f64.to_radians());
     let all = two_faces_candidates(profile, sensor, outside, cfg)?;
     let n = all.len();
     all.into_iter()
@@ -792,7 +793,8 @@ pub fn two_faces(
         })
 }
 
-/// Every pair of segments of the profile that can be the target's two faces, most points first:
+/// Every pair of segments of the profile that can be the target's two faces, the pair whose smaller
+/// face has the most points first:
 /// segments of `min_points` + 2 points or more meeting at 10 deg or more, at an outside (or
 /// inside) corner, their facing ends within a jump or a quarter of the shorter one (a rounded
 /// or chipped tip between them) and the corner at that tip. The two points on either side of
@@ -825,12 +827,46 @@ pub fn two_faces_candidates(
         if angle < 10f64.to_radians() {
             continue;
         }
-        // Refit each face without the two points next to the corner.
-        let fa: Vec<Vector2<f64>> = pts[a.first..=a.last - 2].iter().map(|p| p.1).collect();
-        let fb: Vec<Vector2<f64>> = pts[b.first + 2..=b.last].iter().map(|p| p.1).collect();
-        let (Some(la), Some(lb)) = (Line2::fit(&fa), Line2::fit(&fb)) else {
+        // Each face without the two points next to the corner, and without the points at its far
+        // end that lie off its line (where it meets a table or a wall, split-and-merge's coarse
+        // tolerance lets a neighbour's point join it).
+        let face = |from: usize, to: usize, corner_first: bool| {
+            let v: Vec<Vector2<f64>> = pts[from..=to].iter().map(|p| p.1).collect();
+            let inner = &v[2.min(v.len())..v.len().saturating_sub(2).max(2.min(v.len()))];
+            let line = Line2::fit(inner)?;
+            let rms = (inner.iter().map(|p| line.distance(p).powi(2)).sum::<f64>()
+                / inner.len() as f64)
+                .sqrt();
+            let thr = (4.0 * rms).clamp(1e-9, cfg.split_tol);
+            // From the far end inward, the points off the line (at most a tenth of the face).
+            let mut kept = v.clone();
+            if !corner_first {
+                kept.reverse();
+            }
+            let most = kept.len() / 10;
+            for _ in 0..most {
+                match kept.last() {
+                    Some(p) if line.distance(p).abs() > thr => {
+                        kept.pop();
+                    }
+                    _ => break,
+                }
+            }
+            if !corner_first {
+                kept.reverse();
+            }
+            let line = Line2::fit(&kept)?;
+            Some((kept, line))
+        };
+        let (Some((fa, la)), Some((fb, lb))) = (
+            face(a.first, a.last - 2, false),
+            face(b.first + 2, b.last, true),
+        ) else {
             continue;
         };
+        if fa.len() < need - 2 || fb.len() < need - 2 {
+            continue;
+        }
         let Some(corner) = la.intersect(&lb) else {
             continue;
         };
@@ -847,7 +883,9 @@ pub fn two_faces_candidates(
         if !t.is_finite() || (depth(&corner) < depth(&on_chord)) != outside {
             continue;
         }
-        let n = fa.len() + fb.len();
+        // Ranked by the smaller face: a table meeting a wall or a face has many points on one
+        // side only.
+        let n = fa.len().min(fb.len());
         let faces = if sensor.x_reversed {
             [fb, fa]
         } else {

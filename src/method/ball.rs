@@ -142,6 +142,7 @@ impl Method for Ball {
                     normal: Vector3::z(),
                     off_plane: 0.7 * radius,
                     crossing: None,
+                    sense: None,
                 };
                 let mut g = crate::rng::stream(sc.seed, &[crate::rng::tag::PLAN, 2]);
                 crate::sim::poses::poses(&common.rig, &aim, &source, &mut g)

@@ -162,6 +162,7 @@ impl Method for Disk {
                     normal: target.normal.into_inner(),
                     off_plane: 0.6 * radius,
                     crossing: None,
+                    sense: None,
                 };
                 let mut g = crate::rng::stream(sc.seed, &[crate::rng::tag::PLAN, 6]);
                 let poses = crate::sim::poses::poses(&common.rig, &aim, &source, &mut g)

@@ -123,6 +123,12 @@ impl Method for Edge {
                     normal: target.up.into_inner(),
                     off_plane: (target.half_length / 1.5).min(0.03),
                     crossing: Some(target.dir.into_inner()),
+                    // A ridge's or groove's faces in one order along every profile.
+                    sense: spec
+                        .kind
+                        .specimen_type()
+                        .two_faces()
+                        .map(|_| target.up.cross(&target.dir)),
                 };
                 let mut g = rng::stream(sc.seed, &[tag::PLAN, 5]);
                 let poses = crate::sim::poses::poses(rig, &aim, &source, &mut g)

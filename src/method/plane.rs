@@ -62,6 +62,7 @@ impl Method for PlaneMethod {
             normal: Vector3::z(),
             off_plane: 0.0,
             crossing: None,
+            sense: None,
         };
         let mut g = rng::stream(sc.seed, &[tag::PLAN, 4]);
         let poses = crate::sim::poses::poses(&common.rig, &aim, &source, &mut g)

@@ -40,6 +40,21 @@ pub enum SpecimenKind {
         thickness: f64,
         bevel: f64,
     },
+    /// A roof: two faces rising from a base `width` wide to the ridge, `height` above it (the
+    /// edge line; frame origin on it, the base at z = -height).
+    Ridge {
+        length: f64,
+        width: f64,
+        height: f64,
+    },
+    /// A V groove `width` wide at the top and `height` deep, cut along a block three times as
+    /// wide (the groove's bottom is the edge line; frame origin on it, the block's flat top at
+    /// z = height, its bottom 10 mm below the groove's).
+    VGroove {
+        length: f64,
+        width: f64,
+        height: f64,
+    },
 }
 
 /// Which specimen, without its sizes: the name scenario and capture files use.
@@ -55,7 +70,7 @@ pub enum SpecimenType {
     /// A flat face: in the simulator, the table's (the plane method's specimen).
     Plane,
     /// Two faces meeting at an outside angle along a straight line: a roof, a ridge, a knife's
-    /// edge (capture files; the edge method's two-face estimator).
+    /// edge (the edge method's two-face estimator).
     Ridge,
     /// Two faces meeting at an inside angle: a V groove, a fillet weld's sides.
     VGroove,
@@ -63,13 +78,15 @@ pub enum SpecimenType {
 
 impl SpecimenType {
     /// The specimens a scenario's `[specimen]` can place (the plane is the table's face).
-    pub const ALL: [SpecimenType; 6] = [
+    pub const ALL: [SpecimenType; 8] = [
         SpecimenType::DiskCylinder,
         SpecimenType::DiskPaper,
         SpecimenType::Ball,
         SpecimenType::ParallelBar,
         SpecimenType::Scale,
         SpecimenType::KnifeBlade,
+        SpecimenType::Ridge,
+        SpecimenType::VGroove,
     ];
 
     pub fn name(self) -> &'static str {
@@ -114,7 +131,7 @@ impl std::fmt::Display for SpecimenType {
 /// A name that names no specimen.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error(
-    "unknown specimen \"{name}\"; known: disk-cylinder, disk-paper, ball, parallel-bar, scale, knife-blade"
+    "unknown specimen \"{name}\"; known: disk-cylinder, disk-paper, ball, parallel-bar, scale, knife-blade, ridge, v-groove"
 )]
 pub struct UnknownSpecimen {
     pub name: String,
@@ -140,6 +157,8 @@ impl SpecimenKind {
             SpecimenKind::ParallelBar { .. } => SpecimenType::ParallelBar,
             SpecimenKind::Scale { .. } => SpecimenType::Scale,
             SpecimenKind::KnifeBlade { .. } => SpecimenType::KnifeBlade,
+            SpecimenKind::Ridge { .. } => SpecimenType::Ridge,
+            SpecimenKind::VGroove { .. } => SpecimenType::VGroove,
         }
     }
 
@@ -213,6 +232,8 @@ impl Specimen {
             SpecimenKind::ParallelBar { .. }
                 | SpecimenKind::Scale { .. }
                 | SpecimenKind::KnifeBlade { .. }
+                | SpecimenKind::Ridge { .. }
+                | SpecimenKind::VGroove { .. }
         )
     }
 
@@ -334,6 +355,60 @@ impl Specimen {
                     bound_radius: Vector3::new(length / 2.0, width, t2).norm() * (1.0 + 1e-9),
                 }]
             }
+            SpecimenKind::Ridge {
+                length,
+                width,
+                height,
+            } => {
+                // The faces through the ridge (y = z = 0) down to the base's edges at
+                // y = +-width/2, z = -height.
+                let w2 = width / 2.0;
+                let planes = vec![
+                    (Vector3::x(), length / 2.0),
+                    (-Vector3::x(), length / 2.0),
+                    (-Vector3::z(), height),
+                    (Vector3::new(0.0, height, w2).normalize(), 0.0),
+                    (Vector3::new(0.0, -height, w2).normalize(), 0.0),
+                ];
+                vec![Part {
+                    specimen_to_part: Isometry3::identity(),
+                    shape: PartShape::Planes(ConvexPlanes { planes }),
+                    surface: uniform,
+                    bound_radius: Vector3::new(length / 2.0, w2, height).norm() * (1.0 + 1e-9),
+                }]
+            }
+            SpecimenKind::VGroove {
+                length,
+                width,
+                height,
+            } => {
+                // Two convex halves of a block 3 x `width` wide (its bottom 10 mm below the
+                // groove's), each with one face of the groove rising from the bottom line
+                // (y = z = 0) to the block's flat top (z = height) at y = +-width/2, as two plates
+                // with a groove between them.
+                let (w2, base) = (1.5 * width, height + 0.01);
+                let half = |side: f64| {
+                    let planes = vec![
+                        (Vector3::x(), length / 2.0),
+                        (-Vector3::x(), length / 2.0),
+                        (-Vector3::z(), 0.01),
+                        (Vector3::z(), height),
+                        (Vector3::new(0.0, side, 0.0), w2),
+                        (Vector3::new(0.0, -side, 0.0), 0.0),
+                        (
+                            Vector3::new(0.0, -side * height, width / 2.0).normalize(),
+                            0.0,
+                        ),
+                    ];
+                    Part {
+                        specimen_to_part: Isometry3::identity(),
+                        shape: PartShape::Planes(ConvexPlanes { planes }),
+                        surface: uniform,
+                        bound_radius: Vector3::new(length / 2.0, w2, base).norm() * (1.0 + 1e-9),
+                    }
+                };
+                vec![half(1.0), half(-1.0)]
+            }
         }
     }
 
@@ -342,7 +417,9 @@ impl Specimen {
         match self.kind {
             SpecimenKind::ParallelBar { length, .. }
             | SpecimenKind::Scale { length, .. }
-            | SpecimenKind::KnifeBlade { length, .. } => Some(length),
+            | SpecimenKind::KnifeBlade { length, .. }
+            | SpecimenKind::Ridge { length, .. }
+            | SpecimenKind::VGroove { length, .. } => Some(length),
             _ => None,
         }
     }

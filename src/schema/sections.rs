@@ -181,15 +181,16 @@ impl SpecimenSection {
                 thickness: opt(self.thickness_mm, 0.6, "thickness_mm")?,
                 bevel: opt(self.bevel_mm, 1.0, "bevel_mm")?,
             },
-            SpecimenType::Ridge | SpecimenType::VGroove => {
-                return Err(v.bad(
-                    &k("kind"),
-                    format!("\"{}\"", self.kind),
-                    "the simulator has no ridge or groove shape yet: such a target's profiles \
-                     calibrate from capture files (method edge, lasercal import --method edge \
-                     --specimen ridge); place parallel-bar, scale or knife-blade here",
-                ));
-            }
+            SpecimenType::Ridge => SpecimenKind::Ridge {
+                length: opt(self.length_mm, 150.0, "length_mm")?,
+                width: opt(self.width_mm, 40.0, "width_mm")?,
+                height: opt(self.height_mm, 15.0, "height_mm")?,
+            },
+            SpecimenType::VGroove => SpecimenKind::VGroove {
+                length: opt(self.length_mm, 150.0, "length_mm")?,
+                width: opt(self.width_mm, 40.0, "width_mm")?,
+                height: opt(self.height_mm, 15.0, "height_mm")?,
+            },
             SpecimenType::Plane => {
                 return Err(v.bad(
                     &k("kind"),

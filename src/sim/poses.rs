@@ -31,15 +31,21 @@ pub struct Aim {
     pub off_plane: f64,
     /// An edge's direction the laser plane must cross at 30 deg or more.
     pub crossing: Option<Vector3<f64>>,
+    /// The direction across the edge the sensor's x must point along (a ridge's or groove's
+    /// faces then come in one order along every profile: `calib::faces`).
+    pub sense: Option<Vector3<f64>>,
 }
 
 impl Aim {
     /// Whether a flange pose's laser plane crosses `crossing` steeply enough.
     fn crosses(&self, rig: &Rig, base_to_flange: &Isometry3<f64>) -> bool {
+        let sensor = (base_to_flange * rig.flange_to_sensor).rotation;
         self.crossing.is_none_or(|d| {
-            let y = (base_to_flange * rig.flange_to_sensor).rotation * Vector3::y();
+            let y = sensor * Vector3::y();
             y.dot(&d).abs() >= 0.5 * d.norm()
-        })
+        }) && self
+            .sense
+            .is_none_or(|a| (sensor * Vector3::x()).dot(&a) > 0.0)
     }
 }
 
