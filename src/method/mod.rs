@@ -217,6 +217,8 @@ pub struct GroupReport {
     pub rejected: Vec<(String, usize)>,
     /// Left out of the calibration (too few features left).
     pub left_out: bool,
+    /// Per kind of reason (its text with each number as `NUMBER`): the range each number took.
+    ranges: Vec<(String, Vec<(f64, f64)>)>,
 }
 
 impl GroupReport {
@@ -232,16 +234,32 @@ impl GroupReport {
         self.profiles += 1;
         match r {
             Ok(_) => self.used += 1,
-            Err(e) => {
-                // One count per kind of reason: the numbers in a message (how many points, which
-                // column) would make every profile's reason its own.
-                let reason = without_numbers(&e.to_string());
-                match self.rejected.iter_mut().find(|(r, _)| *r == reason) {
-                    Some((_, n)) => *n += 1,
-                    None => self.rejected.push((reason, 1)),
-                }
-            }
+            Err(e) => self.reject(&e.to_string(), 1),
         }
+    }
+
+    /// Count `n` profiles rejected for `why`. One count per kind of reason: the numbers in a
+    /// message (how many points, which column) would make every profile's reason its own, so
+    /// each number is shown as the range it took ("3-9 valid points").
+    pub fn reject(&mut self, why: &str, n: usize) {
+        let key = without_numbers(why);
+        let nums = numbers_in(why);
+        let i = match self.ranges.iter().position(|(k, _)| *k == key) {
+            Some(i) => {
+                for (r, v) in self.ranges[i].1.iter_mut().zip(&nums) {
+                    *r = (r.0.min(*v), r.1.max(*v));
+                }
+                self.rejected[i].1 += n;
+                i
+            }
+            None => {
+                self.ranges
+                    .push((key, nums.iter().map(|v| (*v, *v)).collect()));
+                self.rejected.push((String::new(), n));
+                self.rejected.len() - 1
+            }
+        };
+        self.rejected[i].0 = with_ranges(&self.ranges[i].0, &self.ranges[i].1);
     }
 
     /// One line: "group 3: 7 of 10 profiles used, 3 rejected (2 x no edge ..., 1 x ...); left out".
@@ -265,14 +283,70 @@ impl GroupReport {
     }
 }
 
-/// A message with each number replaced by `N`.
+/// The numbers in a message, in order (as `without_numbers` finds them).
+fn numbers_in(s: &str) -> Vec<f64> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    for c in s.chars().chain(std::iter::once(' ')) {
+        if c.is_ascii_digit() || (!cur.is_empty() && c == '.') {
+            cur.push(c);
+        } else if !cur.is_empty() {
+            out.push(cur.trim_end_matches('.').parse().unwrap_or(f64::NAN));
+            cur.clear();
+        }
+    }
+    out
+}
+
+/// A message without numbers (`NUMBER` each) with each written as its range.
+fn with_ranges(key: &str, ranges: &[(f64, f64)]) -> String {
+    let mut r = ranges.iter();
+    let mut out = String::with_capacity(key.len() + 8);
+    for c in key.chars() {
+        match (c == NUMBER).then(|| r.next()).flatten() {
+            Some((lo, hi)) if lo == hi => out += &lo.to_string(),
+            Some((lo, hi)) => out += &format!("{lo}-{hi}"),
+            None => out.push(c),
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod report_tests {
+    use super::GroupReport;
+
+    #[test]
+    fn rejections_of_one_kind_show_the_range_of_their_numbers() {
+        let mut g = GroupReport::new(3);
+        let r: [Result<(), String>; 4] = [
+            Err("the profile has 9 valid points; at least 10 are needed".into()),
+            Err("the profile has 3 valid points; at least 10 are needed".into()),
+            Err("No arc at column 12.5".into()),
+            Ok(()),
+        ];
+        for x in &r {
+            g.count(x);
+        }
+        assert_eq!(
+            g.describe(),
+            "group 3: 1 of 4 profiles used, rejected: 2 x the profile has 3-9 valid points; at \
+             least 10 are needed; 1 x No arc at column 12.5"
+        );
+    }
+}
+
+/// A number's place in a message without its numbers (a character no message holds).
+const NUMBER: char = '\u{1}';
+
+/// A message with each number replaced by `NUMBER`.
 fn without_numbers(s: &str) -> String {
     let mut out = String::with_capacity(s.len());
     let mut in_number = false;
     for c in s.chars() {
         let digit = c.is_ascii_digit() || (in_number && c == '.');
         if digit && !in_number {
-            out.push('N');
+            out.push(NUMBER);
         } else if !digit {
             out.push(c);
         }
@@ -476,7 +550,7 @@ pub fn leave_out_views(reports: &mut [GroupReport], kept: &[bool], why: &str) {
         let dropped = (0..r.used).filter(|_| k.next() == Some(&false)).count();
         if dropped > 0 {
             r.used -= dropped;
-            r.rejected.push((why.to_string(), dropped));
+            r.reject(why, dropped);
             r.left_out = r.used == 0;
         }
     }
