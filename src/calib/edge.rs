@@ -263,9 +263,6 @@ pub fn solve(p: &EdgeProblem) -> Result<EdgeSolution, CalibError> {
     };
     let (ata, atb) = pass(&Vector3::zeros());
     let eig = ata.symmetric_eigenvalues();
-    if std::env::var_os("LASERCAL_DEBUG_EDGE").is_some() {
-        eprintln!("translation normal-matrix eigenvalues {:?}", eig.as_slice());
-    }
     if !(eig.min() > 1e-18 * eig.max()) {
         return Err(CalibError::Degenerate {
             method: METHOD,

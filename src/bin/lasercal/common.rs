@@ -59,7 +59,7 @@ impl Progress {
         } else {
             f64::NAN
         };
-        eprintln!(
+        note!(
             "{}: {done} of {} trials ({:.0} %), {t:.0} s, about {eta:.0} s to go",
             self.what,
             self.total,
@@ -110,7 +110,7 @@ pub fn trials_cap(trials: usize) -> usize {
         .filter(|c| *c >= 1);
     match cap {
         Some(c) if c < trials => {
-            eprintln!("LASERCAL_MAX_TRIALS={c}: {trials} trials cut to {c}");
+            note!("LASERCAL_MAX_TRIALS={c}: {trials} trials cut to {c}");
             c
         }
         _ => trials,
@@ -343,7 +343,7 @@ pub fn warn_skipped_meshes(recorders: &[lasercal::io::rerun::Recorder]) {
     if let Some(r) = recorders.first() {
         let meshes = r.skipped_meshes();
         if !meshes.is_empty() {
-            eprintln!(
+            note!(
                 "warning: the robot's {} mesh visual(s) are not shown ({}); boxes, cylinders and \
                  spheres are",
                 meshes.len(),

@@ -78,7 +78,7 @@ pub fn run(a: Args) -> Result<()> {
         .map(lasercal::robot::Robot::resolve)
         .transpose()?;
     let poses = flange_poses(list.key, &list.rows, &list.at, robot.as_ref(), &pname)?;
-    eprintln!("{pname}: {}", list.summary);
+    note!("{pname}: {}", list.summary);
     for (v, name) in [(a.radius_mm, "--radius-mm"), (a.z_sigma_mm, "--z-sigma-mm")] {
         if let Some(x) = v
             && !(x > 0.0 && x <= 1e5)
@@ -162,7 +162,7 @@ pub fn run(a: Args) -> Result<()> {
     };
     let text = capture_file(&header, &pname, &poses, source)?;
     lasercal::io::write(&a.out, text.as_bytes())?;
-    eprintln!(
+    note!(
         "{}: {} poses ({}) with their profiles; calibrate it with `lasercal calibrate {}`",
         a.out.display(),
         poses.len(),

@@ -19,6 +19,15 @@ macro_rules! say {
     }};
 }
 
+/// `eprintln!` that does not panic when standard error is gone (`lasercal run ... 2>&1 | head`):
+/// a note nobody can read is dropped.
+macro_rules! note {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
+
 mod calibrate;
 mod check;
 mod common;
@@ -97,7 +106,7 @@ fn main() {
                 } else {
                     head.join(" ")
                 };
-                eprintln!("{text} (see lasercal --help)");
+                note!("{text} (see lasercal --help)");
                 std::process::exit(2);
             }
         },
@@ -122,7 +131,7 @@ fn main() {
         Command::Sweep(a) => sweep::run(a),
     };
     if let Err(e) = result {
-        eprintln!("error: {e:#}");
+        note!("error: {e:#}");
         std::process::exit(2);
     }
 }

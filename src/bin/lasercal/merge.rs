@@ -195,7 +195,7 @@ pub fn run(a: Args) -> Result<()> {
         serde_json::to_string_pretty(&meta)?.as_bytes(),
     )?;
     done(&out)?;
-    eprintln!(
+    note!(
         "merged {} shards ({merged} trials) into {}",
         metas.len(),
         out.display()

@@ -139,7 +139,7 @@ pub fn run(a: Args) -> Result<()> {
                 results.push(doc);
             }
             Err(e) => {
-                eprintln!("{method}: calibration failed: {e}");
+                note!("{method}: calibration failed: {e}");
                 results.push(
                     serde_json::json!({ "method": method, "error": e.to_string(), "truth": truth }),
                 );

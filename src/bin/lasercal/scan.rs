@@ -127,7 +127,7 @@ pub fn run(a: Args) -> Result<()> {
             None => csv += &format!("{k},,,\n"),
         }
     }
-    eprintln!(
+    note!(
         "{} profile: {} of {} columns see a surface ({} frame)",
         setup.rig.sensor.name,
         profile.valid(),

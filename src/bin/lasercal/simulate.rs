@@ -41,7 +41,7 @@ pub fn run(a: Args) -> Result<()> {
     let caps = caps?;
     let json = lasercal::io::captures::to_json(&caps, &setup.rig.sensor);
     lasercal::io::write(&a.out, json.as_bytes())?;
-    eprintln!(
+    note!(
         "{method}: {} profiles in {} groups written to {}",
         caps.profiles.len(),
         caps.groups.len(),

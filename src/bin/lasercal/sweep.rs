@@ -84,7 +84,7 @@ pub fn begin(out: &Path, what: &str) -> Result<()> {
         .filter(|f| out.join(f).exists())
         .collect();
     if !old.is_empty() {
-        eprintln!(
+        note!(
             "{}: replacing the previous run's {}",
             out.display(),
             old.join(", ")
@@ -197,7 +197,7 @@ pub fn run(a: Args) -> Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&sf.scenario.name));
     let total = plan.work(shard);
-    eprintln!(
+    note!(
         "sweep {}: {} grid points x {} trials{}, {} threads, writing {}",
         sf.scenario.name,
         plan.n_points(),
@@ -258,14 +258,14 @@ pub fn run(a: Args) -> Result<()> {
         if let Some(p) = &a.rerun {
             record_curves(p, &sf, &summary)?;
         }
-        eprintln!(
+        note!(
             "done: {total} trials in {:.1} s ({failures} failed); {}/report.md",
             started.elapsed().as_secs_f64(),
             out.display()
         );
     } else {
         done(&out)?;
-        eprintln!(
+        note!(
             "shard {}/{} done: {total} trials in {:.1} s ({failures} failed); combine the shards with `lasercal merge DIR...`",
             shard.index + 1,
             shard.count,
