@@ -124,3 +124,21 @@ fn a_long_run_off_a_terminal_prints_progress_lines() {
     assert!(out.status.success(), "{err}");
     assert!(err.contains("trials (") && err.contains("to go"), "{err}");
 }
+
+/// Output that meets closed pipes (`lasercal run ... 2>&1 | head -1`) ends the command with an
+/// error, not a panic (exit 101).
+#[test]
+fn closed_pipes_end_a_run_without_a_panic() {
+    use std::process::{Command, Stdio};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lasercal"))
+        .args(["run", &common::scen("ridge-16-poses.toml")])
+        .env("CI", "1")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run lasercal");
+    drop(child.stdout.take());
+    drop(child.stderr.take());
+    let code = child.wait().unwrap().code();
+    assert!(matches!(code, Some(0 | 2)), "exit {code:?}");
+}
