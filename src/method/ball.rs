@@ -397,6 +397,15 @@ fn circle_of(
 /// Arc circles and their centres per group, the two-step solve, and the refinement problem (when
 /// every capture kept its arc points).
 fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
+    let inferred;
+    let c = if c.groups.iter().all(|g| g.sign == 0.0)
+        && c.groups.iter().all(|g| g.role != Role::Rotation)
+    {
+        inferred = inferred_labels(c, sensor)?;
+        &inferred
+    } else {
+        c
+    };
     let cfg = SplitMerge::for_sensor(sensor);
     let radius = c
         .specimen_radius
@@ -469,6 +478,61 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
 /// The any-pose estimator (`calib::ball_any`): every profile's arc, whatever its group's role; the
 /// sides of the laser plane inferred. A profile without an arc is counted in its group's report
 /// and left out; the hand-given signs, where the file has them, are not used.
+/// The two-step protocol's labels for captures that give none (free poses, an import): the
+/// profiles at the orientation most of them share (four or more, within the orientation
+/// tolerance) are the rotation set, the rest translation poses, each its own group; each
+/// profile's side of the laser plane (s_i) is where `ball-any-pose`'s centre lies from it, a
+/// label the data determine. Without four profiles at one orientation the closed form cannot run
+/// and says so.
+fn inferred_labels(c: &Captures, sensor: &SensorModel) -> Result<Captures, Error> {
+    let flanges: Vec<&nalgebra::Isometry3<f64>> =
+        c.profiles.iter().map(|p| &p.base_to_flange).collect();
+    let tol = c.orientation_tolerance_deg.to_radians();
+    let shared = |i: usize| {
+        flanges
+            .iter()
+            .filter(|f| f.rotation.angle_to(&flanges[i].rotation) <= tol)
+            .count()
+    };
+    let (most, count) = (0..flanges.len())
+        .map(|i| (i, shared(i)))
+        .max_by_key(|&(i, n)| (n, std::cmp::Reverse(i)))
+        .unwrap_or((0, 0));
+    if count < 4 {
+        return Err(CaptureError::MissingSign {
+            group: c.groups.first().map_or(0, |g| g.id),
+            method: Kind::Ball,
+        }
+        .into());
+    }
+    let (any, _) = any_pose(c, sensor)?;
+    let centre =
+        any.centre_in_base
+            .map(nalgebra::Point3::from)
+            .ok_or(CaptureError::MissingSign {
+                group: 0,
+                method: Kind::Ball,
+            })?;
+    let rotation = flanges[most].rotation;
+    let mut out = c.clone();
+    out.groups = Vec::with_capacity(c.profiles.len());
+    for (i, p) in out.profiles.iter_mut().enumerate() {
+        let in_sensor = (p.base_to_flange * any.flange_to_sensor).inverse_transform_point(&centre);
+        let role = if p.base_to_flange.rotation.angle_to(&rotation) <= tol {
+            Role::Rotation
+        } else {
+            Role::Translation
+        };
+        out.groups.push(Group {
+            id: i,
+            role,
+            sign: if in_sensor.y < 0.0 { -1.0 } else { 1.0 },
+        });
+        p.group = i;
+    }
+    Ok(out)
+}
+
 fn any_pose(
     c: &Captures,
     sensor: &SensorModel,
