@@ -1842,3 +1842,40 @@ fn the_ball_closed_form_runs_on_labels_the_data_determine() {
     .to_string();
     assert!(e.contains("sign") && e.contains("ball-any-pose"), "{e}");
 }
+
+/// The disk paper's four ray-cast scans written as an import writes them (one group per pose, no
+/// roles, no signs): the closed form finds the scans (runs of one orientation) and their signs
+/// (the move against the sensor's y, read with disk-any-pose's rotation) and gives the result
+/// the labelled file gives.
+#[test]
+fn the_disk_closed_form_finds_its_scans_and_signs() {
+    use lasercal::captures::Role;
+    let sf = lasercal::scenario::ScenarioFile::load(std::path::Path::new(&common::scen(
+        "chen2018-disk-raycast.toml",
+    )))
+    .unwrap();
+    let setup = sf.scenario.build(&sf.file).unwrap();
+    let caps = lasercal::trial::trial_captures(&setup, Kind::Disk, 1, 0)
+        .0
+        .unwrap();
+    assert!(caps.groups.iter().all(|g| g.sign.abs() == 1.0));
+    let mut bare = caps.clone();
+    for (i, p) in bare.profiles.iter_mut().enumerate() {
+        p.group = i;
+    }
+    bare.groups = (0..bare.profiles.len())
+        .map(|id| Group {
+            id,
+            role: Role::Pose,
+            sign: 0.0,
+        })
+        .collect();
+    let id = MethodId::new(Kind::Disk, Estimator::ClosedForm);
+    let (a, _) = lasercal::method::estimate(id, &caps, &setup.rig.sensor).unwrap();
+    let (b, _) = lasercal::method::estimate(id, &bare, &setup.rig.sensor).unwrap();
+    let e = PoseError::between(&a.flange_to_sensor, &b.flange_to_sensor);
+    assert!(
+        e.rotation_error_deg < 1e-9 && e.translation_error_mm < 1e-9,
+        "{e:?}"
+    );
+}

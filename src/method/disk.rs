@@ -591,8 +591,60 @@ fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, R
     Ok((cal, sol.refined))
 }
 
+/// The scans of captures that give none (one group per pose, as an import writes them): each run
+/// of consecutive profiles at one orientation (within the orientation tolerance) is a scan, and
+/// its sign s_i (Eq. 3) is whether its move follows the sensor's +y, read with
+/// `disk-any-pose`'s rotation: labels the data determine.
+fn inferred_scans(c: &Captures, sensor: &SensorModel) -> Result<Captures, Error> {
+    // Without the any-pose estimator (features given, not raw profiles) nothing reads the signs.
+    let Ok((any, _)) = any_pose(c, sensor) else {
+        return Err(CaptureError::MissingSign {
+            group: c.groups[0].id,
+            method: Kind::Disk,
+        }
+        .into());
+    };
+    let tol = c.orientation_tolerance_deg.to_radians();
+    let mut out = c.clone();
+    out.groups = Vec::new();
+    let mut start = 0;
+    while start < out.profiles.len() {
+        let first = out.profiles[start].base_to_flange;
+        let end = (start..out.profiles.len())
+            .take_while(|&i| {
+                out.profiles[i]
+                    .base_to_flange
+                    .rotation
+                    .angle_to(&first.rotation)
+                    <= tol
+            })
+            .last()
+            .unwrap_or(start);
+        let id = out.groups.len();
+        let moved = out.profiles[end].base_to_flange.translation.vector - first.translation.vector;
+        let y = (first * any.flange_to_sensor).rotation * nalgebra::Vector3::y();
+        out.groups.push(Group {
+            id,
+            role: Role::Scan,
+            sign: if moved.dot(&y) < 0.0 { -1.0 } else { 1.0 },
+        });
+        for p in &mut out.profiles[start..=end] {
+            p.group = id;
+        }
+        start = end + 1;
+    }
+    Ok(out)
+}
+
 /// Chords from every scan, the disk paper's transformation solution, and the refinement problem.
 fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
+    let inferred;
+    let c = if !c.groups.is_empty() && c.groups.iter().all(|g| g.role == Role::Pose) {
+        inferred = inferred_scans(c, sensor)?;
+        &inferred
+    } else {
+        c
+    };
     let cfg = SplitMerge::for_sensor(sensor);
     let mut missed = 0;
     let radius = c
