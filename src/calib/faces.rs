@@ -70,15 +70,7 @@ pub fn solve(
             .iter()
             .map(|v| view_rms(v, &sol.flange_to_sensor, &sol.planes))
             .collect();
-        let mut sorted: Vec<f64> = rms
-            .iter()
-            .zip(&kept)
-            .filter(|(_, k)| **k)
-            .map(|(r, _)| *r)
-            .collect();
-        sorted.sort_by(f64::total_cmp);
-        let limit = (5.0 * sorted[sorted.len() / 2]).max(1e-6);
-        let next: Vec<bool> = rms.iter().map(|r| *r <= limit).collect();
+        let next = super::plane::within_five_medians(&rms, &kept);
         if next == kept || next.iter().filter(|k| **k).count() < super::plane::MIN_VIEWS {
             break;
         }

@@ -127,15 +127,7 @@ pub fn solve_leaving_out(
             (sq / v.points.len().max(1) as f64).sqrt()
         };
         let all: Vec<f64> = views.iter().map(rms).collect();
-        let mut sorted: Vec<f64> = all
-            .iter()
-            .zip(&kept)
-            .filter(|(_, k)| **k)
-            .map(|(r, _)| *r)
-            .collect();
-        sorted.sort_by(f64::total_cmp);
-        let limit = (5.0 * sorted[sorted.len() / 2]).max(1e-6);
-        let next: Vec<bool> = all.iter().map(|r| *r <= limit).collect();
+        let next = within_five_medians(&all, &kept);
         if next == kept || next.iter().filter(|k| **k).count() < MIN_VIEWS {
             return Ok((kept, sol));
         }
@@ -148,6 +140,22 @@ pub fn solve_leaving_out(
         .map(|(v, _)| v.clone())
         .collect();
     Ok((kept, solve_from_starts(&used, apex, count)?))
+}
+
+/// The views whose RMS (`rms`, one per view) is within five times the median of those `kept`
+/// (at least 1 um): a leave-out round of the solvers that no single profile can fool.
+pub fn within_five_medians(rms: &[f64], kept: &[bool]) -> Vec<bool> {
+    let mut sorted: Vec<f64> = rms
+        .iter()
+        .zip(kept)
+        .filter(|(_, k)| **k)
+        .map(|(r, _)| *r)
+        .collect();
+    sorted.sort_by(f64::total_cmp);
+    let limit = sorted
+        .get(sorted.len() / 2)
+        .map_or(f64::INFINITY, |m| (5.0 * m).max(1e-6));
+    rms.iter().map(|r| *r <= limit).collect()
 }
 
 /// Starts screened when the plane is a specimen's face (a plate's or a disk's: shorter lines than

@@ -319,10 +319,10 @@ mod report_tests {
     #[test]
     fn rejections_of_one_kind_show_the_range_of_their_numbers() {
         let mut g = GroupReport::new(3);
-        let r: [Result<(), String>; 4] = [
-            Err("the profile has 9 valid points; at least 10 are needed".into()),
-            Err("the profile has 3 valid points; at least 10 are needed".into()),
-            Err("No arc at column 12.5".into()),
+        let r: [Result<(), &str>; 4] = [
+            Err("the profile has 9 valid points; at least 10 are needed"),
+            Err("the profile has 3 valid points; at least 10 are needed"),
+            Err("No arc at column 12.5"),
             Ok(()),
         ];
         for x in &r {

@@ -109,16 +109,7 @@ pub fn run(a: Args) -> Result<i32> {
     }
     // Every variant the file supports, unless one is asked for; the best judged result is kept
     // and tested against the rest (docs/verdict.md).
-    let decision = match verdict::decide(&caps, &sensor, a.method) {
-        Ok(d) => d,
-        Err(failed) => {
-            let why: Vec<String> = failed.iter().map(|(id, e)| format!("{id}: {e}")).collect();
-            bail!(
-                "{name}: no variant could calibrate:\n  {}",
-                why.join("\n  ")
-            );
-        }
-    };
+    let decision = super::common::decide(&name, &caps, &sensor, a.method)?;
     let mut variants = Vec::new();
     if a.method.is_none() {
         say!(

@@ -376,3 +376,19 @@ pub fn summary_text(
         matrix_text(&lasercal::math::pose_to_rows_mm(flange_to_sensor))
     )
 }
+
+/// `verdict::decide`, or an error that lists why every variant failed.
+pub fn decide(
+    name: &str,
+    caps: &lasercal::captures::Captures,
+    sensor: &lasercal::sensor::SensorModel,
+    method: Option<lasercal::method::MethodId>,
+) -> anyhow::Result<lasercal::method::verdict::Decision> {
+    lasercal::method::verdict::decide(caps, sensor, method).map_err(|failed| {
+        let why: Vec<String> = failed.iter().map(|(id, e)| format!("{id}: {e}")).collect();
+        anyhow::anyhow!(
+            "{name}: no variant could calibrate:\n  {}",
+            why.join("\n  ")
+        )
+    })
+}

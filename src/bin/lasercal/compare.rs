@@ -2,7 +2,7 @@ use anyhow::{Context, Result, bail};
 use lasercal::calib::PoseError;
 use lasercal::calib::refine::predict::Prediction;
 use lasercal::math::pose_to_rows_mm;
-use lasercal::method::{MethodId, verdict};
+use lasercal::method::MethodId;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -50,16 +50,7 @@ pub fn run(a: Args) -> Result<()> {
             lasercal::io::export::read_transform(&text, &tname)?,
         ));
     }
-    let decision = match verdict::decide(&caps, &sensor, a.method) {
-        Ok(d) => d,
-        Err(failed) => {
-            let why: Vec<String> = failed.iter().map(|(id, e)| format!("{id}: {e}")).collect();
-            bail!(
-                "{name}: no variant could calibrate:\n  {}",
-                why.join("\n  ")
-            );
-        }
-    };
+    let decision = super::common::decide(&name, &caps, &sensor, a.method)?;
     let method = decision.method();
     let cal = &decision.assessed().calibration;
     let Some(problem) = cal.problem(method.estimator) else {
