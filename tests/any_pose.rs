@@ -550,6 +550,29 @@ fn random_face_setup(
     }
 }
 
+/// `id` on one noise-free setup's captures: converged, and exact to 1e-9 against `truth`
+/// (`what` names it in a failure). Returns the error.
+fn exact_one(
+    id: MethodId,
+    caps: &Captures,
+    sensor: &SensorModel,
+    truth: &Isometry3<f64>,
+    what: &str,
+) -> PoseError {
+    let (cal, r) =
+        lasercal::method::estimate(id, caps, sensor).unwrap_or_else(|e| panic!("{what}: {e}"));
+    assert!(
+        matches!(r.unwrap().status, lasercal::calib::Status::Converged { .. }),
+        "{what}"
+    );
+    let e = PoseError::between(&cal.flange_to_sensor, truth);
+    assert!(
+        e.rotation_error_deg < 1e-9 && e.translation_error_mm < 1e-9,
+        "{what}: {e:?}"
+    );
+    e
+}
+
 const PLANE: MethodId = MethodId::new(Kind::Plane, Estimator::AnyPose);
 /// `id` on 100 noise-free setups of 7-50 poses (`setup(seed, n)`): every one converged and exact
 /// to 1e-9; prints the worst.
@@ -558,19 +581,15 @@ fn exact_on_a_hundred(id: MethodId, what: &str, setup: impl Fn(u64, usize) -> Se
     for seed in 0..100u64 {
         let n = 7 + (seed as usize * 7) % 44;
         let s = setup(seed, n);
-        let (cal, r) = lasercal::method::estimate(id, &s.caps, &s.sensor)
-            .unwrap_or_else(|e| panic!("setup {seed} ({n} poses): {e}"));
-        assert!(
-            matches!(r.unwrap().status, lasercal::calib::Status::Converged { .. }),
-            "setup {seed}"
+        let e = exact_one(
+            id,
+            &s.caps,
+            &s.sensor,
+            &s.truth,
+            &format!("setup {seed} ({n} poses)"),
         );
-        let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
         worst.0 = worst.0.max(e.rotation_error_deg);
         worst.1 = worst.1.max(e.translation_error_mm);
-        assert!(
-            e.rotation_error_deg < 1e-9 && e.translation_error_mm < 1e-9,
-            "setup {seed} ({n} poses): {e:?}"
-        );
     }
     eprintln!(
         "{what}, worst of 100: {:.1e} deg, {:.1e} mm",
@@ -598,20 +617,16 @@ fn ridge_and_groove_exact_on_a_hundred_random_rigs_and_pose_sets() {
         for seed in 0..100u64 {
             let n = 12 + (seed as usize * 7) % 39;
             let s = random_wedge_setup(base + seed, n, 0.0, groove);
-            let (cal, r) = lasercal::method::estimate(EDGE, &s.caps, &s.sensor)
-                .unwrap_or_else(|e| panic!("{what} {seed} ({n} poses): {e}"));
-            assert!(
-                matches!(r.unwrap().status, lasercal::calib::Status::Converged { .. }),
-                "{what} {seed}"
+            let e = exact_one(
+                EDGE,
+                &s.caps,
+                &s.sensor,
+                &s.truth,
+                &format!("{what} {seed} ({n} poses)"),
             );
-            let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
             worst = (
                 worst.0.max(e.rotation_error_deg),
                 worst.1.max(e.translation_error_mm),
-            );
-            assert!(
-                e.rotation_error_deg < 1e-9 && e.translation_error_mm < 1e-9,
-                "{what} {seed} ({n} poses): {e:?}"
             );
         }
         eprintln!(
@@ -1537,20 +1552,16 @@ fn a_sensor_known_only_by_its_points_calibrates_the_independent_kits_rigs() {
                 );
             }
             let id = MethodId::new(kind, Estimator::AnyPose);
-            let (cal, r) = lasercal::method::estimate(id, &caps, &sensor)
-                .unwrap_or_else(|e| panic!("{kind} {seed} ({n} poses): {e}"));
-            assert!(
-                matches!(r.unwrap().status, lasercal::calib::Status::Converged { .. }),
-                "{kind} {seed}"
+            let e = exact_one(
+                id,
+                &caps,
+                &sensor,
+                &s.truth,
+                &format!("{kind} {seed} ({n} poses)"),
             );
-            let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
             worst = (
                 worst.0.max(e.rotation_error_deg),
                 worst.1.max(e.translation_error_mm),
-            );
-            assert!(
-                e.rotation_error_deg < 1e-9 && e.translation_error_mm < 1e-9,
-                "{kind} {seed} ({n} poses): {e:?}"
             );
         }
         eprintln!(
@@ -1790,20 +1801,9 @@ fn the_simulators_ridge_and_groove_calibrate_exactly() {
                 Vector3::new(1e-3, -2e-3, 1.5e-3).into(),
                 UnitQuaternion::from_scaled_axis(Vector3::new(0.01, -0.02, 0.015)),
             );
-        let (r0, j) = p.residuals_and_jacobian(&x);
-        let h = 1e-6;
-        let mut worst: f64 = 0.0;
-        for c in 0..j.ncols() {
-            let mut dx = nalgebra::DVector::zeros(j.ncols());
-            dx[c] = h;
-            let rp = p.residuals_after_step(&x, &dx);
-            dx[c] = -h;
-            let rm = p.residuals_after_step(&x, &dx);
-            let fd = (rp - rm) / (2.0 * h);
-            worst = worst.max((fd - j.column(c)).amax() / j.column(c).amax().max(1e-3));
-        }
+        let (r0, worst) = common::jacobian_error(p.as_ref(), &x);
         assert!(
-            r0.amax() > 1e-5 && worst < 1e-6,
+            r0 > 1e-5 && worst < 1e-6,
             "{name}: Jacobian off by {worst:.2e}"
         );
     }

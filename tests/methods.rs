@@ -4,6 +4,8 @@
 //! round-trip, trials are deterministic, bad captures give typed errors. A new specimen method
 //! gets every test by adding its line to `CASES`.
 
+mod common;
+
 use lasercal::calib::CalibError;
 use lasercal::calib::refine::{Loss, Options};
 use lasercal::captures::{CaptureError, Captures, ProfileData};
@@ -12,7 +14,7 @@ use lasercal::method::calibrate;
 use lasercal::method::{Estimator, Kind, MethodId, estimate};
 use lasercal::scenario::{ScenarioFile, Setup};
 use lasercal::trial::{run_trial, trial_captures};
-use nalgebra::{DVector, Isometry3, UnitQuaternion, Vector2, Vector3};
+use nalgebra::{Isometry3, UnitQuaternion, Vector2, Vector3};
 
 /// One line per specimen method: a scenario that runs it (its noise set by `noisy`).
 const CASES: &[(Kind, &str)] = &[
@@ -206,20 +208,8 @@ fn jacobians_match_finite_differences() {
                 Vector3::new(1e-3, -2e-3, 1.5e-3).into(),
                 UnitQuaternion::from_scaled_axis(Vector3::new(0.01, -0.02, 0.015)),
             );
-        let (r0, j) = p.residuals_and_jacobian(&x);
-        let h = 1e-6;
-        let mut worst: f64 = 0.0;
-        for c in 0..j.ncols() {
-            let mut dx = DVector::zeros(j.ncols());
-            dx[c] = h;
-            let rp = p.residuals_after_step(&x, &dx);
-            dx[c] = -h;
-            let rm = p.residuals_after_step(&x, &dx);
-            let fd = (rp - rm) / (2.0 * h);
-            let scale = j.column(c).amax().max(1e-3);
-            worst = worst.max((fd - j.column(c)).amax() / scale);
-        }
-        assert!(r0.amax() > 1e-5, "{kind}: not away from the optimum");
+        let (r0, worst) = common::jacobian_error(p.as_ref(), &x);
+        assert!(r0 > 1e-5, "{kind}: not away from the optimum");
         assert!(
             worst < 1e-6,
             "{kind}: Jacobian off by {worst:.2e} (relative)"

@@ -325,3 +325,25 @@ pub fn rig_recording(
     std::fs::write(&pose_list, poses).unwrap();
     (pose_list, per_pose)
 }
+
+/// A refinement problem's analytic Jacobian at `x` against central differences (step 1e-6 in
+/// each parameter): the largest residual there, and the worst column's difference relative to
+/// that column's largest entry (at least 1e-3).
+pub fn jacobian_error(
+    p: &dyn lasercal::calib::refine::Refinable,
+    x: &nalgebra::Isometry3<f64>,
+) -> (f64, f64) {
+    let (r0, j) = p.residuals_and_jacobian(x);
+    let h = 1e-6;
+    let mut worst: f64 = 0.0;
+    for c in 0..j.ncols() {
+        let mut dx = nalgebra::DVector::zeros(j.ncols());
+        dx[c] = h;
+        let rp = p.residuals_after_step(x, &dx);
+        dx[c] = -h;
+        let rm = p.residuals_after_step(x, &dx);
+        let fd = (rp - rm) / (2.0 * h);
+        worst = worst.max((fd - j.column(c)).amax() / j.column(c).amax().max(1e-3));
+    }
+    (r0.amax(), worst)
+}
