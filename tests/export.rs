@@ -2,6 +2,7 @@
 
 mod common;
 
+use lasercal::captures::ProfileData;
 use lasercal::io::export::{Exported, from_yaml, ros2_command, to_urdf, to_yaml};
 use nalgebra::{Isometry3, Matrix6, Translation3, UnitQuaternion, Vector3};
 
@@ -435,7 +436,12 @@ fn import_builds_the_capture_file_a_rig_would_have_written() {
     // Without --sensor: a sensor known only by its points (the ball's any-pose estimator needs no
     // rays), its noise measured from the profiles; --sensor points-only says the same.
     let abb = dir.path().join("abb.csv");
-    for (tag, sensor) in [("points", None), ("points-named", Some("points-only"))] {
+    // --compact: the points in an array beside the file, read back alike.
+    for (tag, sensor, compact) in [
+        ("points", None, false),
+        ("points-named", Some("points-only"), false),
+        ("points-compact", None, true),
+    ] {
         let out = dir.path().join(format!("{tag}.json"));
         let mut args = vec![
             "import",
@@ -454,8 +460,16 @@ fn import_builds_the_capture_file_a_rig_would_have_written() {
         if let Some(s) = sensor {
             args.extend(["--sensor", s]);
         }
+        if compact {
+            args.push("--compact");
+        }
         let (code, _, err) = common::lasercal(&args);
         assert_eq!(code, 0, "{tag}: {err}");
+        assert_eq!(
+            dir.path().join(format!("{tag}.points.npy.gz")).exists(),
+            compact,
+            "{tag}"
+        );
         let written: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
         assert!(written["sensor"]["points_only"].is_object(), "{tag}");
@@ -804,4 +818,88 @@ fn compare_scores_other_transforms_by_how_they_predict_each_pose() {
         common::lasercal(&["compare", caps.to_str().unwrap(), bad.to_str().unwrap()]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("five.txt") && err.contains("16"), "{err}");
+}
+
+#[test]
+fn compact_capture_files_keep_every_point_in_a_fraction_of_the_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let (full, doc) = common::simulated_capture(dir.path(), "ball-free.toml", "full.json");
+    let compact = dir.path().join("small.json");
+    let (code, _, err) = common::lasercal(&[
+        "simulate",
+        &common::scen("ball-free.toml"),
+        "--out",
+        compact.to_str().unwrap(),
+        "--compact",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let array = dir.path().join("small.points.npy.gz");
+    let size = |p: &std::path::Path| std::fs::metadata(p).unwrap().len();
+    let (before, after) = (size(&full), size(&compact) + size(&array));
+    // A ball's curved profiles compress less than a disk's flat ones (a fifth here, a tenth for
+    // the disk of docs/captures.md).
+    assert!(after * 5 < before, "{after} bytes against {before}");
+
+    // The same profiles: each point where it was, to float32's rounding.
+    let (a, _) = lasercal::io::captures::read(&full).unwrap();
+    let (b, _) = lasercal::io::captures::read(&compact).unwrap();
+    assert_eq!(a.profiles.len(), doc["profiles"].as_array().unwrap().len());
+    assert_eq!(a.profiles.len(), b.profiles.len());
+    let mut points = 0;
+    for (p, q) in a.profiles.iter().zip(&b.profiles) {
+        assert_eq!(p.base_to_flange, q.base_to_flange);
+        let (ProfileData::Raw(p), ProfileData::Raw(q)) = (&p.data, &q.data) else {
+            panic!("raw profiles expected");
+        };
+        assert_eq!(p.points.len(), q.points.len());
+        for (u, v) in p.points.iter().zip(&q.points) {
+            match (u, v) {
+                (None, None) => {}
+                (Some(u), Some(v)) => {
+                    points += 1;
+                    // float32 of a value in mm: 2^-24 of it, at most 300 mm here.
+                    assert!((u.x - v.x).abs() < 2e-8 && (u.z - v.z).abs() < 2e-8);
+                    assert!((u.intensity - v.intensity).abs() < 1e-7);
+                }
+                _ => panic!("a point appeared or vanished"),
+            }
+        }
+    }
+    assert!(points > 1000, "{points} points");
+
+    // Calibrated alike: within the rounding, far inside the noise.
+    let (x, y) = (
+        calibrated(full.to_str().unwrap(), dir.path(), "result-full"),
+        calibrated(compact.to_str().unwrap(), dir.path(), "result-small"),
+    );
+    for i in 0..3 {
+        for j in 0..4 {
+            assert!(
+                (x[i][j] - y[i][j]).abs() < 1e-4,
+                "[{i}][{j}] {} vs {}",
+                x[i][j],
+                y[i][j]
+            );
+        }
+    }
+
+    // A missing or broken array, or a text read without its folder, is named.
+    let text = std::fs::read_to_string(&compact).unwrap();
+    let e = lasercal::io::captures::from_json(&text, "small.json").unwrap_err();
+    assert!(e.to_string().contains("points_file"), "{e}");
+    std::fs::write(&array, b"not gzip").unwrap();
+    let e = lasercal::io::captures::read(&compact)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("small.points.npy.gz") && e.contains("gzip"),
+        "{e}"
+    );
+    std::fs::remove_file(&array).unwrap();
+    let (code, _, err) = common::lasercal(&["calibrate", compact.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("points_file") && err.contains("beside"),
+        "{err}"
+    );
 }

@@ -10,6 +10,7 @@ use crate::schema::sensor::{GeometrySection, ZAxis};
 use crate::sensor::{Profile, ProfilePoint, SensorModel};
 use nalgebra::{Isometry3, Matrix3, Quaternion, Translation3, UnitQuaternion, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
+use std::path::Path;
 
 pub const FORMAT: &str = "lasercal-captures";
 pub const VERSION: u32 = 1;
@@ -49,6 +50,10 @@ struct FileV1 {
     /// test allows beside the sensor noise (default 0.5).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     robot_accuracy_mm: Option<f64>,
+    /// The raw profiles' points in a compressed array beside this file (`io::points_file`),
+    /// each profile naming its row.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    points_file: Option<String>,
     groups: Vec<GroupV1>,
     profiles: Vec<ProfileV1>,
 }
@@ -123,6 +128,13 @@ struct ProfileV1 {
     /// The sensor column of each entry of points_mm, when the list is not one entry per column.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     columns: Option<Vec<usize>>,
+    /// The row of `points_file` holding this profile's points and intensities, in place of
+    /// points_mm and intensity.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    points_row: Option<usize>,
+    /// How many entries of that row are this profile's, when fewer than the row's width.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    points_len: Option<usize>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     chord_mm: Option<[[f64; 2]; 2]>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -179,6 +191,7 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
         edge_sense: c.edge_sense,
         truth_flange_to_sensor_mm: c.truth.as_ref().map(crate::math::pose_to_rows_mm),
         nominal_flange_to_sensor_mm: c.judging.nominal.as_ref().map(crate::math::pose_to_rows_mm),
+        points_file: None,
         groups: c
             .groups
             .iter()
@@ -200,6 +213,8 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
                     points_mm: None,
                     intensity: None,
                     columns: None,
+                    points_row: None,
+                    points_len: None,
                     chord_mm: None,
                     circle_mm: None,
                     arc_mm: None,
@@ -243,12 +258,151 @@ fn err(file: &str, at: &str, msg: impl std::fmt::Display) -> FormatError {
 
 /// Parse a capture file; errors name the file, the record and the field. Returns the captures and
 /// the sensor model to extract features with (the preset, with the file's noise figures).
+///
+/// A file whose points are in a `points_file` is read with `read`, which knows its folder.
 pub fn from_json(text: &str, file: &str) -> Result<(Captures, SensorModel), FormatError> {
-    let f: FileV1 = serde_json::from_str(text).map_err(|e| FormatError::Invalid {
+    let f = parse(text, file)?;
+    if let Some(p) = &f.points_file {
+        return Err(err(
+            file,
+            "points_file",
+            format!(
+                "'{p}': read the file from disk (lasercal::io::captures::read) so its points file can be found beside it"
+            ),
+        ));
+    }
+    from_file(f, file)
+}
+
+/// Read a capture file from disk, with its points file when it has one (`write_compact`).
+pub fn read(path: &Path) -> Result<(Captures, SensorModel), crate::error::Error> {
+    let name = path.display().to_string();
+    let text =
+        std::fs::read_to_string(path).map_err(|e| crate::error::Error::io(path, "read", e))?;
+    let mut f = parse(&text, &name)?;
+    if let Some(p) = f.points_file.clone() {
+        let dir = path.parent().unwrap_or(Path::new(""));
+        inflate(&mut f, &dir.join(&p), &name)?;
+    }
+    Ok(from_file(f, &name)?)
+}
+
+fn parse(text: &str, file: &str) -> Result<FileV1, FormatError> {
+    serde_json::from_str(text).map_err(|e| FormatError::Invalid {
         file: file.to_string(),
         what: "capture file",
         message: e.to_string(),
+    })
+}
+
+/// Fill each profile that names a row of the points file with that row's points.
+fn inflate(f: &mut FileV1, points: &Path, file: &str) -> Result<(), FormatError> {
+    let pname = points.display().to_string();
+    let rows_needed = f
+        .profiles
+        .iter()
+        .filter_map(|p| p.points_row)
+        .max()
+        .map_or(0, |r| r + 1);
+    let reader = std::fs::File::open(points).map_err(|e| {
+        err(
+            file,
+            "points_file",
+            format!("{pname} cannot be read ({e}): keep it beside the capture file, under the name the file gives"),
+        )
     })?;
+    let (mut rows, width) =
+        super::points_file::decode(std::io::BufReader::new(reader), &pname, rows_needed)?;
+    for (i, p) in f.profiles.iter_mut().enumerate() {
+        let Some(r) = p.points_row else { continue };
+        if p.points_mm.is_some() || p.intensity.is_some() {
+            return Err(err(
+                file,
+                &format!("profiles[{i}]"),
+                "give points_row or points_mm and intensity, not both",
+            ));
+        }
+        let len = p.points_len.unwrap_or(width);
+        if len > width {
+            return Err(err(
+                file,
+                &format!("profiles[{i}].points_len"),
+                format!("{len}: the rows of {pname} hold {width} entries"),
+            ));
+        }
+        let mut row = std::mem::take(&mut rows[r]);
+        row.truncate(len);
+        p.intensity = Some(row.iter().map(|e| e.1).collect());
+        p.points_mm = Some(row.into_iter().map(|e| e.0).collect());
+    }
+    Ok(())
+}
+
+/// The compact form of a capture file's text: its raw profiles' points moved into an array
+/// (`io::points_file`) that is to be written as `points_name` beside it. Returns the new text and
+/// the array's bytes (None: the file has no raw profiles, and its text is unchanged).
+pub fn compact(
+    text: &str,
+    file: &str,
+    points_name: &str,
+) -> Result<(String, Option<Vec<u8>>), FormatError> {
+    let mut f = parse(text, file)?;
+    let mut rows = Vec::new();
+    for p in f.profiles.iter_mut() {
+        let Some(points) = p.points_mm.take() else {
+            continue;
+        };
+        let intensity = p.intensity.take().unwrap_or_default();
+        p.points_row = Some(rows.len());
+        rows.push(
+            points
+                .into_iter()
+                .enumerate()
+                .map(|(j, q)| (q, intensity.get(j).copied().flatten()))
+                .collect::<super::points_file::Row>(),
+        );
+    }
+    if rows.is_empty() {
+        return Ok((text.to_string(), None));
+    }
+    let width = rows.iter().map(Vec::len).max().unwrap_or(0);
+    for (p, row) in f
+        .profiles
+        .iter_mut()
+        .filter(|p| p.points_row.is_some())
+        .zip(&rows)
+    {
+        p.points_len = (row.len() < width).then_some(row.len());
+    }
+    f.points_file = Some(points_name.to_string());
+    let bytes = super::points_file::encode(&rows);
+    Ok((serde_json::to_string(&f).unwrap_or_default(), Some(bytes)))
+}
+
+/// The name of the points file written beside capture file `path` (`NAME.points.npy.gz`).
+pub fn points_file_name(path: &Path) -> String {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "captures".into());
+    format!("{stem}.points.npy.gz")
+}
+
+/// Write capture file text to `path`; `compact`: its raw profiles' points go into a compressed
+/// array beside it (`points_file_name`) and the JSON names it.
+pub fn write(path: &Path, text: &str, compact_points: bool) -> Result<(), crate::error::Error> {
+    if !compact_points {
+        return super::write(path, text.as_bytes());
+    }
+    let name = points_file_name(path);
+    let (json, bytes) = compact(text, &path.display().to_string(), &name)?;
+    if let Some(b) = bytes {
+        super::write(&path.with_file_name(&name), &b)?;
+    }
+    super::write(path, json.as_bytes())
+}
+
+fn from_file(f: FileV1, file: &str) -> Result<(Captures, SensorModel), FormatError> {
     if f.format != FORMAT {
         return Err(err(
             file,

@@ -6,6 +6,7 @@ pub mod csv;
 pub mod export;
 pub mod import;
 pub mod plot;
+pub mod points_file;
 pub mod poses;
 pub mod report;
 #[cfg(feature = "rerun")]

@@ -1,5 +1,5 @@
 use super::common::{matrix_text, refinement, verdict_text};
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use lasercal::calib::PoseError;
 use lasercal::math::pose_to_rows_mm;
 use lasercal::method::{MethodId, verdict};
@@ -74,9 +74,8 @@ pub fn run(a: Args) -> Result<i32> {
     let name = a.file.display().to_string();
     lasercal::io::export::check_frame(&a.parent_frame, "--parent-frame")?;
     lasercal::io::export::check_frame(&a.child_frame, "--child-frame")?;
-    let text = std::fs::read_to_string(&a.file).with_context(|| format!("{name}: cannot read"))?;
     let recorders = super::common::open_recorders(a.rerun.as_deref(), a.spawn)?;
-    let (mut caps, sensor) = lasercal::io::captures::from_json(&text, &name)?;
+    let (mut caps, sensor) = lasercal::io::captures::read(&a.file)?;
     if let Some(t) = a.orientation_tolerance_deg {
         caps.orientation_tolerance_deg =
             lasercal::io::captures::orientation_tolerance(t, &name, "--orientation-tolerance-deg")?;

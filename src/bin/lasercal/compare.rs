@@ -34,8 +34,7 @@ pub fn prediction_json(p: &Prediction) -> serde_json::Value {
 
 pub fn run(a: Args) -> Result<()> {
     let name = a.file.display().to_string();
-    let text = std::fs::read_to_string(&a.file).with_context(|| format!("{name}: cannot read"))?;
-    let (caps, sensor) = lasercal::io::captures::from_json(&text, &name)?;
+    let (caps, sensor) = lasercal::io::captures::read(&a.file)?;
     if let Some(m) = a.method
         && m.kind != caps.method
     {
