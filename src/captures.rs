@@ -159,7 +159,8 @@ pub enum CaptureError {
     )]
     NoRawFeatures,
     #[error(
-        "{method}: {kept} groups with at least {per_feature} features each, {need} needed: {groups}"
+        "{method}: {kept} groups with at least {per_feature} features each, {need} needed by the \
+         closed form's protocol (`{method}-any-pose` takes any poses): {groups}"
     )]
     TooFewGroups {
         method: Kind,

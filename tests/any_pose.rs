@@ -1879,3 +1879,60 @@ fn the_disk_closed_form_finds_its_scans_and_signs() {
         "{e:?}"
     );
 }
+
+/// The edge paper's protocol written as an import writes it (one group per pose, no roles): the
+/// closed form and its refinements find the rotation groups (the profiles at one flange
+/// orientation) and give the result the labelled file gives; with only one orientation of three
+/// or more profiles, the closed form says what it needs and names the any-pose estimator.
+#[test]
+fn the_edge_closed_form_finds_its_rotation_groups() {
+    use lasercal::captures::Role;
+    let sf = lasercal::scenario::ScenarioFile::load(std::path::Path::new(&common::scen(
+        "xu2021-edge.toml",
+    )))
+    .unwrap();
+    let setup = sf.scenario.build(&sf.file).unwrap();
+    let caps = lasercal::trial::trial_captures(&setup, Kind::Edge, 1, 0)
+        .0
+        .unwrap();
+    assert!(caps.groups.len() >= 2);
+    let bare = |caps: &lasercal::captures::Captures| {
+        let mut bare = caps.clone();
+        for (i, p) in bare.profiles.iter_mut().enumerate() {
+            p.group = i;
+        }
+        bare.groups = (0..bare.profiles.len())
+            .map(|id| Group {
+                id,
+                role: Role::Pose,
+                sign: 0.0,
+            })
+            .collect();
+        bare
+    };
+    for e in [Estimator::ClosedForm, Estimator::Refined] {
+        let id = MethodId::new(Kind::Edge, e);
+        let (a, _) = lasercal::method::estimate(id, &caps, &setup.rig.sensor).unwrap();
+        let (b, _) = lasercal::method::estimate(id, &bare(&caps), &setup.rig.sensor).unwrap();
+        let err = PoseError::between(&a.flange_to_sensor, &b.flange_to_sensor);
+        assert!(
+            err.rotation_error_deg < 1e-12 && err.translation_error_mm < 1e-12,
+            "{id}: {err:?}"
+        );
+    }
+    // Only the first group's orientation has three profiles or more.
+    let mut one = caps.clone();
+    let first = one.groups[0].id;
+    let mut seen = std::collections::HashSet::new();
+    one.profiles
+        .retain(|p| p.group == first || seen.insert(p.group));
+    let e = lasercal::method::estimate(
+        MethodId::new(Kind::Edge, Estimator::ClosedForm),
+        &bare(&one),
+        &setup.rig.sensor,
+    )
+    .err()
+    .expect("refused")
+    .to_string();
+    assert!(e.contains("1 groups") && e.contains("edge-any-pose"), "{e}");
+}

@@ -660,7 +660,42 @@ fn full_profile(
 
 /// Edge points per rotation group, the Kronecker solve, the paper's Tables 1-2 figures, and the
 /// refinement problem.
+/// A file of one `pose` group per profile (as `lasercal import` writes it, or a scenario's free
+/// poses) regrouped for the closed form: the profiles at one flange orientation (within the
+/// file's orientation tolerance, in file order) form a rotation group, a label the poses
+/// determine. Each group keeps the id of its first profile's group. Files with rotation groups
+/// are returned as they are.
+fn inferred_groups(c: &Captures) -> std::borrow::Cow<'_, Captures> {
+    if c.groups.is_empty() || c.groups.iter().any(|g| g.role != Role::Pose) {
+        return std::borrow::Cow::Borrowed(c);
+    }
+    let tol = c.orientation_tolerance_deg.to_radians();
+    let mut out = c.clone();
+    // (the group's first orientation, its id)
+    let mut found: Vec<(nalgebra::UnitQuaternion<f64>, usize)> = Vec::new();
+    for p in out.profiles.iter_mut() {
+        let r = p.base_to_flange.rotation;
+        p.group = match found.iter().find(|(q, _)| q.angle_to(&r) <= tol) {
+            Some(&(_, id)) => id,
+            None => {
+                found.push((r, p.group));
+                p.group
+            }
+        };
+    }
+    out.groups = found
+        .iter()
+        .map(|&(_, id)| Group {
+            id,
+            role: Role::RotationGroup,
+            sign: 0.0,
+        })
+        .collect();
+    std::borrow::Cow::Owned(out)
+}
+
 fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
+    let c = &*inferred_groups(c);
     let sense = c.edge_sense.unwrap_or(EdgeSense::Falling);
     let cfg = edge_config(sensor);
     let angle = c
