@@ -636,6 +636,39 @@ fn ridge_and_groove_exact_on_a_hundred_random_rigs_and_pose_sets() {
     }
 }
 
+/// A step edge (the kit's bar on its plane: a top face, a riser, a lower face) and a fillet joint
+/// (a groove whose faces meet at 90 deg) named as such in the captures: `edge-any-pose` exact to
+/// 1e-9 on 30 noise-free random rigs each.
+#[test]
+fn step_and_fillet_exact_on_random_rigs() {
+    for seed in 0..30u64 {
+        let n = 12 + (seed as usize * 7) % 39;
+        let mut step = random_bar_setup(19_000 + seed, n, 0.0);
+        step.caps.specimen_kind = SpecimenType::Step;
+        let slope = std::f64::consts::FRAC_PI_4;
+        let mut fillet = random_face_setup(
+            19_100 + seed,
+            n,
+            false,
+            0.0,
+            Target::Wedge {
+                slope,
+                groove: true,
+            },
+        );
+        fillet.caps.specimen_kind = SpecimenType::Fillet;
+        for (what, s) in [("step", &step), ("fillet", &fillet)] {
+            exact_one(
+                EDGE,
+                &s.caps,
+                &s.sensor,
+                &s.truth,
+                &format!("{what} {seed} ({n} poses)"),
+            );
+        }
+    }
+}
+
 #[test]
 fn ridge_and_groove_with_noise() {
     for groove in [false, true] {
@@ -1761,14 +1794,19 @@ fn exact_scenario(name: &str) -> lasercal::scenario::Setup {
     sf.scenario.build(&sf.file).unwrap()
 }
 
-/// The simulator's ridge and V groove (ray-cast profiles of `scene::SpecimenKind::{Ridge,
-/// VGroove}`, 16 generated poses): with the sensor exact, edge-any-pose recovers the truth to
+/// The simulator's ridge, V groove, fillet joint and step (ray-cast profiles of
+/// `scene::SpecimenKind::{Ridge, VGroove, Fillet, Step}`, 16 generated poses): with the sensor exact, edge-any-pose recovers the truth to
 /// 1e-9; trials are deterministic; a capture file round-trips; the two-face model's Jacobian
 /// matches finite differences away from the optimum.
 #[test]
-fn the_simulators_ridge_and_groove_calibrate_exactly() {
+fn the_simulators_line_targets_calibrate_exactly() {
     use lasercal::trial::{run_trial, trial_captures};
-    for name in ["ridge-16-poses.toml", "v-groove-16-poses.toml"] {
+    for name in [
+        "ridge-16-poses.toml",
+        "v-groove-16-poses.toml",
+        "fillet-16-poses.toml",
+        "step-16-poses.toml",
+    ] {
         let s = exact_scenario(name);
         for trial in 0..3 {
             let out = run_trial(&s, EDGE, 1, trial);

@@ -759,7 +759,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     // plate, not on a knife's bevel, whose back is no second edge either.
     if !matches!(
         c.specimen_kind,
-        SpecimenType::ParallelBar | SpecimenType::Scale
+        SpecimenType::ParallelBar | SpecimenType::Scale | SpecimenType::Step
     ) {
         for (_, e) in &mut profiles {
             e.beyond.clear();

@@ -55,6 +55,19 @@ pub enum SpecimenKind {
         width: f64,
         height: f64,
     },
+    /// A step: a top face (the body at y < 0) ending at the edge line, a riser `height` down,
+    /// and a lower face beyond it (y from 0 to `width`); the upper block is `width` wide. Two
+    /// parallel faces at different heights, read as a bar's edge.
+    Step {
+        length: f64,
+        width: f64,
+        height: f64,
+    },
+    /// A fillet joint's inside corner: two plates at right angles (a floor and a wall, 10 mm
+    /// thick), each face `width` long from the corner line. Frame: origin on the corner line, z
+    /// along the bisector of the faces (they rise at 45 deg either side), so rpy_deg = [45, 0, 0]
+    /// lays one face level.
+    Fillet { length: f64, width: f64 },
 }
 
 /// Which specimen, without its sizes: the name scenario and capture files use.
@@ -72,13 +85,17 @@ pub enum SpecimenType {
     /// Two faces meeting at an outside angle along a straight line: a roof, a ridge, a knife's
     /// edge (the edge method's two-face estimator).
     Ridge,
-    /// Two faces meeting at an inside angle: a V groove, a fillet weld's sides.
+    /// Two faces meeting at an inside angle: a V groove.
     VGroove,
+    /// Two parallel faces at different heights joined by a riser: its top edge is the line.
+    Step,
+    /// Two faces at right angles meeting at an inside corner: a fillet joint (T or corner joint).
+    Fillet,
 }
 
 impl SpecimenType {
     /// The specimens a scenario's `[specimen]` can place (the plane is the table's face).
-    pub const ALL: [SpecimenType; 8] = [
+    pub const ALL: [SpecimenType; 10] = [
         SpecimenType::DiskCylinder,
         SpecimenType::DiskPaper,
         SpecimenType::Ball,
@@ -87,6 +104,8 @@ impl SpecimenType {
         SpecimenType::KnifeBlade,
         SpecimenType::Ridge,
         SpecimenType::VGroove,
+        SpecimenType::Step,
+        SpecimenType::Fillet,
     ];
 
     pub fn name(self) -> &'static str {
@@ -100,6 +119,8 @@ impl SpecimenType {
             SpecimenType::Plane => "plane",
             SpecimenType::Ridge => "ridge",
             SpecimenType::VGroove => "v-groove",
+            SpecimenType::Step => "step",
+            SpecimenType::Fillet => "fillet",
         }
     }
 
@@ -108,7 +129,7 @@ impl SpecimenType {
     pub fn two_faces(self) -> Option<bool> {
         match self {
             SpecimenType::Ridge => Some(true),
-            SpecimenType::VGroove => Some(false),
+            SpecimenType::VGroove | SpecimenType::Fillet => Some(false),
             _ => None,
         }
     }
@@ -159,6 +180,8 @@ impl SpecimenKind {
             SpecimenKind::KnifeBlade { .. } => SpecimenType::KnifeBlade,
             SpecimenKind::Ridge { .. } => SpecimenType::Ridge,
             SpecimenKind::VGroove { .. } => SpecimenType::VGroove,
+            SpecimenKind::Step { .. } => SpecimenType::Step,
+            SpecimenKind::Fillet { .. } => SpecimenType::Fillet,
         }
     }
 
@@ -234,6 +257,8 @@ impl Specimen {
                 | SpecimenKind::KnifeBlade { .. }
                 | SpecimenKind::Ridge { .. }
                 | SpecimenKind::VGroove { .. }
+                | SpecimenKind::Step { .. }
+                | SpecimenKind::Fillet { .. }
         )
     }
 
@@ -409,6 +434,60 @@ impl Specimen {
                 };
                 vec![half(1.0), half(-1.0)]
             }
+            SpecimenKind::Step {
+                length,
+                width,
+                height,
+            } => {
+                // The upper block and the lower plate, both 10 mm thick below their faces.
+                let block = |y: (f64, f64), z: (f64, f64)| {
+                    let planes = vec![
+                        (Vector3::x(), length / 2.0),
+                        (-Vector3::x(), length / 2.0),
+                        (Vector3::y(), y.1),
+                        (-Vector3::y(), -y.0),
+                        (Vector3::z(), z.1),
+                        (-Vector3::z(), -z.0),
+                    ];
+                    let far = Vector3::new(length / 2.0, y.0.abs().max(y.1.abs()), z.0.abs());
+                    Part {
+                        specimen_to_part: Isometry3::identity(),
+                        shape: PartShape::Planes(ConvexPlanes { planes }),
+                        surface: uniform,
+                        bound_radius: far.norm() * (1.0 + 1e-9),
+                    }
+                };
+                let bottom = -height - 0.01;
+                vec![
+                    block((-width, 0.0), (bottom, 0.0)),
+                    block((0.0, width), (bottom, -height)),
+                ]
+            }
+            SpecimenKind::Fillet { length, width } => {
+                // Plate a: its face u_b = 0 for u_a in [0, width], 10 mm behind it; plate b the
+                // same with a and b swapped (u_a, u_b: along the faces, at 45 deg to z).
+                let (ua, ub) = (
+                    Vector3::new(0.0, 1.0, 1.0) / 2f64.sqrt(),
+                    Vector3::new(0.0, -1.0, 1.0) / 2f64.sqrt(),
+                );
+                let plate = |along: Vector3<f64>, normal: Vector3<f64>| {
+                    let planes = vec![
+                        (Vector3::x(), length / 2.0),
+                        (-Vector3::x(), length / 2.0),
+                        (along, width),
+                        (-along, 0.0),
+                        (normal, 0.0),
+                        (-normal, 0.01),
+                    ];
+                    Part {
+                        specimen_to_part: Isometry3::identity(),
+                        shape: PartShape::Planes(ConvexPlanes { planes }),
+                        surface: uniform,
+                        bound_radius: Vector3::new(length / 2.0, width, 0.01).norm() * (1.0 + 1e-9),
+                    }
+                };
+                vec![plate(ua, ub), plate(ub, ua)]
+            }
         }
     }
 
@@ -419,7 +498,9 @@ impl Specimen {
             | SpecimenKind::Scale { length, .. }
             | SpecimenKind::KnifeBlade { length, .. }
             | SpecimenKind::Ridge { length, .. }
-            | SpecimenKind::VGroove { length, .. } => Some(length),
+            | SpecimenKind::VGroove { length, .. }
+            | SpecimenKind::Step { length, .. }
+            | SpecimenKind::Fillet { length, .. } => Some(length),
             _ => None,
         }
     }

@@ -191,6 +191,15 @@ impl SpecimenSection {
                 width: opt(self.width_mm, 40.0, "width_mm")?,
                 height: opt(self.height_mm, 15.0, "height_mm")?,
             },
+            SpecimenType::Step => SpecimenKind::Step {
+                length: opt(self.length_mm, 150.0, "length_mm")?,
+                width: opt(self.width_mm, 40.0, "width_mm")?,
+                height: opt(self.height_mm, 10.0, "height_mm")?,
+            },
+            SpecimenType::Fillet => SpecimenKind::Fillet {
+                length: opt(self.length_mm, 150.0, "length_mm")?,
+                width: opt(self.width_mm, 40.0, "width_mm")?,
+            },
             SpecimenType::Plane => {
                 return Err(v.bad(
                     &k("kind"),
