@@ -121,3 +121,17 @@ fn grid_keys_must_name_scenario_values() {
     let e = err_of(&text).to_string();
     assert!(e.contains("disk.sigmaa_mm"), "{e}");
 }
+
+#[test]
+fn a_plot_over_names_is_refused_not_drawn_empty() {
+    let text = format!(
+        "{}\n[sweep]\ntrials = 3\n[sweep.grid]\n\"disk.coverage\" = [\"whole\", \"half\"]\n\
+         [sweep.plot]\ntitle = \"t\"\nx = \"disk.coverage\"\ny = \"rotation_error_deg_median\"\n",
+        base()
+    );
+    let e = err_of(&text).to_string();
+    assert!(
+        e.contains("sweep.plot.x") && e.contains("disk.coverage") && e.contains("series"),
+        "{e}"
+    );
+}

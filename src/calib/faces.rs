@@ -86,6 +86,21 @@ pub fn solve(
     Ok((kept, sol))
 }
 
+/// The two-face refinement problem with the transform held at `x` (another estimator's result,
+/// such as the edge paper's closed form on a ridge): the first faces' plane, each view's faces
+/// labelled by it, the second plane through the rest, the first refitted to its own. The
+/// full-profile variant refines it. None with fewer than three points on a face.
+pub fn problem_at(views: &[FacesView], x: &Isometry3<f64>) -> Option<Problem<FacesModel>> {
+    let first = fit_plane(views, x, &vec![false; views.len()], 0)?;
+    let labels = label(views, x, &first, None);
+    let second = fit_plane(views, x, &labels, 1)?;
+    let first = fit_plane(views, x, &labels, 0)?;
+    Some(Problem {
+        model: model_of(views, &labels),
+        specimen: [first, second],
+    })
+}
+
 /// A view's RMS distance from the two planes, its faces on the planes they fit best.
 fn view_rms(v: &FacesView, x: &Isometry3<f64>, planes: &[Plane; 2]) -> f64 {
     let t = v.faces[0].base_to_flange * x;

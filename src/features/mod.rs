@@ -732,9 +732,39 @@ fn top_face_candidates(
         let floor = ends(&segs[nearest]).1 + 2.0e-3;
         cands.retain(|&j| ends(&segs[j]).0 <= floor);
     }
+    // A face with a parallel face above it (along its normal, toward the sensor) is not the top
+    // face: a step's lower face, a table beside a bar, which a tilt brings as near as the top.
+    let line = |s: &Segment| {
+        let (a, b) = (pts[s.first].1, pts[s.last].1);
+        let d = (b - a).try_normalize(1e-12)?;
+        let mid = (a + b) / 2.0;
+        let n = Vector2::new(-d.y, d.x);
+        let toward = Vector2::new(0.0, sensor.apex_z) - mid;
+        Some((mid, d, if n.dot(&toward) < 0.0 { -n } else { n }))
+    };
+    let lines: Vec<_> = cands.iter().map(|&j| line(&segs[j])).collect();
+    let covered: Vec<bool> = lines
+        .iter()
+        .map(|lj| {
+            let Some((mj, dj, nj)) = lj else { return false };
+            lines
+                .iter()
+                .flatten()
+                .any(|(mk, dk, _)| dj.dot(dk).abs() > PARALLEL_COS && (mk - mj).dot(nj) > STEP_MIN)
+        })
+        .collect();
+    let mut kept = cands.iter().zip(&covered).filter(|(_, c)| !**c);
+    if kept.clone().next().is_some() {
+        cands = kept.by_ref().map(|(&j, _)| j).collect();
+    }
     cands.sort_by_key(|&j| std::cmp::Reverse(segs[j].last - segs[j].first));
     cands
 }
+
+/// Faces within 5 deg of each other count as parallel when choosing the top face.
+const PARALLEL_COS: f64 = 0.996_194_698;
+/// A parallel face this far above another (m) makes that one a lower face.
+const STEP_MIN: f64 = 2.0e-3;
 
 /// One end of a face that is an edge: its point, and where the edge can lie: at the corner
 /// (`from == to`, where a wall was seen) or between the face's last column and the next.

@@ -417,15 +417,16 @@ fn faces_angle(c: &Captures, sensor: &SensorModel, outside: bool, cfg: &SplitMer
 
 /// A ridge's or groove's edge point: where its two faces' lines meet (no face for `edge-full`,
 /// whose model is a bar's).
+/// A ridge's or groove's corner as the closed form's edge point, and the two faces' points.
 fn corner_of(
     prof: &crate::sensor::Profile,
     sensor: &SensorModel,
     outside: bool,
     angle: Option<f64>,
     cfg: &SplitMerge,
-) -> Result<EdgeFeature, features::FeatureError> {
+) -> Result<(EdgeFeature, [Vec<Vector2<f64>>; 2]), features::FeatureError> {
     let t = features::two_faces(prof, sensor, outside, angle, cfg)?;
-    Ok(features::EdgeProfile {
+    let feature = features::EdgeProfile {
         end: features::EdgeEnd {
             point: t.corner,
             from: t.corner,
@@ -434,7 +435,8 @@ fn corner_of(
         face: Vec::new(),
         beyond: Vec::new(),
         other: None,
-    })
+    };
+    Ok((feature, t.faces))
 }
 
 /// A ridge's or groove's two faces from any poses (`calib::faces`).
@@ -704,15 +706,21 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         .and_then(|outside| faces_angle(c, sensor, outside, &cfg));
     let mut missed = 0;
     let (mut per_group, mut reports) = (Vec::new(), Vec::new());
+    // A two-face target's faces, for the full-profile variant (each used profile's).
+    let mut two_faces = Vec::new();
     for g in &c.groups {
         let (mut caps, mut pts, mut profiles, mut face) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut report = super::GroupReport::new(g.id);
         for p in c.group_profiles(g.id) {
             let point = match (&p.data, c.specimen_kind.two_faces()) {
-                (ProfileData::Raw(prof), Some(outside)) => {
-                    Ok(corner_of(prof, sensor, outside, angle, &cfg))
-                }
+                (ProfileData::Raw(prof), Some(outside)) => Ok(corner_of(
+                    prof, sensor, outside, angle, &cfg,
+                )
+                .map(|(e, faces)| {
+                    two_faces.push((g.id, p.base_to_flange, faces));
+                    e
+                })),
                 (data, _) => point_of(g, data, sensor, sense, &cfg),
             }?;
             report.count(&point);
@@ -771,7 +779,28 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         orientation_tolerance_deg: c.orientation_tolerance_deg,
     })?;
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
-    let full_profile = full_profile(&sol, &profiles, face, &sensor.apex());
+    let full_profile = if c.specimen_kind.two_faces().is_some() {
+        // Both faces' points from the closed form's transform (`calib::faces`), the profiles of
+        // the groups it kept.
+        let kept: Vec<usize> = reports
+            .iter()
+            .filter(|r| !r.left_out)
+            .map(|r| r.group)
+            .collect();
+        let views: Vec<crate::calib::faces::FacesView> = two_faces
+            .into_iter()
+            .filter(|(g, _, _)| kept.contains(g))
+            .filter_map(|(_, f, [a, b])| {
+                Some(crate::calib::faces::FacesView {
+                    faces: [super::face_view(f, a).ok()?, super::face_view(f, b).ok()?],
+                })
+            })
+            .collect();
+        crate::calib::faces::problem_at(&views, &sol.flange_to_sensor)
+            .map(|p| std::sync::Arc::new(p) as std::sync::Arc<dyn crate::calib::refine::Refinable>)
+    } else {
+        full_profile(&sol, &profiles, face, &sensor.apex())
+    };
     Ok(super::Calibration {
         full_profile,
         refinable: Some(std::sync::Arc::new(Problem {

@@ -133,6 +133,18 @@ impl Scenario {
                     return Err(v.bad("sweep.plot", format!("\"{k}\""), "not a key of sweep.grid"));
                 }
             }
+            // The x axis is a number line: a key that takes names would plot nothing.
+            let numeric = |x: &toml::Value| x.is_integer() || x.is_float();
+            if let Some(toml::Value::Array(values)) = s.grid.get(&p.x)
+                && !values.iter().all(numeric)
+            {
+                return Err(v.bad(
+                    "sweep.plot.x",
+                    format!("\"{}\"", p.x),
+                    "takes names, not numbers: put a numeric key on x and this one in series (or \
+                     leave [sweep.plot] out and read summary.csv)",
+                ));
+            }
         }
         Ok(())
     }
