@@ -1,5 +1,5 @@
-//! Every command the README shows works as written (issue 16): each `sh` block's lines run with
-//! bash in a scratch folder holding the repository's scenarios and robots, `lasercal` on the
+//! Every command the README and the guide (docs/guide/) show works as written: each `sh` block's
+//! lines run with bash in a scratch folder holding the repository's scenarios and robots, `lasercal` on the
 //! PATH, `LASERCAL_MAX_TRIALS=2` so sweeps take seconds, and the files a block names but does not
 //! make (a rig's pose list and profiles) prepared from a simulation. `cargo run --release --` is
 //! the binary; `cargo test` is this test's own run and is skipped.
@@ -9,7 +9,7 @@ mod common;
 use std::path::Path;
 use std::process::Command;
 
-/// The README's `sh` blocks, each as logical lines (continuations joined, comments dropped; a
+/// A document's `sh` blocks, each as logical lines (continuations joined, comments dropped; a
 /// `for ... done` loop kept whole), with the line number each starts on.
 fn blocks(text: &str) -> Vec<Vec<(usize, String)>> {
     let mut out = Vec::new();
@@ -69,10 +69,29 @@ fn rig_recording(dir: &Path) {
     common::pose_files(&doc, dir);
 }
 
+/// The README and the guide's pages: (name, text).
+fn documents(root: &str) -> Vec<(String, String)> {
+    let mut docs = vec![("README.md".to_string(), format!("{root}/README.md"))];
+    let mut guide: Vec<_> = std::fs::read_dir(format!("{root}/docs/guide"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "md"))
+        .collect();
+    guide.sort();
+    docs.extend(guide.into_iter().map(|p| {
+        (
+            format!("docs/guide/{}", p.file_name().unwrap().to_string_lossy()),
+            p.display().to_string(),
+        )
+    }));
+    docs.into_iter()
+        .map(|(name, path)| (name, std::fs::read_to_string(path).unwrap()))
+        .collect()
+}
+
 #[test]
-fn every_readme_command_works_as_written() {
+fn every_readme_and_guide_command_works_as_written() {
     let root = env!("CARGO_MANIFEST_DIR");
-    let text = std::fs::read_to_string(format!("{root}/README.md")).unwrap();
     let dir = tempfile::tempdir().unwrap();
     for d in ["scenarios", "robots"] {
         std::os::unix::fs::symlink(format!("{root}/{d}"), dir.path().join(d)).unwrap();
@@ -85,7 +104,11 @@ fn every_readme_command_works_as_written() {
         std::env::var("PATH").unwrap_or_default()
     );
     let mut ran = 0;
-    for block in blocks(&text) {
+    let docs = documents(root);
+    let all = docs
+        .iter()
+        .flat_map(|(name, text)| blocks(text).into_iter().map(move |b| (name, b)));
+    for (doc, block) in all {
         for (line_no, cmd) in block {
             if cmd == "cargo test" {
                 continue;
@@ -93,7 +116,7 @@ fn every_readme_command_works_as_written() {
             let cmd = cmd.replace("cargo run --release -- ", "lasercal ");
             assert!(
                 cmd.starts_with("lasercal ") || cmd.starts_with("for "),
-                "README line {line_no}: not a lasercal command: {cmd}"
+                "{doc} line {line_no}: not a lasercal command: {cmd}"
             );
             let out = Command::new("bash")
                 .args(["-c", &cmd])
@@ -111,9 +134,12 @@ fn every_readme_command_works_as_written() {
             let fine = code == 0
                 || ((code == 3 || code == 4) && cmd.contains("calibrate"))
                 || (code == 2 && cmd.contains("--spawn") && err.contains("needs a display"));
-            assert!(fine, "README line {line_no}: `{cmd}` exited {code}:\n{err}");
+            assert!(fine, "{doc} line {line_no}: `{cmd}` exited {code}:\n{err}");
             ran += 1;
         }
     }
-    assert!(ran >= 40, "only {ran} README commands found");
+    assert!(
+        ran >= 40,
+        "only {ran} commands found in the README and the guide"
+    );
 }

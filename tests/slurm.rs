@@ -1,6 +1,6 @@
-//! Issue 16, item 5: the README's Slurm job array, run on a real cluster: one node on this machine
+//! The guide's Slurm job array (docs/guide/sweeps.md), run on a real cluster: one node on this machine
 //! (`.ci/slurm-up` installs Slurm from the distribution's packages and starts munge, slurmctld and
-//! slurmd; `.ci/run` calls it). The array's shards are merged with the README's command and must be
+//! slurmd; `.ci/run` calls it). The array's shards are merged with the guide's command and must be
 //! byte for byte the unsharded sweep. Under CI a Slurm that is not up fails the test with the
 //! reason; elsewhere the test says it was skipped.
 
@@ -38,14 +38,16 @@ fn slurm_up() -> bool {
     false
 }
 
-/// The README's `sh` block holding the job array, as written.
+/// The guide's `sh` block holding the job array, as written.
 fn readme_job_script() -> String {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/guide/sweeps.md"))
+            .unwrap();
     text.split("```sh\n")
         .skip(1)
         .map(|b| b.split("```").next().unwrap())
         .find(|b| b.contains("#SBATCH --array"))
-        .expect("the README shows a Slurm job array")
+        .expect("docs/guide/sweeps.md shows a Slurm job array")
         .to_string()
 }
 
@@ -94,7 +96,7 @@ fn the_readme_job_array_runs_on_slurm_and_merges_to_the_unsharded_bytes() {
         .unwrap()
         .count();
     assert_eq!(tasks, 20, "one shard folder per array task");
-    // The README's merge command (a comment in the script), then the unsharded sweep.
+    // The guide's merge command (a comment in the script), then the unsharded sweep.
     let merge = script
         .lines()
         .find_map(|l| {
@@ -122,7 +124,7 @@ fn the_readme_job_array_runs_on_slurm_and_merges_to_the_unsharded_bytes() {
     common::assert_same_sweep_outputs(
         &dir.path().join("unsharded"),
         &dir.path().join(merged),
-        "the README's job array, merged",
+        "the guide's job array, merged",
     );
     let rows = std::fs::read_to_string(dir.path().join("unsharded/trials.csv")).unwrap();
     assert!(rows.lines().count() > 40, "{rows}");
