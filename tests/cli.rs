@@ -142,3 +142,19 @@ fn closed_pipes_end_a_run_without_a_panic() {
     let code = child.wait().unwrap().code();
     assert!(matches!(code, Some(0 | 2)), "exit {code:?}");
 }
+
+#[test]
+fn a_failed_variant_is_named_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let (caps, _) = common::simulated_capture(dir.path(), "ridge-16-poses.toml", "ridge.json");
+    // Free poses: the closed form has no rotation groups and says so, naming its variant once.
+    let (code, _, err) = lasercal(&["calibrate", caps.to_str().unwrap(), "--method", "edge"]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("edge: ") && !err.contains("edge: edge:") && err.contains("edge-any-pose"),
+        "{err}"
+    );
+    let (code, _, err) = lasercal(&["run", &common::scen("ridge-16-poses.toml")]);
+    assert_eq!(code, 0, "{err}");
+    assert!(!err.contains("edge-any-pose: edge:"), "{err}");
+}

@@ -119,6 +119,82 @@ fn check_gates_on_the_error_percentile() {
     assert!(err.contains("/nonexistent.toml"), "{err}");
 }
 
+#[test]
+fn check_takes_bounds_per_method_and_reports_for_ci() {
+    let dir = tempfile::tempdir().unwrap();
+    let (json, junit) = (dir.path().join("check.json"), dir.path().join("check.xml"));
+    let s = scen("shootout.toml");
+    let args = |extra: &[&str]| {
+        let mut v = vec![
+            "check",
+            s.as_str(),
+            "--trials",
+            "8",
+            "--json",
+            json.to_str().unwrap(),
+            "--junit",
+            junit.to_str().unwrap(),
+        ];
+        v.extend(extra);
+        v.into_iter().map(String::from).collect::<Vec<_>>()
+    };
+    let run = |extra: &[&str]| {
+        let a = args(extra);
+        lasercal(&a.iter().map(String::as_str).collect::<Vec<_>>())
+    };
+    // One method held tight, the rest loose: only it fails, and every line gives both figures.
+    let (code, out, err) = run(&[
+        "--max-rotation-deg",
+        "5",
+        "--max-translation-mm",
+        "5",
+        "--bound",
+        "disk=0.0001,5",
+    ]);
+    assert_eq!(code, 1, "{out}{err}");
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines.len(), 7, "{out}");
+    for l in &lines {
+        assert!(
+            l.contains("rotation error") && l.contains("translation error"),
+            "{l}"
+        );
+        assert_eq!(l.starts_with("FAIL disk:"), !l.starts_with("ok "), "{l}");
+    }
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let methods = doc["methods"].as_array().unwrap();
+    assert_eq!(methods.len(), 7);
+    assert_eq!(doc["passed"], false);
+    assert_eq!(methods[0]["method"], "disk");
+    assert_eq!(methods[0]["passed"], false);
+    assert_eq!(methods[0]["max_rotation_deg"], 0.0001);
+    assert!(methods[1..].iter().all(|m| m["passed"] == true));
+    let xml = std::fs::read_to_string(&junit).unwrap();
+    assert!(
+        xml.contains("tests=\"7\" failures=\"1\"")
+            && xml.matches("<testcase").count() == 7
+            && xml.matches("<failure").count() == 1,
+        "{xml}"
+    );
+    // A method without bounds, a negative bound, a method the scenario does not run: refused.
+    for (extra, want) in [
+        (vec!["--bound", "disk=1,1"], "disk-refined has no bounds"),
+        (
+            vec!["--max-rotation-deg", "-0.1", "--max-translation-mm", "1"],
+            "positive",
+        ),
+        (
+            vec!["--bound", "plane-any-pose=1,1"],
+            "does not run plane-any-pose",
+        ),
+    ] {
+        let (code, _, err) = run(&extra);
+        assert_eq!(code, 2, "{extra:?}: {err}");
+        assert!(err.contains(want), "{extra:?}: {err}");
+    }
+}
+
 fn read(p: &Path) -> Vec<u8> {
     std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
 }

@@ -4,7 +4,7 @@
 
 use super::FormatError;
 use crate::method::MethodId;
-use crate::metrics::{Metric, Metrics, Stat, parse_column, summary_columns};
+use crate::metrics::{Metric, Metrics, Stat, column, parse_column};
 use crate::sweep::{MetricRow, SummaryRow, TrialRow};
 use std::io::{Read, Write};
 
@@ -128,7 +128,20 @@ pub fn summary(grid_keys: &[String], rows: &[SummaryRow]) -> Result<Vec<u8>, For
     let mut h = vec!["point".to_string()];
     h.extend(grid_keys.iter().cloned());
     h.extend(["method", "trials", "failures"].map(String::from));
-    h.extend(summary_columns());
+    // A metric no result has (a disk sweep's edge figures) leaves no columns of NaN behind.
+    let kept: Vec<usize> = (0..Metric::SUMMARISED.len())
+        .filter(|&m| {
+            rows.iter().any(|r| {
+                r.stats
+                    .get(m)
+                    .is_some_and(|s| Stat::ALL.iter().any(|&k| !s.get(k).is_nan()))
+            })
+        })
+        .collect();
+    h.extend(
+        kept.iter()
+            .flat_map(|&m| Stat::ALL.map(|s| column(Metric::SUMMARISED[m], s))),
+    );
     w.write_record(&h).map_err(err)?;
     for r in rows {
         let mut c = vec![r.point.to_string()];
@@ -136,7 +149,8 @@ pub fn summary(grid_keys: &[String], rows: &[SummaryRow]) -> Result<Vec<u8>, For
         c.push(r.method.to_string());
         c.push(r.trials.to_string());
         c.push(r.failures.to_string());
-        for s in &r.stats {
+        for &m in &kept {
+            let s = &r.stats[m];
             c.extend(Stat::ALL.map(|k| num(s.get(k))));
         }
         w.write_record(&c).map_err(err)?;

@@ -262,6 +262,77 @@ impl GroupReport {
         self.rejected[i].0 = with_ranges(&self.ranges[i].0, &self.ranges[i].1);
     }
 
+    /// The lines that report `reports`' rejections and left-out groups: one per group for a few,
+    /// else one line for all of them (an imported file has a group per pose: forty lines of one
+    /// reason say less than one line with its count and range) and one listing the groups left
+    /// out.
+    pub fn summarise(reports: &[GroupReport]) -> Vec<String> {
+        let flagged: Vec<&GroupReport> = reports
+            .iter()
+            .filter(|g| g.left_out || !g.rejected.is_empty())
+            .collect();
+        if flagged.len() <= 4 {
+            return flagged.iter().map(|g| g.describe()).collect();
+        }
+        let mut all = GroupReport::new(0);
+        for g in reports {
+            all.profiles += g.profiles;
+            all.used += g.used;
+        }
+        for g in &flagged {
+            for ((key, ranges), (_, n)) in g.ranges.iter().zip(&g.rejected) {
+                match all.ranges.iter().position(|(k, _)| k == key) {
+                    Some(i) => {
+                        for (r, v) in all.ranges[i].1.iter_mut().zip(ranges) {
+                            *r = (r.0.min(v.0), r.1.max(v.1));
+                        }
+                        all.rejected[i].1 += n;
+                    }
+                    None => {
+                        all.ranges.push((key.clone(), ranges.clone()));
+                        all.rejected.push((String::new(), *n));
+                    }
+                }
+            }
+        }
+        for (i, (key, ranges)) in all.ranges.iter().enumerate() {
+            all.rejected[i].0 = with_ranges(key, ranges);
+        }
+        let with = |pick: &dyn Fn(&GroupReport) -> bool| {
+            runs(
+                &flagged
+                    .iter()
+                    .filter(|g| pick(g))
+                    .map(|g| g.group)
+                    .collect::<Vec<_>>(),
+            )
+        };
+        let mut lines = vec![format!(
+            "{} of {} groups lost profiles ({}): {} of {} profiles used{}",
+            flagged.len(),
+            reports.len(),
+            with(&|g| !g.rejected.is_empty()),
+            all.used,
+            all.profiles,
+            if all.rejected.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    ", rejected: {}",
+                    all.rejected
+                        .iter()
+                        .map(|(r, n)| format!("{n} x {r}"))
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                )
+            }
+        )];
+        if flagged.iter().any(|g| g.left_out) {
+            lines.push(format!("groups left out: {}", with(&|g| g.left_out)));
+        }
+        lines
+    }
+
     /// One line: "group 3: 7 of 10 profiles used, 3 rejected (2 x no edge ..., 1 x ...); left out".
     pub fn describe(&self) -> String {
         let mut s = format!(
@@ -280,6 +351,29 @@ impl GroupReport {
             s += "; left out";
         }
         s
+    }
+}
+
+/// Group ids as runs: "1, 3, 5-9".
+fn runs(ids: &[usize]) -> String {
+    let mut out: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < ids.len() {
+        let mut j = i;
+        while j + 1 < ids.len() && ids[j + 1] == ids[j] + 1 {
+            j += 1;
+        }
+        out.push(if j > i {
+            format!("{}-{}", ids[i], ids[j])
+        } else {
+            ids[i].to_string()
+        });
+        i = j + 1;
+    }
+    if out.is_empty() {
+        "none".into()
+    } else {
+        out.join(", ")
     }
 }
 
@@ -333,6 +427,33 @@ mod report_tests {
             "group 3: 1 of 4 profiles used, rejected: 2 x the profile has 3-9 valid points; at \
              least 10 are needed; 1 x No arc at column 12.5"
         );
+    }
+
+    #[test]
+    fn many_groups_with_one_reason_make_one_line() {
+        let reports: Vec<GroupReport> = (0..40)
+            .map(|i| {
+                let mut g = GroupReport::new(i);
+                let r: Result<(), String> = if i % 2 == 0 && i < 20 {
+                    Err(format!("the profile has {} valid points", i % 7))
+                } else {
+                    Ok(())
+                };
+                g.count(&r);
+                g.left_out = i == 0 || i == 2 || i == 4;
+                g
+            })
+            .collect();
+        assert_eq!(
+            GroupReport::summarise(&reports),
+            [
+                "10 of 40 groups lost profiles (0, 2, 4, 6, 8, 10, 12, 14, 16, 18): 30 of 40 \
+                 profiles used, rejected: 10 x the profile has 0-6 valid points",
+                "groups left out: 0, 2, 4",
+            ]
+        );
+        // A few groups: one line each, as before.
+        assert_eq!(GroupReport::summarise(&reports[..3]).len(), 2);
     }
 }
 

@@ -173,12 +173,8 @@ pub fn run(a: Args) -> Result<i32> {
         caps.profiles.len(),
         matrix_text(&est)
     );
-    for g in cal
-        .groups
-        .iter()
-        .filter(|g| g.left_out || !g.rejected.is_empty())
-    {
-        say!("{}", g.describe());
+    for line in lasercal::method::GroupReport::summarise(&cal.groups) {
+        say!("{line}");
     }
     let mut doc = serde_json::json!({
         "method": method,

@@ -377,6 +377,21 @@ pub fn summary_text(
     )
 }
 
+/// "variant: why it failed", without the specimen's name twice ("ball: ball: ...") where the
+/// error names it too.
+pub fn failure(id: lasercal::method::MethodId, e: &dyn std::fmt::Display) -> String {
+    format!("{id}: {}", without_kind(id, e))
+}
+
+/// An error's text without the specimen's name it starts with, for a line that names the
+/// variant already.
+pub fn without_kind(id: lasercal::method::MethodId, e: &dyn std::fmt::Display) -> String {
+    let text = e.to_string();
+    let kind = format!("{}: ", id.kind);
+    text.strip_prefix(&kind)
+        .map_or(text.clone(), str::to_string)
+}
+
 /// `verdict::decide`, or an error that lists why every variant failed.
 pub fn decide(
     name: &str,
@@ -385,7 +400,7 @@ pub fn decide(
     method: Option<lasercal::method::MethodId>,
 ) -> anyhow::Result<lasercal::method::verdict::Decision> {
     lasercal::method::verdict::decide(caps, sensor, method).map_err(|failed| {
-        let why: Vec<String> = failed.iter().map(|(id, e)| format!("{id}: {e}")).collect();
+        let why: Vec<String> = failed.iter().map(|(id, e)| failure(*id, e)).collect();
         anyhow::anyhow!(
             "{name}: no variant could calibrate:\n  {}",
             why.join("\n  ")

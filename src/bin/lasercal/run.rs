@@ -139,7 +139,10 @@ pub fn run(a: Args) -> Result<()> {
                 results.push(doc);
             }
             Err(e) => {
-                note!("{method}: calibration failed: {e}");
+                note!(
+                    "{method}: calibration failed: {}",
+                    super::common::without_kind(method, &e)
+                );
                 results.push(
                     serde_json::json!({ "method": method, "error": e.to_string(), "truth": truth }),
                 );

@@ -123,7 +123,14 @@ pub fn run(a: Args) -> Result<()> {
     let mut csv = String::from("column,x_mm,z_mm,intensity\n");
     for (k, p) in profile.points.iter().enumerate() {
         match p {
-            Some(p) => csv += &format!("{k},{},{},{}\n", p.x * 1e3, p.z * 1e3, p.intensity),
+            Some(p) => {
+                csv += &format!(
+                    "{k},{},{},{}\n",
+                    to_mm(p.x),
+                    to_mm(p.z),
+                    (p.intensity * 1e9).round() / 1e9
+                )
+            }
             None => csv += &format!("{k},,,\n"),
         }
     }
@@ -141,4 +148,10 @@ pub fn run(a: Args) -> Result<()> {
             .context("cannot write to standard output")?,
     }
     Ok(())
+}
+
+/// Metres as mm rounded to the picometre: a quantised z of -5.174 mm prints as such, not as the
+/// -5.1739999999999995 its conversion gives.
+fn to_mm(m: f64) -> f64 {
+    (m * 1e12).round() / 1e9
 }
