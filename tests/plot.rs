@@ -1,5 +1,5 @@
-//! Plots a paper would print (issue 16, item 3): tick labels without float noise, axis labels in
-//! words with units, the papers' published points overlaid.
+//! Plots a paper would print: tick labels without float noise, axis labels in words with units,
+//! the papers' published points overlaid in their curves' colours.
 
 use lasercal::io::plot::{Figure, Series, axis_words, svg, tick};
 
@@ -59,6 +59,7 @@ fn a_reproduction_overlays_the_published_points() {
             points: vec![(0.25, 0.003), (4.0, 0.6)],
         }],
         reference: vec![],
+        note: None,
     };
     let s = svg(&log).unwrap();
     let labels: Vec<&str> = s
@@ -70,4 +71,43 @@ fn a_reproduction_overlays_the_published_points() {
         assert!(labels.contains(&label), "{label} missing from {labels:?}");
     }
     assert!(!s.contains("0000000"), "float noise in a label");
+}
+
+#[test]
+fn published_points_take_their_curves_colours_and_the_level_is_explained() {
+    let text = std::fs::read_to_string(format!(
+        "{}/scenarios/chen2018-fig15.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap();
+    let sf = lasercal::scenario::ScenarioFile::parse(&text, "fig15.toml").unwrap();
+    let plot = sf.scenario.sweep.as_ref().unwrap().plot.as_ref().unwrap();
+    let mut fig = lasercal::io::plot::from_summary(&[], plot, "fig15");
+    fig.series = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9]
+        .iter()
+        .map(|s| Series {
+            label: format!("disk sigma (mm) = {s}"),
+            points: vec![(10.0, *s), (200.0, s / 4.0)],
+        })
+        .collect();
+    let (curves, published) = lasercal::io::plot::colours(&fig);
+    // Nine curves, nine colours.
+    for (i, a) in curves.iter().enumerate() {
+        assert!(curves[..i].iter().all(|b| b != a), "{curves:?}");
+    }
+    for (r, c) in fig.reference.iter().zip(&published) {
+        let sigma: f64 = r.label.split("sigma = ").nth(1).unwrap()[..3]
+            .parse()
+            .unwrap();
+        let k = (sigma * 10.0).round() as usize - 1;
+        assert_eq!(*c, curves[k], "{}", r.label);
+    }
+    assert!(
+        fig.note
+            .as_deref()
+            .is_some_and(|n| n.contains("3x") && n.contains("geometry"))
+    );
+    assert!(svg(&fig).unwrap().contains("scan geometry"));
+    let report = lasercal::io::report::report(&sf.scenario, "fig15.toml", 1, 1, &[], &[], true);
+    assert!(report.contains("scan geometry"), "{report}");
 }

@@ -33,8 +33,11 @@ pub struct Figure {
     pub log_x: bool,
     pub log_y: bool,
     pub series: Vec<Series>,
-    /// Published points (a paper's figure or table), drawn as hollow triangles.
+    /// Published points (a paper's figure or table), drawn as hollow triangles in the colour of
+    /// the curve they belong to.
     pub reference: Vec<Series>,
+    /// A remark printed under the legend (why a reproduction's level differs from the paper's).
+    pub note: Option<String>,
 }
 
 /// A tick label: at most four significant digits, no float noise (0.30000000000000004 -> 0.3).
@@ -172,19 +175,31 @@ where
                 .draw()
                 .map_err(e)?;
             for (i, s) in f.series.iter().enumerate() {
-                let color = Palette99::pick(i).to_rgba();
-                chart
-                    .draw_series(LineSeries::new(
-                        s.points.iter().copied(),
-                        color.stroke_width(2),
-                    ))
-                    .map_err(e)?;
+                let color = curve_color(i);
+                // Past the palette, curves are dashed: colour alone never tells two apart.
+                if i < PALETTE.len() {
+                    chart
+                        .draw_series(LineSeries::new(
+                            s.points.iter().copied(),
+                            color.stroke_width(2),
+                        ))
+                        .map_err(e)?;
+                } else {
+                    chart
+                        .draw_series(DashedLineSeries::new(
+                            s.points.iter().copied(),
+                            6,
+                            4,
+                            color.stroke_width(2),
+                        ))
+                        .map_err(e)?;
+                }
                 chart
                     .draw_series(s.points.iter().map(|&p| Circle::new(p, 3, color.filled())))
                     .map_err(e)?;
             }
-            for (i, s) in f.reference.iter().enumerate() {
-                let color = reference_color(i);
+            for s in &f.reference {
+                let color = reference_color(f, s);
                 chart
                     .draw_series(
                         s.points
@@ -223,18 +238,26 @@ where
         .series
         .iter()
         .enumerate()
-        .map(|(i, s)| (s.label.as_str(), Palette99::pick(i).to_rgba(), false))
+        .map(|(i, s)| (s.label.as_str(), curve_color(i), Some(i >= PALETTE.len())))
         .chain(
             f.reference
                 .iter()
-                .enumerate()
-                .map(|(i, s)| (s.label.as_str(), reference_color(i), true)),
+                .map(|s| (s.label.as_str(), reference_color(f, s), None)),
         );
-    for (label, color, published) in rows {
-        if published {
+    for (label, color, dashed) in rows {
+        if dashed.is_none() {
             legend_area
                 .draw(&TriangleMarker::new((16, y), 6, color.stroke_width(2)))
                 .map_err(e)?;
+        } else if dashed == Some(true) {
+            for x in [6, 18] {
+                legend_area
+                    .draw(&PathElement::new(
+                        vec![(x, y), (x + 6, y)],
+                        color.stroke_width(2),
+                    ))
+                    .map_err(e)?;
+            }
         } else {
             legend_area
                 .draw(&PathElement::new(
@@ -243,26 +266,22 @@ where
                 ))
                 .map_err(e)?;
         }
-        // Long labels wrap at about 28 characters.
-        let mut line = String::new();
-        let mut lines = Vec::new();
-        for w in label.split(' ') {
-            if !line.is_empty() && line.len() + w.len() > 28 {
-                lines.push(std::mem::take(&mut line));
-            }
-            if !line.is_empty() {
-                line.push(' ');
-            }
-            line += w;
-        }
-        lines.push(line);
-        for l in lines {
+        for l in wrap(label, 28) {
             legend_area
                 .draw(&Text::new(l, (32, y - 7), font.clone()))
                 .map_err(e)?;
             y += 16;
         }
         y += 4;
+    }
+    if let Some(note) = &f.note {
+        y += 8;
+        for l in wrap(note, 34) {
+            legend_area
+                .draw(&Text::new(l, (6, y - 7), font.clone()))
+                .map_err(e)?;
+            y += 15;
+        }
     }
     root.present().map_err(e)?;
     Ok(())
@@ -286,15 +305,72 @@ fn log_keys(lo: f64, hi: f64) -> Vec<f64> {
     out
 }
 
-/// Published points' colours: dark, apart from the palette's.
-fn reference_color(i: usize) -> RGBAColor {
-    [
-        BLACK,
-        RGBColor(120, 60, 0),
-        RGBColor(90, 90, 90),
-        RGBColor(0, 70, 120),
-    ][i % 4]
-        .to_rgba()
+/// Words wrapped at about `width` characters.
+fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut line = String::new();
+    let mut lines = Vec::new();
+    for w in text.split(' ') {
+        if !line.is_empty() && line.len() + w.len() > width {
+            lines.push(std::mem::take(&mut line));
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line += w;
+    }
+    lines.push(line);
+    lines
+}
+
+/// Okabe and Ito's colour-blind-safe palette (black last: it is the published points' colour
+/// when they match no curve), and a grey.
+const PALETTE: [RGBColor; 9] = [
+    RGBColor(0, 114, 178),
+    RGBColor(230, 159, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(213, 94, 0),
+    RGBColor(86, 180, 233),
+    RGBColor(204, 121, 167),
+    RGBColor(240, 228, 66),
+    RGBColor(153, 153, 153),
+    RGBColor(0, 0, 0),
+];
+
+/// Curve `i`'s colour (the palette again, dashed, past its end).
+fn curve_color(i: usize) -> RGBAColor {
+    PALETTE[i % PALETTE.len()].to_rgba()
+}
+
+/// Each published series' colour and each curve's, as RGB (for tests and other renderers).
+pub fn colours(f: &Figure) -> (Vec<[u8; 3]>, Vec<[u8; 3]>) {
+    let rgb = |c: RGBAColor| [c.0, c.1, c.2];
+    (
+        (0..f.series.len()).map(|i| rgb(curve_color(i))).collect(),
+        f.reference
+            .iter()
+            .map(|r| rgb(reference_color(f, r)))
+            .collect(),
+    )
+}
+
+/// The value a label names after its last "= " ("disk sigma (mm) = 0.1" -> "0.1").
+fn label_value(label: &str) -> Option<&str> {
+    let (_, v) = label.rsplit_once("= ")?;
+    v.split(' ').next().filter(|v| !v.is_empty())
+}
+
+/// Published points take the colour of the curve they belong to: the one whose value their label
+/// names ("sigma = 0.1", "parallel-bar"); black when none does.
+fn reference_color(f: &Figure, r: &Series) -> RGBAColor {
+    let names = |v: &str| {
+        label_value(&r.label) == Some(v)
+            || r.label.contains(&format!(", {v} "))
+            || r.label.contains(&format!(", {v},"))
+    };
+    f.series
+        .iter()
+        .position(|s| label_value(&s.label).is_some_and(names))
+        .map_or(BLACK.to_rgba(), curve_color)
 }
 
 /// The figure as SVG text.
@@ -388,6 +464,25 @@ pub fn from_summary(
         log_y: plot.log_y,
         series,
         reference: plot.paper.map(published).unwrap_or_default(),
+        note: plot.paper.and_then(paper_note),
+    }
+}
+
+/// Why a reproduction's curves may sit off the published points.
+pub fn paper_note(p: crate::schema::PaperFigure) -> Option<String> {
+    use crate::schema::PaperFigure;
+    match p {
+        PaperFigure::Chen2018Fig15 => Some(
+            "The published points lie about 3x above the curves: the paper does not publish its \
+             scan geometry, which sets the level; the slopes (x sigma, 1 / sqrt(m)) agree. See \
+             docs/results.md."
+                .into(),
+        ),
+        PaperFigure::Xu2021Table1 => Some(
+            "The published values come from a real rig (robot error, vibration, real specimens); the \
+             simulated rig here has only the sensor's noise. See docs/results.md."
+                .into(),
+        ),
     }
 }
 

@@ -33,6 +33,14 @@ pub fn report(
     s += "\nFiles: `trials.csv` (one row per trial), `summary.csv` (mean, RMS, std, median, p95 per grid point and method)";
     if has_plot {
         s += ", `plot.svg`, `plot.png`.\n\n![plot](plot.svg)\n";
+        let paper = sc
+            .sweep
+            .as_ref()
+            .and_then(|sw| sw.plot.as_ref())
+            .and_then(|p| p.paper);
+        if let Some(note) = paper.and_then(crate::io::plot::paper_note) {
+            s += &format!("\n{note}\n");
+        }
     } else {
         s += ".\n";
     }
