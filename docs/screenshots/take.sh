@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Regenerates the viewer screenshots in this folder, headless: Xvfb, the `rerun` viewer of the
 # crate's version (pip install rerun-sdk==0.36.3) and its --screenshot-to. Run from the repository
-# root after `cargo build --release`; needs xvfb and imagemagick (apt install xvfb imagemagick).
+# root after `cargo build --release`; needs Xvfb, ImageMagick and a software Vulkan driver for the
+# viewer's renderer without a GPU: apt install xvfb imagemagick mesa-vulkan-drivers.
 set -euo pipefail
 out=docs/screenshots
 bin=target/release/lasercal
