@@ -158,3 +158,65 @@ fn a_failed_variant_is_named_once() {
     assert_eq!(code, 0, "{err}");
     assert!(!err.contains("edge-any-pose: edge:"), "{err}");
 }
+
+#[test]
+fn new_writes_a_starter_scenario_that_runs_as_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let kinds = [
+        "ball",
+        "disk-cylinder",
+        "parallel-bar",
+        "scale",
+        "knife-blade",
+        "ridge",
+        "v-groove",
+        "fillet",
+        "step",
+        "plane",
+    ];
+    for (i, kind) in kinds.iter().enumerate() {
+        let robot = ["irb120", "irb2600"][i % 2];
+        let sweep = ["noise", "poses", "none"][i % 3];
+        let out = dir.path().join(format!("{kind}.toml"));
+        let (code, said, err) = lasercal(&[
+            "new",
+            "--robot",
+            robot,
+            "--specimen",
+            kind,
+            "--sweep",
+            sweep,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{kind}: {err}");
+        assert!(said.contains("trial 0 calibrates"), "{said}");
+        let sf = lasercal::scenario::ScenarioFile::load(&out).unwrap();
+        assert_eq!(sf.scenario.sweep.is_some(), sweep != "none", "{kind}");
+        let setup = sf.scenario.build(&sf.file).unwrap();
+        let id = sf.scenario.methods[0];
+        assert_eq!(id.estimator, lasercal::method::Estimator::AnyPose);
+        let e = lasercal::trial::run_trial(&setup, id, sf.scenario.seed, 1)
+            .result
+            .unwrap_or_else(|e| panic!("{kind}: {e}"))
+            .error();
+        assert!(
+            e.rotation_error_deg < 0.5 && e.translation_error_mm < 2.0,
+            "{kind}: {e:?}"
+        );
+    }
+    let out = dir.path().join("ball.toml");
+    for (args, want) in [
+        (vec!["--specimen", "ball"], "exists"),
+        (vec!["--specimen", "cube", "--force"], "--specimen cube"),
+        (vec!["--specimen", "disk-paper", "--force"], "disk-cylinder"),
+        (vec!["--sweep", "speed", "--force"], "--sweep speed"),
+        (vec!["--sensor", "gocator-9999", "--force"], "gocator-9999"),
+    ] {
+        let mut a = vec!["new", "--out", out.to_str().unwrap()];
+        a.extend(args);
+        let (code, _, err) = lasercal(&a);
+        assert_eq!(code, 2, "{a:?}: {err}");
+        assert!(err.contains(want), "{a:?}: {err}");
+    }
+}

@@ -192,7 +192,8 @@ impl SpecimenSection {
                 height: opt(self.height_mm, 15.0, "height_mm")?,
             },
             SpecimenType::Step => SpecimenKind::Step {
-                length: opt(self.length_mm, 150.0, "length_mm")?,
+                // Long enough that an oblique profile does not run off its end (line-targets.md).
+                length: opt(self.length_mm, 300.0, "length_mm")?,
                 width: opt(self.width_mm, 40.0, "width_mm")?,
                 height: opt(self.height_mm, 10.0, "height_mm")?,
             },

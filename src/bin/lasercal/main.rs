@@ -36,6 +36,7 @@ mod fk;
 mod ik;
 mod import;
 mod merge;
+mod new;
 mod run;
 mod scan;
 mod simulate;
@@ -80,6 +81,8 @@ enum Command {
     Scan(scan::Args),
     /// CI gate: exit 0 when a percentile of the errors is within bounds, 1 when not, 2 on bad input.
     Check(check::Args),
+    /// Write a commented starter scenario for a rig (robot, sensor, specimen, what to sweep)
+    New(new::Args),
 }
 
 fn main() {
@@ -117,6 +120,7 @@ fn main() {
             Err(e) => Err(e),
         },
         Command::Scan(a) => scan::run(a),
+        Command::New(a) => new::run(a),
         Command::Merge(a) => merge::run(a),
         Command::Import(a) => import::run(a),
         Command::Compare(a) => compare::run(a),
