@@ -883,8 +883,17 @@ fn compact_capture_files_keep_every_point_in_a_fraction_of_the_size() {
         }
     }
 
-    // A missing or broken array, or a text read without its folder, is named.
+    // Two profiles naming one row, a missing or broken array, or a text read without its
+    // folder: each is named.
     let text = std::fs::read_to_string(&compact).unwrap();
+    let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    doc["profiles"][1]["points_row"] = serde_json::json!(0);
+    let twice = dir.path().join("twice.json");
+    std::fs::write(&twice, doc.to_string()).unwrap();
+    let e = lasercal::io::captures::read(&twice)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("profiles[1].points_row"), "{e}");
     let e = lasercal::io::captures::from_json(&text, "small.json").unwrap_err();
     assert!(e.to_string().contains("points_file"), "{e}");
     std::fs::write(&array, b"not gzip").unwrap();

@@ -753,9 +753,14 @@ fn top_face_candidates(
                 .any(|(mk, dk, _)| dj.dot(dk).abs() > PARALLEL_COS && (mk - mj).dot(nj) > STEP_MIN)
         })
         .collect();
-    let mut kept = cands.iter().zip(&covered).filter(|(_, c)| !**c);
-    if kept.clone().next().is_some() {
-        cands = kept.by_ref().map(|(&j, _)| j).collect();
+    let top: Vec<usize> = cands
+        .iter()
+        .zip(&covered)
+        .filter(|(_, c)| !**c)
+        .map(|(&j, _)| j)
+        .collect();
+    if !top.is_empty() {
+        cands = top;
     }
     cands.sort_by_key(|&j| std::cmp::Reverse(segs[j].last - segs[j].first));
     cands

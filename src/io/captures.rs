@@ -313,8 +313,16 @@ fn inflate(f: &mut FileV1, points: &Path, file: &str) -> Result<(), FormatError>
     })?;
     let (mut rows, width) =
         super::points_file::decode(std::io::BufReader::new(reader), &pname, rows_needed)?;
+    let mut taken = vec![false; rows.len()];
     for (i, p) in f.profiles.iter_mut().enumerate() {
         let Some(r) = p.points_row else { continue };
+        if std::mem::replace(&mut taken[r], true) {
+            return Err(err(
+                file,
+                &format!("profiles[{i}].points_row"),
+                format!("{r}: another profile names this row; each profile has its own"),
+            ));
+        }
         if p.points_mm.is_some() || p.intensity.is_some() {
             return Err(err(
                 file,
@@ -375,7 +383,7 @@ pub fn compact(
         p.points_len = (row.len() < width).then_some(row.len());
     }
     f.points_file = Some(points_name.to_string());
-    let bytes = super::points_file::encode(&rows);
+    let bytes = super::points_file::encode(&rows)?;
     Ok((serde_json::to_string(&f).unwrap_or_default(), Some(bytes)))
 }
 

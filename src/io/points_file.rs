@@ -21,7 +21,7 @@ pub type Row = Vec<(Option<[f64; 2]>, Option<f64>)>;
 const MAX_VALUES: u64 = 1 << 28;
 
 /// The bytes of the compressed array of `rows` (each padded with NaN to the longest).
-pub fn encode(rows: &[Row]) -> Vec<u8> {
+pub fn encode(rows: &[Row]) -> Result<Vec<u8>, FormatError> {
     let width = rows.iter().map(Vec::len).max().unwrap_or(0);
     let n = rows.len();
     let mut planes = vec![f32::NAN; 3 * n * width];
@@ -39,9 +39,8 @@ pub fn encode(rows: &[Row]) -> Vec<u8> {
     }
     let mut out = Vec::new();
     let gz = GzEncoder::new(&mut out, Compression::default());
-    // Writing into memory fails only on allocation, which aborts anyway; dropping the encoder
-    // ends the gzip stream.
-    let written = npyz::WriteOptions::<f32>::new()
+    // Dropping the encoder (inside the writer) ends the gzip stream.
+    npyz::WriteOptions::<f32>::new()
         .default_dtype()
         .shape(&[3, n as u64, width as u64])
         .writer(gz)
@@ -49,9 +48,13 @@ pub fn encode(rows: &[Row]) -> Vec<u8> {
         .and_then(|mut w| {
             w.extend(planes.iter().copied())?;
             w.finish()
-        });
-    debug_assert!(written.is_ok());
-    out
+        })
+        .map_err(|e| FormatError::Field {
+            file: "the points file".into(),
+            at: "array".into(),
+            message: format!("cannot encode it: {e}"),
+        })?;
+    Ok(out)
 }
 
 /// The rows of a compressed array read from `reader`; `file` names it in errors. The shape must be
