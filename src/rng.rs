@@ -38,4 +38,13 @@ pub mod tag {
     pub const VIBRATION: u64 = 5;
     pub const SPECIMEN: u64 = 6;
     pub const PLAN: u64 = 7;
+    pub const GRID_POINT: u64 = 8;
+}
+
+/// A text's 64-bit FNV-1a hash: stable across platforms and versions, for seeds derived from
+/// names or values (a grid point's).
+pub fn text_hash(text: &str) -> u64 {
+    text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
 }

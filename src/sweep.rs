@@ -205,6 +205,20 @@ impl Accumulator {
     }
 }
 
+/// The seed of a grid point's trials: the sweep's, or with independent draws one derived from the
+/// point's grid values (not its index, so a reordered grid keeps each point's draws).
+pub fn point_seed(plan: &SweepPlan, values: &[(String, toml::Value)]) -> u64 {
+    let draws = plan.sf.scenario.sweep.as_ref().map(|s| s.draws);
+    if draws != Some(crate::schema::Draws::Independent) {
+        return plan.seed;
+    }
+    let text: String = values.iter().map(|(k, v)| format!("{k}={v};")).collect();
+    crate::rng::derive(
+        plan.seed,
+        &[crate::rng::tag::GRID_POINT, crate::rng::text_hash(&text)],
+    )
+}
+
 /// Run the sweep: for each grid point (in order) build the experiment once, run this shard's trials
 /// in parallel chunks, and hand each chunk's rows, in trial order, to `sink`. `progress` is told
 /// how many trials are done.
@@ -222,6 +236,7 @@ pub fn run(
     for point in plan.sf.points() {
         let point = point?;
         let setup = point.scenario.build(file)?;
+        let seed = point_seed(plan, &point.values);
         for &method in &point.scenario.methods {
             let mut acc = Accumulator::new();
             for chunk in mine.chunks(CHUNK) {
@@ -230,7 +245,7 @@ pub fn run(
                     .map(|&t| TrialRow {
                         point: point.index,
                         values: point.values.clone(),
-                        outcome: run_trial(&setup, method, plan.seed, t as u64),
+                        outcome: run_trial(&setup, method, seed, t as u64),
                     })
                     .collect();
                 for r in &rows {

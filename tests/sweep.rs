@@ -230,3 +230,70 @@ fn cli_sweep_writes_csvs_and_plots() {
     assert_ne!(code, 0);
     assert!(err.contains("no [sweep] section"), "{err}");
 }
+
+/// `[sweep] draws`: common (the default) gives trial t the same draws at every grid point, so the
+/// analytic disk's errors at sigma 0.2 and 0.4 move together trial by trial (correlation near 1);
+/// independent gives each point its own (derived from its grid values; no correlation), the same
+/// for any thread count.
+#[test]
+fn grid_points_share_draws_only_when_asked() {
+    let grid = "[sweep.grid]\n\"disk.sigma_mm\" = [0.2, 0.4]\n";
+    let common = format!("{}\n[sweep]\ntrials = 30\n{grid}", base());
+    let independent = format!(
+        "{}\n[sweep]\ntrials = 30\ndraws = \"independent\"\n{grid}",
+        base()
+    );
+    let correlation_of = |text: &str| -> f64 {
+        let (rows, _) = run_sweep(text, 30);
+        let err = |p: usize, t: u64| {
+            rows.iter()
+                .find(|r| r.point == p && r.outcome.trial == t)
+                .unwrap()
+                .outcome
+                .result
+                .as_ref()
+                .unwrap()
+                .metrics
+                .get(lasercal::metrics::Metric::CentreError)
+                .unwrap()
+        };
+        let (a, b): (Vec<f64>, Vec<f64>) = (0..30).map(|t| (err(0, t), err(1, t))).unzip();
+        correlation(&a, &b)
+    };
+    let c = correlation_of(&common);
+    assert!(c > 0.9, "common draws: correlation {c}");
+    let r = correlation_of(&independent);
+    assert!(r.abs() < 0.5, "independent draws: correlation {r}");
+    // Deterministic: the same again, and the same on one thread.
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| correlation_of(&independent));
+    assert_eq!(r, one);
+    // A trial of a point is reproduced alone with the point's seed.
+    let sf = ScenarioFile::parse(&independent, "t.toml").unwrap();
+    let plan = SweepPlan::new(&sf, Some(30), None);
+    let p = sf.point(1).unwrap();
+    let seed = sweep::point_seed(&plan, &p.values);
+    assert_ne!(seed, sf.scenario.seed);
+    let setup = p.scenario.build(&sf.file).unwrap();
+    let (rows, _) = run_sweep(&independent, 30);
+    let alone = run_trial(&setup, "disk".parse().unwrap(), seed, 7);
+    assert_eq!(
+        alone,
+        rows.iter()
+            .find(|r| r.point == 1 && r.outcome.trial == 7)
+            .unwrap()
+            .outcome
+    );
+}
+
+fn correlation(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len() as f64;
+    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+    let cov: f64 = a.iter().zip(b).map(|(x, y)| (x - ma) * (y - mb)).sum();
+    let va: f64 = a.iter().map(|x| (x - ma).powi(2)).sum();
+    let vb: f64 = b.iter().map(|y| (y - mb).powi(2)).sum();
+    cov / (va * vb).sqrt()
+}

@@ -400,8 +400,22 @@ pub struct SweepSection {
     pub trials: usize,
     /// Dotted scenario keys and the values each takes; the sweep runs their Cartesian product.
     pub grid: toml::Table,
+    /// "common": trial t draws the same numbers at every grid point (common random numbers:
+    /// differences between points are sharper, but every point's estimate errs alike);
+    /// "independent": each point's trials draw their own.
+    #[serde(default)]
+    pub draws: Draws,
     #[serde(default)]
     pub plot: Option<PlotSection>,
+}
+
+/// How a sweep's grid points share their random draws (`[sweep] draws`).
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Draws {
+    #[default]
+    Common,
+    Independent,
 }
 
 #[derive(Debug, Clone, Deserialize, PartialEq)]
