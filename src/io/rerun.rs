@@ -320,9 +320,16 @@ impl Recorder {
                 .into(),
         ];
         if truth {
+            // Degrees and millimetres on axes of their own: on one axis the smaller looks flat.
             side.push(
-                TimeSeriesView::new("error against the truth")
+                TimeSeriesView::new("rotation error against the truth (deg)")
+                    .with_origin("/error/rotation_deg")
+                    .into(),
+            );
+            side.push(
+                TimeSeriesView::new("translation and sensor-origin error against the truth (mm)")
                     .with_origin("/error")
+                    .with_contents(["$origin/translation_mm", "$origin/sensor_origin_mm"])
                     .into(),
             );
         }
@@ -333,10 +340,11 @@ impl Recorder {
         );
         Blueprint::new(Horizontal::new([
             Vertical::new([
-                Spatial3DView::new("scene (base frame)")
+                // The 3D views are in metres (Rerun's unit); the laser plane and every scalar in mm.
+                Spatial3DView::new("scene (base frame, metres)")
                     .with_origin("/world")
                     .into(),
-                Spatial3DView::new("every profile mapped with the recovered transform")
+                Spatial3DView::new("every profile mapped with the recovered transform (metres)")
                     .with_origin("/world/mapped")
                     .with_contents(["$origin/**"])
                     .into(),
