@@ -216,6 +216,61 @@ fn sweep_records_its_curves() {
             .all(|k| !k.contains("__")),
         "clean entity paths: {m:?}"
     );
+    // The same curves from the finished folder, without a trial run and without touching it.
+    let folder = dir.path().join("o");
+    let before: Vec<Vec<u8>> = ["trials.csv", "summary.csv", "plot.svg", "sweep.json"]
+        .iter()
+        .map(|f| std::fs::read(folder.join(f)).unwrap())
+        .collect();
+    let again = dir.path().join("again.rrd");
+    let out = Command::new(env!("CARGO_BIN_EXE_lasercal"))
+        .args([
+            "sweep",
+            scen,
+            "--from",
+            folder.to_str().unwrap(),
+            "--rerun",
+            again.to_str().unwrap(),
+        ])
+        .env("CI", "1")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let curves = |m: &BTreeMap<String, usize>| -> BTreeMap<String, usize> {
+        m.iter()
+            .filter(|(k, _)| k.starts_with("/sweep"))
+            .map(|(k, v)| (k.clone(), *v))
+            .collect()
+    };
+    assert_eq!(
+        curves(&rows(&again, &cli)),
+        curves(&m),
+        "the same curves as the run's own recording"
+    );
+    let after: Vec<Vec<u8>> = ["trials.csv", "summary.csv", "plot.svg", "sweep.json"]
+        .iter()
+        .map(|f| std::fs::read(folder.join(f)).unwrap())
+        .collect();
+    assert_eq!(before, after);
+    // Another scenario's folder is refused.
+    let other = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/chen2018-fig17.toml");
+    let out = Command::new(env!("CARGO_BIN_EXE_lasercal"))
+        .args([
+            "sweep",
+            other,
+            "--from",
+            folder.to_str().unwrap(),
+            "--rerun",
+            again.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("another version"));
 }
 
 #[test]

@@ -31,7 +31,7 @@ impl Rig {
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum PlanError {
     #[error(
-        "scan {scan}: the flange pose at ({x_mm:.1}, {y_mm:.1}, {z_mm:.1}) mm is not reachable: {source}; move the specimen or change the orientation"
+        "scan {scan}: the flange pose at ({x_mm:.1}, {y_mm:.1}, {z_mm:.1}) mm is not reachable: {source}; move the specimen (its position_mm) or change the orientation"
     )]
     Unreachable {
         scan: usize,

@@ -24,6 +24,10 @@ pub struct Args {
     /// Run only shard K of N (1 <= K <= N): trials t with t mod N = K - 1; combine with `lasercal merge`
     #[arg(long)]
     shard: Option<String>,
+    /// With --rerun: record the curves of this finished sweep folder of the same scenario
+    /// instead of running the trials again (nothing in the folder is written)
+    #[arg(long, requires = "rerun")]
+    from: Option<PathBuf>,
 }
 
 /// What a sweep folder holds besides its CSVs, so shards can be checked and merged.
@@ -154,6 +158,9 @@ pub fn run(a: Args) -> Result<()> {
             sf.file
         );
     }
+    if let (Some(dir), Some(rrd)) = (&a.from, &a.rerun) {
+        return curves_from(dir, rrd, &a.scenario, &sf);
+    }
     let max = lasercal::schema::validator::MAX_TRIALS;
     if let Some(t) = a.trials.filter(|&t| t == 0 || t > max) {
         bail!("--trials {t}: from 1 to {max} trials per grid point");
@@ -272,6 +279,54 @@ pub fn run(a: Args) -> Result<()> {
             started.elapsed().as_secs_f64()
         );
     }
+    Ok(())
+}
+
+/// `--from DIR --rerun FILE`: the curves of a finished sweep, from its trials.csv (the summaries
+/// recomputed as `merge` does), without running a trial.
+fn curves_from(dir: &Path, rrd: &Path, scenario: &Path, sf: &ScenarioFile) -> Result<()> {
+    let p = dir.join("sweep.json");
+    let text = std::fs::read_to_string(&p)
+        .with_context(|| format!("{}: cannot read (is this a sweep folder?)", p.display()))?;
+    let meta: Meta = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not a lasercal sweep record", p.display()))?;
+    let now =
+        std::fs::read_to_string(scenario).with_context(|| format!("re-reading {}", sf.file))?;
+    if meta.scenario_text != now {
+        bail!(
+            "--from {}: that sweep ran another version of {} (its text differs): run the sweep \
+             again, or give the scenario it ran",
+            dir.display(),
+            sf.file
+        );
+    }
+    if meta.shards != 1 || dir.join(INCOMPLETE).exists() {
+        bail!(
+            "--from {}: not a finished, whole sweep (shard {}/{}{}); merge the shards first",
+            dir.display(),
+            meta.shard,
+            meta.shards,
+            if dir.join(INCOMPLETE).exists() {
+                ", still running or interrupted"
+            } else {
+                ""
+            }
+        );
+    }
+    let plan = SweepPlan::new(sf, Some(meta.trials), Some(meta.seed));
+    let csv = dir.join("trials.csv");
+    let name = csv.display().to_string();
+    let f = std::fs::File::open(&csv).with_context(|| format!("{name}: cannot read"))?;
+    let mut s = lasercal::sweep::Summariser::new(&plan.values);
+    for row in io::csv::read_trials(f, &plan.grid_keys, &name)? {
+        s.add(&row?.0);
+    }
+    record_curves(rrd, sf, &s.finish())?;
+    note!(
+        "{}: the curves of {} recorded",
+        rrd.display(),
+        dir.display()
+    );
     Ok(())
 }
 
