@@ -22,16 +22,22 @@ fn ticks_are_short_and_axes_are_words_with_units() {
     assert_eq!(axis_words("disk.chords"), "chords per scan m");
 }
 
-#[test]
-fn a_reproduction_overlays_the_published_points() {
+/// The Fig. 15 scenario and its figure with no curves yet (the published points only).
+fn fig15() -> (lasercal::scenario::ScenarioFile, Figure) {
     let text = std::fs::read_to_string(format!(
         "{}/scenarios/chen2018-fig15.toml",
         env!("CARGO_MANIFEST_DIR")
     ))
     .unwrap();
     let sf = lasercal::scenario::ScenarioFile::parse(&text, "fig15.toml").unwrap();
-    let plot = sf.scenario.sweep.as_ref().unwrap().plot.as_ref().unwrap();
-    let fig = lasercal::io::plot::from_summary(&[], plot, "fig15");
+    let plot = sf.scenario.sweep.as_ref().unwrap().plot.clone().unwrap();
+    let fig = lasercal::io::plot::from_summary(&[], &plot, "fig15");
+    (sf, fig)
+}
+
+#[test]
+fn a_reproduction_overlays_the_published_points() {
+    let (_, fig) = fig15();
     assert_eq!(fig.reference.len(), 3, "{:?}", fig.reference);
     let pts: usize = fig.reference.iter().map(|s| s.points.len()).sum();
     assert_eq!(pts, 4);
@@ -75,14 +81,7 @@ fn a_reproduction_overlays_the_published_points() {
 
 #[test]
 fn published_points_take_their_curves_colours_and_the_level_is_explained() {
-    let text = std::fs::read_to_string(format!(
-        "{}/scenarios/chen2018-fig15.toml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap();
-    let sf = lasercal::scenario::ScenarioFile::parse(&text, "fig15.toml").unwrap();
-    let plot = sf.scenario.sweep.as_ref().unwrap().plot.as_ref().unwrap();
-    let mut fig = lasercal::io::plot::from_summary(&[], plot, "fig15");
+    let (sf, mut fig) = fig15();
     fig.series = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9]
         .iter()
         .map(|s| Series {

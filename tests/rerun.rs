@@ -179,25 +179,28 @@ fn sweep_records_its_curves() {
     let dir = tempfile::tempdir().unwrap();
     let rrd = dir.path().join("sweep.rrd");
     let scen = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/chen2018-fig15.toml");
-    let out = Command::new(env!("CARGO_BIN_EXE_lasercal"))
-        .args([
-            "sweep",
-            scen,
-            "--trials",
-            "5",
-            "--out",
-            dir.path().join("o").to_str().unwrap(),
-            "--rerun",
-            rrd.to_str().unwrap(),
-        ])
-        .env("CI", "1")
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let sweep = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_lasercal"))
+            .arg("sweep")
+            .args(args)
+            .env("CI", "1")
+            .output()
+            .unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let (code, err) = sweep(&[
+        scen,
+        "--trials",
+        "5",
+        "--out",
+        dir.path().join("o").to_str().unwrap(),
+        "--rerun",
+        rrd.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{err}");
     let m = rows(&rrd, &cli);
     // One view: every series under the plotted column, one per sigma, a row per chord count
     // (and the static row naming it).
@@ -223,23 +226,17 @@ fn sweep_records_its_curves() {
         .map(|f| std::fs::read(folder.join(f)).unwrap())
         .collect();
     let again = dir.path().join("again.rrd");
-    let out = Command::new(env!("CARGO_BIN_EXE_lasercal"))
-        .args([
-            "sweep",
-            scen,
+    let from = |scenario: &str| {
+        sweep(&[
+            scenario,
             "--from",
             folder.to_str().unwrap(),
             "--rerun",
             again.to_str().unwrap(),
         ])
-        .env("CI", "1")
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    };
+    let (code, err) = from(scen);
+    assert_eq!(code, Some(0), "{err}");
     let curves = |m: &BTreeMap<String, usize>| -> BTreeMap<String, usize> {
         m.iter()
             .filter(|(k, _)| k.starts_with("/sweep"))
@@ -257,20 +254,12 @@ fn sweep_records_its_curves() {
         .collect();
     assert_eq!(before, after);
     // Another scenario's folder is refused.
-    let other = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/chen2018-fig17.toml");
-    let out = Command::new(env!("CARGO_BIN_EXE_lasercal"))
-        .args([
-            "sweep",
-            other,
-            "--from",
-            folder.to_str().unwrap(),
-            "--rerun",
-            again.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("another version"));
+    let (code, err) = from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenarios/chen2018-fig17.toml"
+    ));
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("another version"), "{err}");
 }
 
 #[test]

@@ -434,8 +434,9 @@ mod report_tests {
         let reports: Vec<GroupReport> = (0..40)
             .map(|i| {
                 let mut g = GroupReport::new(i);
-                let r: Result<(), String> = if i % 2 == 0 && i < 20 {
-                    Err(format!("the profile has {} valid points", i % 7))
+                let why = format!("the profile has {} valid points", i % 7);
+                let r: Result<(), &str> = if i % 2 == 0 && i < 20 {
+                    Err(&why)
                 } else {
                     Ok(())
                 };
