@@ -14,6 +14,7 @@ pub struct Section {
     /// Gaussian noise on each arc point's z, mm (analytic).
     #[serde(default)]
     pub sigma_mm: f64,
+    /// Spacing of the analytic arc points along x, mm.
     #[serde(default = "d_step")]
     pub x_step_mm: f64,
     /// m: arcs per translation-set capture (averaged).
@@ -28,6 +29,7 @@ pub struct Section {
     /// Flange positions and orientations of the translation set (at least 3).
     #[serde(default)]
     pub translation_tcp_mm: Vec<[f64; 3]>,
+    /// The translation set's orientations, (rx, ry, rz) radians each, R = Rz Ry Rx.
     #[serde(default)]
     pub translation_rpy_rad: Vec<[f64; 3]>,
     /// Free poses instead of the protocol (`ball-any-pose` only): `[ball.poses]`.

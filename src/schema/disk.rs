@@ -14,6 +14,7 @@ pub struct Section {
     /// How much of the disk a scan sweeps (Fig. 4).
     #[serde(default)]
     pub coverage: CoverageKey,
+    /// Fraction of the disk's extent across the laser plane that a scan sweeps.
     #[serde(default = "d_span")]
     pub span_fraction: f64,
     /// Analytic chords + Eq. 52 noise, or the sensor model + feature extraction.
@@ -34,7 +35,8 @@ pub struct Section {
     /// Move directions in the base frame (the disk paper's D_i^b)...
     #[serde(default)]
     pub directions_in_base: Option<Vec<[f64; 3]>>,
-    /// ...or in the sensor frame (D_i^i); one list or the other, one entry per orientation.
+    /// ...or the move directions in the sensor frame (D_i^i); one list or the other, one entry per
+    /// orientation.
     #[serde(default)]
     pub directions_in_sensor: Option<Vec<[f64; 3]>>,
     /// Free poses instead of the protocol (for disk-any-pose): one profile each, aimed within the

@@ -18,12 +18,16 @@ pub struct Section {
     /// group along an arc, the groups' largest tilt.
     #[serde(default)]
     pub rotations: usize,
+    /// Translations per rotation group, along an arc.
     #[serde(default)]
     pub translations: usize,
+    /// The rotation groups' largest tilt from the nominal view, deg.
     #[serde(default)]
     pub tilt_deg: f64,
+    /// Radius of the translations' arc, mm.
     #[serde(default)]
     pub arc_radius_mm: f64,
+    /// The arc's span, deg.
     #[serde(default)]
     pub arc_span_deg: f64,
     /// Angle of the arc's chord from the edge toward the open side: 0 moves along the edge (the
@@ -49,12 +53,17 @@ pub struct Section {
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Validation {
+    /// The check ball's radius, mm.
     pub ball_radius_mm: f64,
+    /// The check ball's centre in the base frame, mm.
     pub position_mm: [f64; 3],
+    /// Rotation groups of the check scan.
     #[serde(default = "d_ten")]
     pub groups: usize,
+    /// Translations per group of the check scan.
     #[serde(default = "d_six")]
     pub translations: usize,
+    /// Noise on the check scan's arc points, mm (analytic).
     #[serde(default)]
     pub sigma_mm: f64,
 }

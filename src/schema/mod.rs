@@ -51,35 +51,52 @@ fn d_methods() -> Vec<MethodId> {
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
+    /// The scenario's name (the default output folder is out/NAME).
     pub name: String,
+    /// One line saying what the scenario studies.
     #[serde(default)]
     pub description: String,
+    /// The seed every random draw derives from.
     #[serde(default = "d_seed")]
     pub seed: u64,
+    /// The methods to run, e.g. disk, ball-refined, edge-any-pose.
     #[serde(default = "d_methods")]
     pub methods: Vec<MethodId>,
+    /// The robot ([robot]).
     pub robot: RobotSection,
+    /// The sensor and its true mounting ([sensor]).
     pub sensor: SensorSection,
+    /// The specimen and where it stands ([specimen]).
     pub specimen: SpecimenSection,
+    /// The table under the specimen ([table]).
     #[serde(default)]
     pub table: Option<TableSection>,
     // The methods' own sections (one line per specimen method).
+    /// The disk method's data collection ([disk]).
     #[serde(default)]
     pub disk: Option<disk::Section>,
+    /// The ball method's data collection ([ball]).
     #[serde(default)]
     pub ball: Option<ball::Section>,
+    /// The edge method's data collection ([edge]).
     #[serde(default)]
     pub edge: Option<edge::Section>,
+    /// The plane method's data collection ([plane]).
     #[serde(default)]
     pub plane: Option<plane::Section>,
+    /// The robot's pose error ([robot_error]).
     #[serde(default)]
     pub robot_error: Option<RobotErrorSection>,
+    /// The arm's vibration ([vibration]).
     #[serde(default)]
     pub vibration: Option<VibrationSection>,
+    /// The arm's dynamics ([dynamics]).
     #[serde(default)]
     pub dynamics: Option<DynamicsSection>,
+    /// Which physical causes of error to keep, and their scale ([causes]).
     #[serde(default)]
     pub causes: Option<CausesSection>,
+    /// The sweep: trials, grid and plot ([sweep]).
     #[serde(default)]
     pub sweep: Option<SweepSection>,
 }

@@ -11,5 +11,6 @@ pub struct Section {
     /// Where on the table generated poses aim (base frame x, y, mm).
     #[serde(default)]
     pub aim_mm: [f64; 2],
+    /// The poses ([plane.poses]: generated or listed).
     pub poses: PoseSet,
 }

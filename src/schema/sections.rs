@@ -51,6 +51,7 @@ pub struct SensorSection {
     /// Quantise z as the real sensor does.
     #[serde(default = "d_true")]
     pub quantise: bool,
+    /// The sensor's noise ([sensor.noise]); none when left out.
     #[serde(default)]
     pub noise: NoiseSection,
 }
@@ -58,22 +59,32 @@ pub struct SensorSection {
 #[derive(Debug, Clone, Deserialize, PartialEq, Default)]
 #[serde(deny_unknown_fields)]
 pub struct NoiseSection {
+    /// Gaussian z noise (one standard deviation, mm) at the near end of the range; it grows
+    /// linearly to z_sigma_far_mm at the far end.
     #[serde(default)]
     pub z_sigma_near_mm: f64,
+    /// Gaussian z noise (one standard deviation, mm) at the far end of the range.
     #[serde(default)]
     pub z_sigma_far_mm: f64,
+    /// Gaussian noise along the laser line (x), one standard deviation, mm.
     #[serde(default)]
     pub x_sigma_mm: f64,
+    /// Probability (0..1) that a point is missing.
     #[serde(default)]
     pub dropout: f64,
+    /// Probability (0..1) of an outlier on a specular surface (the ball).
     #[serde(default)]
     pub outlier_rate: f64,
+    /// The outliers' spread, one standard deviation, mm.
     #[serde(default)]
     pub outlier_amplitude_mm: f64,
+    /// Intensity (0..1) below which a point counts as dark.
     #[serde(default)]
     pub dark_threshold: f64,
+    /// A dark point's noise as a multiple of the normal noise.
     #[serde(default)]
     pub dark_noise_factor: f64,
+    /// Probability (0..1) that a dark point is missing.
     #[serde(default)]
     pub dark_dropout: f64,
 }
@@ -81,21 +92,34 @@ pub struct NoiseSection {
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct SpecimenSection {
-    /// disk-cylinder, disk-paper, ball, parallel-bar, scale, knife-blade.
+    /// The specimen: disk-cylinder, disk-paper, ball, parallel-bar, scale, knife-blade, ridge,
+    /// v-groove, fillet or step.
     pub kind: SpecimenType,
+    /// The specimen frame's origin in the base frame, mm (each kind's frame:
+    /// docs/guide/scenarios.md).
     pub position_mm: [f64; 3],
     /// Orientation (rx, ry, rz) degrees, R = Rz Ry Rx; for a disk its z axis is the normal.
     #[serde(default)]
     pub rpy_deg: [f64; 3],
+    /// A disk's or ball's radius, mm.
     pub radius_mm: Option<f64>,
+    /// A disk's cylinder, a bar's height, a ridge's or groove's depth or a step's riser, mm.
     pub height_mm: Option<f64>,
+    /// Half the side of a disk-paper's black square, mm.
     pub paper_half_mm: Option<f64>,
+    /// The ball's post radius, mm.
     pub post_radius_mm: Option<f64>,
+    /// The ball's post height below the ball, mm.
     pub post_height_mm: Option<f64>,
+    /// An edge specimen's length along its line, mm.
     pub length_mm: Option<f64>,
+    /// An edge specimen's width across its line (a fillet's face length from the corner), mm.
     pub width_mm: Option<f64>,
+    /// A scale's or knife blade's thickness, mm.
     pub thickness_mm: Option<f64>,
+    /// A knife blade's bevel width, mm.
     pub bevel_mm: Option<f64>,
+    /// Diffuse reflectance 0..1 (what the profile's intensity reports).
     pub reflectance: Option<f64>,
     /// Specimen imperfection: standard deviation of the true disk or ball radius around the nominal
     /// one (drawn per trial; the calibration is told the nominal radius).
@@ -103,7 +127,9 @@ pub struct SpecimenSection {
     /// Form tolerances, peak-to-valley (the form error's orientation is drawn per trial): disk
     /// flatness (a saddle warp), ball sphericity (an ellipsoid), edge straightness (a bow).
     pub flatness_mm: Option<f64>,
+    /// A ball's form error (an ellipsoid), peak to valley, mm.
     pub sphericity_mm: Option<f64>,
+    /// An edge specimen's line bowed by this much, peak to valley, mm.
     pub straightness_mm: Option<f64>,
     /// Radius to which a parallel bar's or scale's edge is rounded (ray-cast sources only).
     pub edge_radius_mm: Option<f64>,
@@ -274,7 +300,9 @@ impl SpecimenSection {
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct TableSection {
+    /// The table's height (z) in the base frame, mm.
     pub height_mm: f64,
+    /// The table's diffuse reflectance, 0..1.
     #[serde(default = "d_reflectance")]
     pub reflectance: f64,
 }
@@ -292,6 +320,7 @@ pub struct RobotErrorSection {
     /// Systematic kinematic error per trial: joint origin offsets and joint zero offsets (std).
     #[serde(default)]
     pub link_error_mm: f64,
+    /// Systematic joint zero offsets per trial, one standard deviation, deg.
     #[serde(default)]
     pub joint_offset_error_deg: f64,
 }
@@ -305,11 +334,13 @@ pub struct DynamicsSection {
     /// Servo gains (acceleration-based: 1/s^2 and 1/s).
     #[serde(default = "d_stiffness")]
     pub stiffness: f64,
+    /// Servo damping gain, 1/s.
     #[serde(default = "d_damping")]
     pub damping: f64,
     /// Joint speed as a fraction of the axis limits.
     #[serde(default = "d_speed")]
     pub speed_fraction: f64,
+    /// The dynamics' time step, ms.
     #[serde(default = "d_dt")]
     pub dt_ms: f64,
 }
@@ -333,7 +364,9 @@ fn d_dt() -> f64 {
 pub struct VibrationSection {
     /// RMS of the TCP displacement per axis.
     pub amplitude_mm: f64,
+    /// Lower end of the vibration's frequency band, Hz.
     pub band_low_hz: f64,
+    /// Upper end of the vibration's frequency band, Hz.
     pub band_high_hz: f64,
     /// The rate at which profiles are taken (the Gocator: about 170 Hz).
     pub profile_rate_hz: f64,
@@ -380,6 +413,8 @@ pub const CAUSES: &[&str] = &[
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct CausesSection {
+    /// Keep this cause alone: all, none, sensor, repeatability, encoder, kinematic, vibration or
+    /// specimen.
     #[serde(default = "d_all")]
     pub only: Cause,
     /// Multiplies the magnitude of every cause kept (1 = as configured).
@@ -397,6 +432,7 @@ fn d_scale() -> f64 {
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct SweepSection {
+    /// Trials per grid point.
     pub trials: usize,
     /// Dotted scenario keys and the values each takes; the sweep runs their Cartesian product.
     pub grid: toml::Table,
@@ -405,6 +441,7 @@ pub struct SweepSection {
     /// "independent": each point's trials draw their own.
     #[serde(default)]
     pub draws: Draws,
+    /// What plot.svg and plot.png draw ([sweep.plot]).
     #[serde(default)]
     pub plot: Option<PlotSection>,
 }
@@ -428,10 +465,13 @@ pub struct PlotSection {
     pub series: Option<String>,
     /// Summary column on the y axis, e.g. centre_error_mm_std.
     pub y: String,
+    /// A logarithmic x axis.
     #[serde(default)]
     pub log_x: bool,
+    /// A logarithmic y axis.
     #[serde(default)]
     pub log_y: bool,
+    /// The plot's title (default: the scenario's name and the keys).
     #[serde(default)]
     pub title: Option<String>,
     /// The paper figure or table the sweep reproduces: its published points are overlaid.

@@ -20,6 +20,7 @@ pub enum ZAxis {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GeometrySection {
+    /// The sensor's name in reports.
     #[serde(default = "d_name")]
     pub name: String,
     /// Points per profile (rays).
@@ -27,10 +28,12 @@ pub struct GeometrySection {
     /// How the rays are spaced: "equal-tan" (evenly in x at any one depth) or "equal-angle".
     #[serde(default = "d_spacing")]
     pub spacing: RaySpacing,
+    /// Which way the sensor's z axis points: away (from the sensor into the scene) or toward.
     pub z_axis: ZAxis,
     /// The fan: its apex on the sensor's z axis and its half angle...
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub apex_z_mm: Option<f64>,
+    /// The fan's half angle, deg (with apex_z_mm).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub half_angle_deg: Option<f64>,
     /// ...or the width of the line at two z values, [[z_mm, width_mm], [z_mm, width_mm]].
@@ -50,6 +53,7 @@ pub struct GeometrySection {
     /// instead of one per ray; absent: one point per ray.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub x_pitch_mm: Option<f64>,
+    /// Resampled output: x of the first slot, mm.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub x_offset_mm: f64,
 }
