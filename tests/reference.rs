@@ -1,9 +1,9 @@
-//! docs/reference/scenario.md, generated from the schema that validates scenario files: each
-//! section's keys, types, units, defaults and meanings come from the schema structs' fields and
-//! their doc comments (`src/schema/`), and the keys are checked against what the parser itself
-//! accepts. The test fails when the file is stale, when a key lacks a description, or when a
-//! number's unit is neither in its name nor in its description. `LASERCAL_BLESS=1 cargo test
-//! --test reference` rewrites the file.
+//! docs/reference/scenario.md and docs/reference/captures.md, generated from the schemas that
+//! read scenario and capture files: each section's keys, types, units, defaults and meanings come
+//! from the reading structs' fields and their doc comments (`src/schema/`, `src/io/captures.rs`),
+//! and the keys are checked against what the parsers themselves accept. The test fails when a
+//! file is stale, when a key lacks a description, or when a number's unit is neither in its name
+//! nor in its description. `LASERCAL_BLESS=1 cargo test --test reference` rewrites the files.
 
 use std::collections::BTreeSet;
 
@@ -17,67 +17,82 @@ struct SectionSpec {
 }
 
 const SECTIONS: &[SectionSpec] = &[
-    spec("", "mod.rs", "Scenario", "chen2018-disk.toml"),
-    spec("robot", "sections.rs", "RobotSection", "chen2018-disk.toml"),
+    spec("", "schema/mod.rs", "Scenario", "chen2018-disk.toml"),
+    spec(
+        "robot",
+        "schema/sections.rs",
+        "RobotSection",
+        "chen2018-disk.toml",
+    ),
     spec(
         "sensor",
-        "sections.rs",
+        "schema/sections.rs",
         "SensorSection",
         "chen2018-disk.toml",
     ),
     spec(
         "sensor.noise",
-        "sections.rs",
+        "schema/sections.rs",
         "NoiseSection",
         "ball-free.toml",
     ),
-    spec("sensor.geometry", "sensor.rs", "GeometrySection", ""),
+    spec("sensor.geometry", "schema/sensor.rs", "GeometrySection", ""),
     spec(
         "specimen",
-        "sections.rs",
+        "schema/sections.rs",
         "SpecimenSection",
         "chen2018-disk.toml",
     ),
-    spec("table", "sections.rs", "TableSection", "chen2018-disk.toml"),
-    spec("disk", "disk.rs", "Section", "chen2018-disk.toml"),
-    spec("ball", "ball.rs", "Section", "chen2018-ball.toml"),
-    spec("edge", "edge.rs", "Section", "xu2021-edge.toml"),
+    spec(
+        "table",
+        "schema/sections.rs",
+        "TableSection",
+        "chen2018-disk.toml",
+    ),
+    spec("disk", "schema/disk.rs", "Section", "chen2018-disk.toml"),
+    spec("ball", "schema/ball.rs", "Section", "chen2018-ball.toml"),
+    spec("edge", "schema/edge.rs", "Section", "xu2021-edge.toml"),
     spec(
         "edge.validation",
-        "edge.rs",
+        "schema/edge.rs",
         "Validation",
         "xu2021-rotations.toml",
     ),
-    spec("plane", "plane.rs", "Section", "plane-8-poses.toml"),
-    spec("plane.poses", "poses.rs", "PoseSet", "plane-8-poses.toml"),
+    spec("plane", "schema/plane.rs", "Section", "plane-8-poses.toml"),
+    spec(
+        "plane.poses",
+        "schema/poses.rs",
+        "PoseSet",
+        "plane-8-poses.toml",
+    ),
     spec(
         "robot_error",
-        "sections.rs",
+        "schema/sections.rs",
         "RobotErrorSection",
         "disk-robot-error.toml",
     ),
     spec(
         "vibration",
-        "sections.rs",
+        "schema/sections.rs",
         "VibrationSection",
         "disk-robot-error.toml",
     ),
-    spec("dynamics", "sections.rs", "DynamicsSection", ""),
+    spec("dynamics", "schema/sections.rs", "DynamicsSection", ""),
     spec(
         "causes",
-        "sections.rs",
+        "schema/sections.rs",
         "CausesSection",
         "ridge-16-poses.toml",
     ),
     spec(
         "sweep",
-        "sections.rs",
+        "schema/sections.rs",
         "SweepSection",
         "chen2018-fig15.toml",
     ),
     spec(
         "sweep.plot",
-        "sections.rs",
+        "schema/sections.rs",
         "PlotSection",
         "chen2018-fig15.toml",
     ),
@@ -109,9 +124,9 @@ fn root() -> &'static str {
     env!("CARGO_MANIFEST_DIR")
 }
 
-/// The fields of `strukt` in `src/schema/FILE`, with their doc comments and serde defaults.
+/// The fields of `strukt` in `src/FILE`, with their doc comments and serde defaults.
 fn fields(file: &str, strukt: &str) -> Vec<Field> {
-    let text = std::fs::read_to_string(format!("{}/src/schema/{file}", root())).unwrap();
+    let text = std::fs::read_to_string(format!("{}/src/{file}", root())).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     let start = lines
         .iter()
@@ -119,6 +134,7 @@ fn fields(file: &str, strukt: &str) -> Vec<Field> {
             let t = l.trim_start();
             t.starts_with(&format!("pub struct {strukt} "))
                 || t.starts_with(&format!("struct {strukt} "))
+                || t.starts_with(&format!("pub(crate) struct {strukt} "))
         })
         .unwrap_or_else(|| panic!("no struct {strukt} in {file}"));
     let mut out = Vec::new();
@@ -138,7 +154,11 @@ fn fields(file: &str, strukt: &str) -> Vec<Field> {
                 default = Some(String::new());
             }
         } else if t.starts_with("//") || t.is_empty() || t.starts_with("#[") {
-        } else if let Some((name, ty)) = t.trim_start_matches("pub ").split_once(": ") {
+        } else if let Some((name, ty)) = t
+            .trim_start_matches("pub(crate) ")
+            .trim_start_matches("pub ")
+            .split_once(": ")
+        {
             let ty = ty.trim_end_matches(',').to_string();
             let default = match default.take() {
                 Some(d) if !d.is_empty() => d,
@@ -241,6 +261,9 @@ fn kind_of(ty: &str) -> String {
         t if t.starts_with("Vec<[f64; ") => format!("list of [{} numbers]", &t[10..t.len() - 2]),
         t if t.starts_with("Vec<") => "list".into(),
         "[[f64; 3]; 3]" => "3 x 3 numbers".into(),
+        "[[f64; 4]; 4]" => "4 x 4 numbers".into(),
+        "SensorV1" => "name or object".into(),
+        t if t.ends_with("V1") => "object".into(),
         "[[f64; 2]; 2]" => "2 x 2 numbers".into(),
         t if t.starts_with("[f64; ") => format!("{} numbers", &t[6..t.len() - 1]),
         t if t.contains("Section") || t.contains("PoseSet") || t.contains("Validation") => {
@@ -304,22 +327,14 @@ fn accepted(section: &SectionSpec) -> Option<BTreeSet<String>> {
     )
 }
 
-fn generate() -> String {
-    let mut s = String::from(
-        "# Scenario file reference\n\nGenerated from the schema that reads scenario files \
-         (`src/schema/`) by `tests/reference.rs`, which fails when this file is stale, when a \
-         key has no description or when a number's unit is neither in its name nor in its \
-         description; `LASERCAL_BLESS=1 cargo test --test reference` rewrites it. Lengths are \
-         mm and angles deg or rad as each name says; unknown keys are errors. Worked examples: \
-         [the guide](../guide/scenarios.md) and `scenarios/`. The pose sets of `[disk.poses]`, \
-         `[ball.poses]` and `[edge.poses]` take the keys of `[plane.poses]`; `[ball.specimen]` \
-         and `[edge.specimen]` those of `[specimen]`.\n",
-    );
-    for section in SECTIONS {
-        let title = if section.path.is_empty() {
-            "top level".to_string()
-        } else {
-            format!("[{}]", section.path)
+/// One table per section: key, value, unit, default, meaning.
+fn tables(sections: &[SectionSpec], top: &str, toml: bool) -> String {
+    let mut s = String::new();
+    for section in sections {
+        let title = match (section.path.is_empty(), toml) {
+            (true, _) => top.to_string(),
+            (false, true) => format!("[{}]", section.path),
+            (false, false) => format!("`{}`", section.path),
         };
         s += &format!(
             "\n## {title}\n\n| key | value | unit | default | meaning |\n|---|---|---|---|---|\n"
@@ -338,23 +353,98 @@ fn generate() -> String {
     s
 }
 
-#[test]
-fn the_scenario_reference_is_current_and_complete() {
-    let mut problems = Vec::new();
-    for section in SECTIONS {
+fn generate() -> String {
+    String::from(
+        "# Scenario file reference\n\nGenerated from the schema that reads scenario files \
+         (`src/schema/`) by `tests/reference.rs`, which fails when this file is stale, when a \
+         key has no description or when a number's unit is neither in its name nor in its \
+         description; `LASERCAL_BLESS=1 cargo test --test reference` rewrites it. Lengths are \
+         mm and angles deg or rad as each name says; unknown keys are errors. Worked examples: \
+         [the guide](../guide/scenarios.md) and `scenarios/`. The pose sets of `[disk.poses]`, \
+         `[ball.poses]` and `[edge.poses]` take the keys of `[plane.poses]`; `[ball.specimen]` \
+         and `[edge.specimen]` those of `[specimen]`.\n",
+    ) + &tables(SECTIONS, "top level", true)
+}
+
+/// The capture file's objects (JSON), as `io::captures` reads them.
+const CAPTURE_SECTIONS: &[SectionSpec] = &[
+    spec("", "io/captures.rs", "FileV1", "file"),
+    spec("sensor.points_only", "io/captures.rs", "PointsOnlyV1", ""),
+    spec("sensor_noise", "io/captures.rs", "NoiseV1", "sensor_noise"),
+    spec("specimen", "io/captures.rs", "SpecimenV1", "specimen"),
+    spec("groups[]", "io/captures.rs", "GroupV1", "groups"),
+    spec("profiles[]", "io/captures.rs", "ProfileV1", "profiles"),
+    spec("profiles[].circle_mm", "io/captures.rs", "CircleV1", ""),
+];
+
+/// The keys `from_json` accepts in one object of a simulated capture file (its "expected one
+/// of" list for an unknown key).
+fn accepted_in_captures(
+    section: &SectionSpec,
+    doc: &serde_json::Value,
+) -> Option<BTreeSet<String>> {
+    let mut doc = doc.clone();
+    let target = match section.base {
+        "" => return None,
+        "file" => &mut doc,
+        "groups" => &mut doc["groups"][0],
+        "profiles" => &mut doc["profiles"][0],
+        key => &mut doc[key],
+    };
+    target
+        .as_object_mut()
+        .unwrap_or_else(|| panic!("{}: not an object in the probe file", section.path))
+        .insert("zzz_unknown_key".into(), serde_json::json!(1));
+    let e = lasercal::io::captures::from_json(&doc.to_string(), "probe.json")
+        .err()
+        .unwrap_or_else(|| panic!("{}: the probe key was accepted", section.path))
+        .to_string();
+    let list = e
+        .split("zzz_unknown_key`, expected ")
+        .nth(1)
+        .unwrap_or_else(|| panic!("{}: {e}", section.path));
+    Some(
+        list.split('`')
+            .skip(1)
+            .step_by(2)
+            .map(str::to_string)
+            .collect(),
+    )
+}
+
+fn generate_captures() -> String {
+    String::from(
+        "# Capture file reference\n\nGenerated from the structs that read capture files \
+         (`src/io/captures.rs`) by `tests/reference.rs`, as `scenario.md` is. A capture file is \
+         JSON; positions are mm in the base frame (flange poses) or the sensor frame (profile \
+         points). How the fields work together, with an example: [captures.md](../captures.md). \
+         `sensor` is a preset's name, a declared geometry (the keys of a scenario's \
+         `[sensor.geometry]`, [scenario.md](scenario.md)), `\"points-only\"` or an object with \
+         `points_only`.\n",
+    ) + &tables(CAPTURE_SECTIONS, "the file", false)
+}
+
+/// Each section's problems: keys the parser takes that the struct scan missed (or the reverse),
+/// keys without a description, numbers without a unit.
+fn check(
+    sections: &[SectionSpec],
+    accepted: &dyn Fn(&SectionSpec) -> Option<BTreeSet<String>>,
+    problems: &mut Vec<String>,
+) {
+    for section in sections {
         let fields = fields(section.file, section.strukt);
         let names: BTreeSet<String> = fields.iter().map(|f| f.name.clone()).collect();
         if let Some(keys) = accepted(section) {
             if keys != names {
                 problems.push(format!(
-                    "[{}]: the parser takes {keys:?}, the reference lists {names:?}",
+                    "{}: the parser takes {keys:?}, the reference lists {names:?}",
                     section.path
                 ));
             }
         }
         for f in &fields {
             if f.doc.is_empty() {
-                problems.push(format!("[{}] {}: no description", section.path, f.name));
+                problems.push(format!("{} {}: no description", section.path, f.name));
             }
             // A number with no unit in its name says in its description what it is measured in.
             let number = kind_of(&f.ty).contains("number");
@@ -373,26 +463,57 @@ fn the_scenario_reference_is_current_and_complete() {
                 "multiplies",
                 "matrix",
                 "direction",
+                "quaternion",
+                "+1 or -1",
             ];
             let doc = f.doc.to_lowercase();
             if number && unit_of(&f.name).is_empty() && !words.iter().any(|w| doc.contains(w)) {
                 problems.push(format!(
-                    "[{}] {}: a number with no unit in its name or description",
+                    "{} {}: a number with no unit in its name or description",
                     section.path, f.name
                 ));
             }
         }
     }
-    assert!(problems.is_empty(), "{}", problems.join("\n"));
-    let path = format!("{}/docs/reference/scenario.md", root());
-    let text = generate();
+}
+
+/// `text` is what `docs/reference/NAME` holds (rewritten first under LASERCAL_BLESS).
+fn assert_current(name: &str, text: &str) {
+    let path = format!("{}/docs/reference/{name}", root());
     if std::env::var_os("LASERCAL_BLESS").is_some() {
         std::fs::create_dir_all(format!("{}/docs/reference", root())).unwrap();
-        std::fs::write(&path, &text).unwrap();
+        std::fs::write(&path, text).unwrap();
     }
     let on_disk = std::fs::read_to_string(&path).unwrap_or_default();
     assert!(
         on_disk == text,
-        "docs/reference/scenario.md is stale: LASERCAL_BLESS=1 cargo test --test reference"
+        "docs/reference/{name} is stale: LASERCAL_BLESS=1 cargo test --test reference"
     );
+}
+
+#[test]
+fn the_references_are_current_and_complete() {
+    let mut problems = Vec::new();
+    check(SECTIONS, &accepted, &mut problems);
+    // A simulated capture file of raw ball profiles, for asking the capture parser.
+    let sf = lasercal::scenario::ScenarioFile::load(std::path::Path::new(&format!(
+        "{}/scenarios/ball-free.toml",
+        root()
+    )))
+    .unwrap();
+    let setup = sf.scenario.build(&sf.file).unwrap();
+    let kind = sf.scenario.methods[0].kind;
+    let caps = lasercal::trial::trial_captures(&setup, kind, 1, 0)
+        .0
+        .unwrap();
+    let doc: serde_json::Value =
+        serde_json::from_str(&lasercal::io::captures::to_json(&caps, &setup.rig.sensor)).unwrap();
+    check(
+        CAPTURE_SECTIONS,
+        &|s| accepted_in_captures(s, &doc),
+        &mut problems,
+    );
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+    assert_current("scenario.md", &generate());
+    assert_current("captures.md", &generate_captures());
 }

@@ -18,17 +18,27 @@ pub const VERSION: u32 = 1;
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct FileV1 {
+    /// Always "lasercal-captures".
     format: String,
+    /// The format version: 1.
     version: u32,
+    /// The specimen method the captures are for: disk, ball, edge or plane.
     method: String,
-    /// None: a sensor known only by its points (as `"points-only"`).
+    /// The sensor: a preset's name, its declared geometry, `"points-only"` or
+    /// `{"points_only": {"z_axis": ...}}`; left out, a sensor known only by its points.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     sensor: Option<SensorV1>,
+    /// The sensor's noise figures (mm); left out, the noise is measured from the raw profiles.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     sensor_noise: Option<NoiseV1>,
+    /// The specimen's kind and, for a disk or ball, its radius.
     specimen: SpecimenV1,
+    /// Edge: whether the profiles cross the edge falling (off the face) or rising; inferred when
+    /// left out.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     edge_sense: Option<EdgeSense>,
+    /// The true mounting (4x4 row-major, mm) when known (a simulation): the errors against it are
+    /// printed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     truth_flange_to_sensor_mm: Option<[[f64; 4]; 4]>,
     /// The mounting as drawn (4x4, mm): a result far from it is suspect (a mirrored sensor).
@@ -44,6 +54,7 @@ struct FileV1 {
     /// The verdict's tolerance on the 95 % error bound (deg, mm; defaults 0.5 and 0.5).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     tolerance_deg: Option<f64>,
+    /// The verdict's tolerance on the translation's 95 % error bound, mm (default 0.5).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     tolerance_mm: Option<f64>,
     /// The robot's pose accuracy (mm, one standard deviation of a point's offset) the residual
@@ -54,7 +65,9 @@ struct FileV1 {
     /// each profile naming its row.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     points_file: Option<String>,
+    /// The capture groups (scans, rotation sets, poses), each with its role and sign.
     groups: Vec<GroupV1>,
+    /// One record per profile: its group, the flange pose and the profile or its feature.
     profiles: Vec<ProfileV1>,
 }
 
@@ -75,6 +88,8 @@ pub const POINTS_ONLY: &str = "points-only";
 #[derive(Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct PointsOnlyV1 {
+    /// Which way the sensor's z axis points: away or toward (needed for a disk's or an edge's raw
+    /// profiles).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     z_axis: Option<ZAxis>,
 }
@@ -82,9 +97,13 @@ struct PointsOnlyV1 {
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct NoiseV1 {
+    /// Gaussian z noise at the near end of the range, one standard deviation, mm.
     z_sigma_near_mm: f64,
+    /// Gaussian z noise at the far end of the range, mm.
     z_sigma_far_mm: f64,
+    /// Gaussian noise along the laser line, mm.
     x_sigma_mm: f64,
+    /// A dark point's noise as a multiple of the normal noise.
     #[serde(default)]
     dark_noise_factor: f64,
     /// 0: continuous z.
@@ -94,7 +113,10 @@ struct NoiseV1 {
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SpecimenV1 {
+    /// The specimen: disk-cylinder, disk-paper, ball, parallel-bar, scale, knife-blade, ridge,
+    /// v-groove, fillet, step or plane.
     kind: SpecimenType,
+    /// A disk's or ball's radius, mm.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     radius_mm: Option<f64>,
 }
@@ -102,8 +124,13 @@ struct SpecimenV1 {
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct GroupV1 {
+    /// The group's number, which profiles name.
     id: usize,
+    /// scan (disk), rotation or translation (ball), rotation-group (edge), or pose (one profile
+    /// each).
     role: Role,
+    /// The group sign s_i (+1 or -1; 0 or left out: not recorded, inferred where the data tell
+    /// it).
     #[serde(default)]
     sign: f64,
 }
@@ -111,18 +138,26 @@ struct GroupV1 {
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct CircleV1 {
+    /// The arc circle's centre (x, z) in the sensor frame, mm.
     centre: [f64; 2],
+    /// The arc circle's radius, mm.
     radius: f64,
 }
 
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ProfileV1 {
+    /// The id of the group the profile belongs to.
     group: usize,
+    /// The flange (tool0) position in the base frame, mm.
     tcp_position_mm: [f64; 3],
+    /// The flange orientation as a unit quaternion (w, x, y, z).
     tcp_quaternion_wxyz: [f64; 4],
+    /// The raw profile: one [x, z] per sensor column in the sensor frame (mm), null where the
+    /// sensor saw nothing.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     points_mm: Option<Vec<Option<[f64; 2]>>>,
+    /// Each entry's intensity (0..1), null where there is no point.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     intensity: Option<Vec<Option<f64>>>,
     /// The sensor column of each entry of points_mm, when the list is not one entry per column.
@@ -135,12 +170,16 @@ struct ProfileV1 {
     /// How many entries of that row are this profile's, when fewer than the row's width.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     points_len: Option<usize>,
+    /// Disk: the chord's two ends [[x, z], [x, z]] in the sensor frame, mm.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     chord_mm: Option<[[f64; 2]; 2]>,
+    /// Ball: the arc circle fitted in the sensor frame.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     circle_mm: Option<CircleV1>,
+    /// Ball: the arc's points [[x, z], ...] in the sensor frame, mm.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     arc_mm: Option<Vec<[f64; 2]>>,
+    /// Edge: the edge point [x, z] in the sensor frame, mm.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     edge_point_mm: Option<[f64; 2]>,
 }
