@@ -185,7 +185,7 @@ fn ball_raycast_recovers_truth() {
 fn reduced_fig17_sweep_more_arcs_do_not_help() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/chen2018-ball.toml");
     let text = format!(
-        "{}\n[sweep]\ntrials = 150\n[sweep.grid]\n\"ball.sigma_mm\" = [0.2, 0.6]\n\"ball.arcs\" = [1, 4, 16]\n",
+        "{}\n[sweep]\ntrials = 150\ndraws = \"common\"\n[sweep.grid]\n\"ball.sigma_mm\" = [0.2, 0.6]\n\"ball.arcs\" = [1, 4, 16]\n",
         std::fs::read_to_string(path).unwrap()
     );
     let sf = ScenarioFile::parse(&text, "fig17.toml").unwrap();

@@ -31,7 +31,9 @@ fn sweepable(path: &Path, tmp: &Path) -> PathBuf {
     let copy = tmp.join(path.file_name().unwrap());
     std::fs::write(
         &copy,
-        format!("{text}\n[sweep]\ntrials = 2\n[sweep.grid]\n\"seed\" = [{seed}]\n"),
+        format!(
+            "{text}\n[sweep]\ntrials = 2\ndraws = \"common\"\n[sweep.grid]\n\"seed\" = [{seed}]\n"
+        ),
     )
     .unwrap();
     copy

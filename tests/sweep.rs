@@ -114,11 +114,12 @@ fn results_do_not_depend_on_thread_count() {
         )
     };
     assert_eq!(bytes(&one), bytes(&four));
-    // And a trial is the same whether run alone or in a sweep.
+    // And a trial is the same whether run alone (with its point's seed) or in a sweep.
     let sf = ScenarioFile::parse(&text, "t.toml").unwrap();
     let p = &sf.point(1).unwrap();
     let setup = p.scenario.build(&sf.file).unwrap();
-    let alone = run_trial(&setup, "disk".parse().unwrap(), sf.scenario.seed, 17);
+    let seed = sweep::point_seed(&SweepPlan::new(&sf, Some(40), None), &p.values);
+    let alone = run_trial(&setup, "disk".parse().unwrap(), seed, 17);
     assert_eq!(
         alone,
         one.0
@@ -231,18 +232,18 @@ fn cli_sweep_writes_csvs_and_plots() {
     assert!(err.contains("no [sweep] section"), "{err}");
 }
 
-/// `[sweep] draws`: common (the default) gives trial t the same draws at every grid point, so the
-/// analytic disk's errors at sigma 0.2 and 0.4 move together trial by trial (correlation near 1);
-/// independent gives each point its own (derived from its grid values; no correlation), the same
-/// for any thread count.
+/// `[sweep] draws`: independent (the default) gives each grid point its own draws (derived from
+/// its grid values), so the analytic disk's errors at sigma 0.2 and 0.4 are uncorrelated trial by
+/// trial, the same for any thread count; common gives trial t the same draws at every point
+/// (correlation near 1).
 #[test]
 fn grid_points_share_draws_only_when_asked() {
     let grid = "[sweep.grid]\n\"disk.sigma_mm\" = [0.2, 0.4]\n";
-    let common = format!("{}\n[sweep]\ntrials = 30\n{grid}", base());
-    let independent = format!(
-        "{}\n[sweep]\ntrials = 30\ndraws = \"independent\"\n{grid}",
+    let common = format!(
+        "{}\n[sweep]\ntrials = 30\ndraws = \"common\"\n{grid}",
         base()
     );
+    let independent = format!("{}\n[sweep]\ntrials = 30\n{grid}", base());
     let correlation_of = |text: &str| -> f64 {
         let (rows, _) = run_sweep(text, 30);
         let err = |p: usize, t: u64| {

@@ -436,9 +436,9 @@ pub struct SweepSection {
     pub trials: usize,
     /// Dotted scenario keys and the values each takes; the sweep runs their Cartesian product.
     pub grid: toml::Table,
-    /// "common": trial t draws the same numbers at every grid point (common random numbers:
-    /// differences between points are sharper, but every point's estimate errs alike);
-    /// "independent": each point's trials draw their own.
+    /// "independent" (the default): each grid point's trials draw their own numbers; "common":
+    /// trial t draws the same numbers at every point (common random numbers: differences between
+    /// points are sharper, but every point's estimate errs alike).
     #[serde(default)]
     pub draws: Draws,
     /// What plot.svg and plot.png draw ([sweep.plot]).
@@ -450,8 +450,8 @@ pub struct SweepSection {
 #[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "kebab-case")]
 pub enum Draws {
-    #[default]
     Common,
+    #[default]
     Independent,
 }
 
