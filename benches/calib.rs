@@ -53,8 +53,9 @@ fn bench(c: &mut Criterion) {
             b.iter(|| black_box(lasercal::method::calibrate(black_box(&caps), sensor)))
         });
         let opts = lasercal::calib::refine::Options::default();
+        let kind = caps.method;
         c.bench_function(&format!("refine/{method}_refinement"), |b| {
-            b.iter(|| black_box(black_box(&cal).refine(&opts)))
+            b.iter(|| black_box(black_box(&cal).refine(kind, &opts)))
         });
     }
 

@@ -154,10 +154,11 @@ pub enum CaptureError {
     #[error("an arc of {points} points has no circle")]
     NoCircle { points: usize },
     #[error(
-        "the joint refinement needs the raw features (chord ends, arc points or edge points); \
-         these captures hold reduced ones (ball circles): record arc_mm or points_mm"
+        "{method}: the joint refinement needs the raw features (chord ends, arc points, edge \
+         points or profile points); these captures hold only reduced ones: record points_mm \
+         (or, for a ball, arc_mm)"
     )]
-    NoRawFeatures,
+    NoRawFeatures { method: Kind },
     #[error(
         "{method}: {kept} groups with at least {per_feature} features each, {need} needed by the \
          closed form's protocol (`{method}-any-pose` takes any poses): {groups}"

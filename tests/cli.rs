@@ -220,3 +220,37 @@ fn new_writes_a_starter_scenario_that_runs_as_written() {
         assert!(err.contains(want), "{a:?}: {err}");
     }
 }
+
+#[test]
+fn outputs_carry_no_float_noise_and_errors_name_the_key_to_edit() {
+    // A quantised z of -5.174 mm is written as such, and no value carries more digits than a
+    // picometre needs.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("scan.csv");
+    let (code, _, err) = lasercal(&[
+        "scan",
+        &common::scen("chen2018-disk-raycast.toml"),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let text = std::fs::read_to_string(&out).unwrap();
+    for cell in text.lines().skip(1).flat_map(|l| l.split(',')) {
+        let decimals = cell.split('.').nth(1).map_or(0, str::len);
+        assert!(decimals <= 9, "float noise: {cell}");
+    }
+    // A specimen out of the arm's reach: the error names the key that places it.
+    let path = common::scen("chen2018-disk.toml");
+    let moved = std::fs::read_to_string(&path).unwrap().replace(
+        "position_mm = [-319.622, -304.086, 11.48]",
+        "position_mm = [-1319.622, -304.086, 11.48]",
+    );
+    let file = dir.path().join("far.toml");
+    std::fs::write(&file, moved).unwrap();
+    let (code, _, err) = lasercal(&["run", file.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("not reachable") && err.contains("position_mm"),
+        "{err}"
+    );
+}

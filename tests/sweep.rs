@@ -298,3 +298,29 @@ fn correlation(a: &[f64], b: &[f64]) -> f64 {
     let vb: f64 = b.iter().map(|y| (y - mb).powi(2)).sum();
     cov / (va * vb).sqrt()
 }
+
+/// summary.csv leaves out a metric no result has (a disk sweep's edge figures and sphere radius)
+/// instead of columns of NaN; every column it keeps has a number somewhere.
+#[test]
+fn summary_columns_hold_numbers() {
+    let text = format!(
+        "{}\n[sweep]\ntrials = 4\n[sweep.grid]\n\"disk.sigma_mm\" = [0.1, 0.2]\n",
+        base()
+    );
+    let (_, summary) = run_sweep(&text, 4);
+    let keys = vec!["disk.sigma_mm".to_string()];
+    let bytes = lasercal::io::csv::summary(&keys, &summary).unwrap();
+    let mut rd = csv::Reader::from_reader(bytes.as_slice());
+    let header = rd.headers().unwrap().clone();
+    let rows: Vec<csv::StringRecord> = rd.records().map(|r| r.unwrap()).collect();
+    assert!(
+        !header.iter().any(|h| h.starts_with("edge_angle_dev")),
+        "{header:?}"
+    );
+    for (k, h) in header.iter().enumerate() {
+        assert!(
+            rows.iter().any(|r| r[k] != *"NaN"),
+            "column {h} is NaN in every row"
+        );
+    }
+}

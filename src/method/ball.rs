@@ -550,7 +550,9 @@ fn any_pose(
                 let points = match &p.data {
                     ProfileData::Arc(a) => a.clone(),
                     ProfileData::Raw(prof) => features::arc_points(prof, &circle),
-                    _ => return Err(CaptureError::NoRawFeatures),
+                    _ => {
+                        return Err(CaptureError::NoRawFeatures { method: Kind::Ball });
+                    }
                 };
                 Ok(crate::calib::ball_any::ArcView {
                     base_to_flange: p.base_to_flange,
@@ -559,8 +561,8 @@ fn any_pose(
                     points,
                 })
             });
-            if matches!(view, Err(CaptureError::NoRawFeatures)) {
-                return Err(CaptureError::NoRawFeatures.into());
+            if matches!(view, Err(CaptureError::NoRawFeatures { .. })) {
+                return Err(CaptureError::NoRawFeatures { method: Kind::Ball }.into());
             }
             report.count(&view);
             if let Ok(v) = view {

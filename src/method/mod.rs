@@ -736,9 +736,13 @@ impl Calibration {
         }
     }
 
-    /// Refine jointly over the raw features (see `calib::refine`).
-    pub fn refine(&self, opts: &Options) -> Result<Refined, Error> {
-        let r = self.refinable.as_ref().ok_or(CaptureError::NoRawFeatures)?;
+    /// Refine jointly over the raw features (see `calib::refine`); `kind` names the method in
+    /// the error when there are none.
+    pub fn refine(&self, kind: Kind, opts: &Options) -> Result<Refined, Error> {
+        let r = self
+            .refinable
+            .as_ref()
+            .ok_or(CaptureError::NoRawFeatures { method: kind })?;
         Ok(r.refine(&self.flange_to_sensor, opts)?)
     }
 }
@@ -824,7 +828,7 @@ pub fn estimate(
                     .ok_or(CaptureError::NoFullProfile { method: id.kind })?;
                 p.refine(&cal.flange_to_sensor, &refine_options(id.estimator))?
             } else {
-                cal.refine(&refine_options(id.estimator))?
+                cal.refine(id.kind, &refine_options(id.estimator))?
             };
             cal.flange_to_sensor = r.flange_to_sensor;
             cal.status = r.status;
