@@ -1933,7 +1933,6 @@ fn the_ball_closed_form_runs_on_labels_the_data_determine() {
 /// the labelled file gives.
 #[test]
 fn the_disk_closed_form_finds_its_scans_and_signs() {
-    use lasercal::captures::Role;
     let sf = lasercal::scenario::ScenarioFile::load(std::path::Path::new(&common::scen(
         "chen2018-disk-raycast.toml",
     )))
@@ -1943,17 +1942,7 @@ fn the_disk_closed_form_finds_its_scans_and_signs() {
         .0
         .unwrap();
     assert!(caps.groups.iter().all(|g| g.sign.abs() == 1.0));
-    let mut bare = caps.clone();
-    for (i, p) in bare.profiles.iter_mut().enumerate() {
-        p.group = i;
-    }
-    bare.groups = (0..bare.profiles.len())
-        .map(|id| Group {
-            id,
-            role: Role::Pose,
-            sign: 0.0,
-        })
-        .collect();
+    let bare = one_group_per_pose(&caps);
     let id = MethodId::new(Kind::Disk, Estimator::ClosedForm);
     let (a, _) = lasercal::method::estimate(id, &caps, &setup.rig.sensor).unwrap();
     let (b, _) = lasercal::method::estimate(id, &bare, &setup.rig.sensor).unwrap();
@@ -1970,7 +1959,6 @@ fn the_disk_closed_form_finds_its_scans_and_signs() {
 /// or more profiles, the closed form says what it needs and names the any-pose estimator.
 #[test]
 fn the_edge_closed_form_finds_its_rotation_groups() {
-    use lasercal::captures::Role;
     let sf = lasercal::scenario::ScenarioFile::load(std::path::Path::new(&common::scen(
         "xu2021-edge.toml",
     )))
@@ -1980,24 +1968,11 @@ fn the_edge_closed_form_finds_its_rotation_groups() {
         .0
         .unwrap();
     assert!(caps.groups.len() >= 2);
-    let bare = |caps: &lasercal::captures::Captures| {
-        let mut bare = caps.clone();
-        for (i, p) in bare.profiles.iter_mut().enumerate() {
-            p.group = i;
-        }
-        bare.groups = (0..bare.profiles.len())
-            .map(|id| Group {
-                id,
-                role: Role::Pose,
-                sign: 0.0,
-            })
-            .collect();
-        bare
-    };
     for e in [Estimator::ClosedForm, Estimator::Refined] {
         let id = MethodId::new(Kind::Edge, e);
         let (a, _) = lasercal::method::estimate(id, &caps, &setup.rig.sensor).unwrap();
-        let (b, _) = lasercal::method::estimate(id, &bare(&caps), &setup.rig.sensor).unwrap();
+        let (b, _) =
+            lasercal::method::estimate(id, &one_group_per_pose(&caps), &setup.rig.sensor).unwrap();
         let err = PoseError::between(&a.flange_to_sensor, &b.flange_to_sensor);
         assert!(
             err.rotation_error_deg < 1e-12 && err.translation_error_mm < 1e-12,
@@ -2012,11 +1987,27 @@ fn the_edge_closed_form_finds_its_rotation_groups() {
         .retain(|p| p.group == first || seen.insert(p.group));
     let e = lasercal::method::estimate(
         MethodId::new(Kind::Edge, Estimator::ClosedForm),
-        &bare(&one),
+        &one_group_per_pose(&one),
         &setup.rig.sensor,
     )
     .err()
     .expect("refused")
     .to_string();
     assert!(e.contains("1 groups") && e.contains("edge-any-pose"), "{e}");
+}
+
+/// Captures as an import writes them: one `pose` group per profile, no roles, no signs.
+fn one_group_per_pose(caps: &Captures) -> Captures {
+    let mut bare = caps.clone();
+    for (i, p) in bare.profiles.iter_mut().enumerate() {
+        p.group = i;
+    }
+    bare.groups = (0..bare.profiles.len())
+        .map(|id| Group {
+            id,
+            role: lasercal::captures::Role::Pose,
+            sign: 0.0,
+        })
+        .collect();
+    bare
 }
