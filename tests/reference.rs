@@ -308,23 +308,26 @@ fn accepted(section: &SectionSpec) -> Option<BTreeSet<String>> {
     };
     let e = lasercal::scenario::ScenarioFile::parse(&text, "probe.toml")
         .err()
-        .unwrap_or_else(|| panic!("[{}]: the probe key was accepted", section.path))
-        .to_string();
-    // "expected `a`", "expected `a` or `b`", "expected one of `a`, `b`, ...".
+        .map(|e| e.to_string());
+    Some(expected_keys(e, section.path))
+}
+
+/// The keys a parser's error for the probe key says it expected: "expected `a`", "expected `a`
+/// or `b`", "expected one of `a`, `b`, ...". `error` is None when the probe was accepted.
+fn expected_keys(error: Option<String>, section: &str) -> BTreeSet<String> {
+    let e = error.unwrap_or_else(|| panic!("{section}: the probe key was accepted"));
     let list = e
         .split("zzz_unknown_key`, expected ")
         .nth(1)
-        .unwrap_or_else(|| panic!("[{}]: {e}", section.path));
-    Some(
-        list.lines()
-            .next()
-            .unwrap_or("")
-            .split('`')
-            .skip(1)
-            .step_by(2)
-            .map(str::to_string)
-            .collect(),
-    )
+        .unwrap_or_else(|| panic!("{section}: {e}"));
+    list.lines()
+        .next()
+        .unwrap_or("")
+        .split('`')
+        .skip(1)
+        .step_by(2)
+        .map(str::to_string)
+        .collect()
 }
 
 /// One table per section: key, value, unit, default, meaning.
@@ -397,19 +400,8 @@ fn accepted_in_captures(
         .insert("zzz_unknown_key".into(), serde_json::json!(1));
     let e = lasercal::io::captures::from_json(&doc.to_string(), "probe.json")
         .err()
-        .unwrap_or_else(|| panic!("{}: the probe key was accepted", section.path))
-        .to_string();
-    let list = e
-        .split("zzz_unknown_key`, expected ")
-        .nth(1)
-        .unwrap_or_else(|| panic!("{}: {e}", section.path));
-    Some(
-        list.split('`')
-            .skip(1)
-            .step_by(2)
-            .map(str::to_string)
-            .collect(),
-    )
+        .map(|e| e.to_string());
+    Some(expected_keys(e, section.path))
 }
 
 fn generate_captures() -> String {
