@@ -210,9 +210,15 @@ pub fn scores(r: &DVector<f64>, j: &DMatrix<f64>, clusters: &[u32], g: usize) ->
     for k in 0..p {
         let col = &j.as_slice()[k * n..(k + 1) * n];
         for &(a, b, cl) in &runs {
-            // `dot`: a short run (a chord end's rows) is summed in row order, a long one (an
-            // arc's points) with eight partial sums.
-            sums[cl * p + k] += super::dot(&col[a..b], &rs[a..b]);
+            // A short run (a chord end's rows) in row order, here rather than in a call per run
+            // (the same bits as `dot`, which sums fewer than eight rows so); a long one (an
+            // arc's points) with `dot`'s eight partial sums.
+            let (x, y) = (&col[a..b], &rs[a..b]);
+            sums[cl * p + k] += if x.len() < 8 {
+                x.iter().zip(y).fold(0.0, |s, (x, y)| s + x * y)
+            } else {
+                super::dot(x, y)
+            };
         }
     }
     DMatrix::from_column_slice(p, g, &sums)

@@ -557,7 +557,11 @@ fn gram(a: &[&[f64]], b: &[&[f64]]) -> DMatrix<f64> {
     })
 }
 
-/// Adds one block of rows (a multiple of 8) to each pair's eight partial sums.
+/// Adds one block of rows (a multiple of 8) to each pair's eight partial sums. Compiled for
+/// the wider vector units too and picked at run time (`multiversion`): the lanes are the eight
+/// partial sums, multiplied and added separately as before (Rust never fuses them), so every
+/// machine gets the same bits.
+#[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
 fn add_block(acc: &mut [[f64; 8]], pairs: &[(usize, usize)], a: &[&[f64]], b: &[&[f64]]) {
     for (acc, &(c, d)) in acc.iter_mut().zip(pairs) {
         // A local copy of the sums, which the compiler keeps in registers.
@@ -594,7 +598,9 @@ fn atb(a: &DMatrix<f64>, r: &DVector<f64>) -> DVector<f64> {
     DVector::from_fn(a.ncols(), |c, _| dot(&sa[c * n..(c + 1) * n], sr))
 }
 
-/// Dot product with eight independent partial sums (lets the compiler vectorise it).
+/// Dot product with eight independent partial sums (lets the compiler vectorise it; built for
+/// the wider vector units as `add_block`, with the same bits).
+#[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
 pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     let mut acc = [0.0; 8];
     let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
