@@ -3,7 +3,7 @@
 //! command the test says so and passes, except under CI, where it is required.
 #![cfg(feature = "rerun")]
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeMap;
 use std::process::Command;
@@ -125,7 +125,7 @@ fn run_records_a_verifiable_rrd_with_every_entity() {
         m.keys().any(|k| k.starts_with("/view/")),
         "no blueprint: {m:?}"
     );
-    // That each capture's feature is found, on every source: tests/view.rs.
+    // That each capture's feature is found, on every source: tests/suite/view.rs.
 }
 
 #[test]

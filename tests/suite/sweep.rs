@@ -1,6 +1,6 @@
 //! Sweeps: determinism, the reduced Fig. 15 slopes, the ray-cast disk path, the CLI end to end.
 
-mod common;
+use crate::common;
 use common::lasercal;
 
 use lasercal::scenario::ScenarioFile;

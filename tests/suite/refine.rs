@@ -1,5 +1,5 @@
 //! Issue 8: joint refinement, its uncertainty and observability (the suite every method runs is
-//! in tests/methods.rs).
+//! in tests/suite/methods.rs).
 
 use lasercal::calib::refine::edge::{EdgeLine, EdgeModel};
 use lasercal::calib::refine::{self, Options, Problem, Refinable};

@@ -3,7 +3,7 @@
 //! the chord ends where no wall shows; `edge-full` over the bar's face points besides the edge
 //! points.
 
-mod common;
+use crate::common;
 
 use lasercal::calib::PoseError;
 use lasercal::calib::refine::Options;
@@ -269,7 +269,7 @@ fn edge_full_on_the_comparison_rig() {
 
 /// Issue 14: `disk-full` and `edge-full` converge in at least 99.5 % of 1,000 trials per sigma up
 /// to 0.3 mm (uniform z noise, the comparison rig's ray-cast captures). About 10 min on 2 cores:
-/// `cargo test --release --test full_profile full_profile_converges -- --ignored --nocapture`.
+/// `cargo test --release --test suite full_profile::full_profile_converges -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn full_profile_converges_over_a_thousand_trials() {

@@ -191,7 +191,7 @@ fn pose_only_outside_limits_is_a_typed_error() {
     );
 }
 
-const GOOD: &str = include_str!("../robots/irb120_3_58.urdf");
+const GOOD: &str = include_str!("../../robots/irb120_3_58.urdf");
 
 #[test]
 fn malformed_urdf_parse_failure() {

@@ -3,7 +3,7 @@
 //! independent generator (`testkit::fan`) for random declared sensors, random mountings and random
 //! pose sets.
 
-mod common;
+use crate::common;
 
 use lasercal::calib::PoseError;
 use lasercal::captures::{CaptureProfile, Captures, Group, Role};
@@ -1096,7 +1096,7 @@ fn edge_from_eight_free_poses_halves_the_peers_errors() {
 
 /// Issue 14: `ball-refined` (and `ball-any-pose`) converge in at least 99.5 % of 1,000 trials per
 /// sigma up to 0.3 mm (the disk paper's ball protocol, analytic arcs). Prints the counts:
-/// `cargo test --release --test any_pose ball_convergence -- --ignored --nocapture`.
+/// `cargo test --release --test suite any_pose::ball_convergence -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn ball_convergence_over_a_thousand_trials() {
@@ -1130,7 +1130,7 @@ fn ball_convergence_over_a_thousand_trials() {
 /// 0.3 mm: the papers' protocols (analytic chords and edge points, noise along them) for the
 /// refined closed forms, and the free-pose scenarios (ray-cast, z noise) for the any-pose
 /// estimators. Prints the counts:
-/// `cargo test --release --test any_pose every_refined_variant_converges -- --ignored --nocapture`.
+/// `cargo test --release --test suite any_pose::every_refined_variant_converges -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn every_refined_variant_converges_over_a_thousand_trials() {

@@ -3,7 +3,7 @@
 //! from the reading structs' fields and their doc comments (`src/schema/`, `src/io/captures.rs`),
 //! and the keys are checked against what the parsers themselves accept. The test fails when a
 //! file is stale, when a key lacks a description, or when a number's unit is neither in its name
-//! nor in its description. `LASERCAL_BLESS=1 cargo test --test reference` rewrites the files.
+//! nor in its description. `LASERCAL_BLESS=1 cargo test --test suite reference::` rewrites the files.
 
 use std::collections::BTreeSet;
 
@@ -359,9 +359,9 @@ fn tables(sections: &[SectionSpec], top: &str, toml: bool) -> String {
 fn generate() -> String {
     String::from(
         "# Scenario file reference\n\nGenerated from the schema that reads scenario files \
-         (`src/schema/`) by `tests/reference.rs`, which fails when this file is stale, when a \
+         (`src/schema/`) by `tests/suite/reference.rs`, which fails when this file is stale, when a \
          key has no description or when a number's unit is neither in its name nor in its \
-         description; `LASERCAL_BLESS=1 cargo test --test reference` rewrites it. Lengths are \
+         description; `LASERCAL_BLESS=1 cargo test --test suite reference::` rewrites it. Lengths are \
          mm and angles deg or rad as each name says; unknown keys are errors. Worked examples: \
          [the guide](../guide/scenarios.md) and `scenarios/`. The pose sets of `[disk.poses]`, \
          `[ball.poses]` and `[edge.poses]` take the keys of `[plane.poses]`; `[ball.specimen]` \
@@ -407,7 +407,7 @@ fn accepted_in_captures(
 fn generate_captures() -> String {
     String::from(
         "# Capture file reference\n\nGenerated from the structs that read capture files \
-         (`src/io/captures.rs`) by `tests/reference.rs`, as `scenario.md` is. A capture file is \
+         (`src/io/captures.rs`) by `tests/suite/reference.rs`, as `scenario.md` is. A capture file is \
          JSON; positions are mm in the base frame (flange poses) or the sensor frame (profile \
          points). How the fields work together, with an example: [captures.md](../captures.md). \
          `sensor` is a preset's name, a declared geometry (the keys of a scenario's \
@@ -479,7 +479,7 @@ fn assert_current(name: &str, text: &str) {
     let on_disk = std::fs::read_to_string(&path).unwrap_or_default();
     assert!(
         on_disk == text,
-        "docs/reference/{name} is stale: LASERCAL_BLESS=1 cargo test --test reference"
+        "docs/reference/{name} is stale: LASERCAL_BLESS=1 cargo test --test suite reference::"
     );
 }
 

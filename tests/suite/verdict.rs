@@ -306,7 +306,7 @@ fn the_verdict_passes_correct_captures() {
     );
 }
 
-mod common;
+use crate::common;
 
 /// A simulated capture file of `scenario`'s `method`, edited by `edit`.
 fn capture_file(

@@ -1,6 +1,6 @@
 //! End-to-end tests of the `lasercal` binary.
 
-mod common;
+use crate::common;
 use common::lasercal;
 
 #[test]

@@ -4,7 +4,7 @@
 //! make (a rig's pose list and profiles) prepared from a simulation. `cargo run --release --` is
 //! the binary; `cargo test` is this test's own run and is skipped.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::Command;

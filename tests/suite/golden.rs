@@ -1,9 +1,9 @@
 //! Every scenario in scenarios/ gives the same trials.csv and summary.csv as recorded in
 //! tests/golden/ (two trials per grid point; scenarios without a sweep get a one-point grid).
-//! A deliberate change of numbers re-records them with `LASERCAL_BLESS=1 cargo test --test golden`
+//! A deliberate change of numbers re-records them with `LASERCAL_BLESS=1 cargo test --test suite golden::`
 //! and names the reason in the commit.
 
-mod common;
+use crate::common;
 use common::lasercal;
 use std::path::{Path, PathBuf};
 

@@ -4,7 +4,7 @@
 //! byte for byte the unsharded sweep. Under CI a Slurm that is not up fails the test with the
 //! reason; elsewhere the test says it was skipped.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::Command;

@@ -2,7 +2,7 @@
 //! declare any fan (apex, extent, spacing, columns, range, frame, camera) and simulation,
 //! occlusion and feature extraction all take the sensor from it.
 
-mod common;
+use crate::common;
 
 use lasercal::method::MethodId;
 use lasercal::scenario::ScenarioFile;

@@ -4,9 +4,9 @@
 //!
 //! What holds today is asserted; the issue's targets (noise-free features within 0.01 mm and the
 //! calibration within 0.02 deg / 0.02 mm; at sigma 0.1 mm raw-profile errors within 1.5x those from
-//! exact features) are printed beside them (`cargo test --test independent -- --nocapture`).
+//! exact features) are printed beside them (`cargo test --test suite independent:: -- --nocapture`).
 
-mod common;
+use crate::common;
 
 use lasercal::captures::{Captures, ProfileData};
 use lasercal::method::Kind;
@@ -619,7 +619,7 @@ fn raw_profiles_lose_nothing_to_segmentation() {
 }
 
 /// The table of raw-profile errors against exact-feature errors (README, issue 13):
-/// `cargo test --release --test independent raw_against_features -- --ignored --nocapture`.
+/// `cargo test --release --test suite independent::raw_against_features -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn raw_against_features() {
@@ -767,7 +767,7 @@ fn edge_over_a_tilted_table_and_with_noise() {
 }
 
 /// Chord-end errors and the calibration over sensor geometries, noise and dropout (README):
-/// `cargo test --test independent extraction_over_sensor_geometry -- --ignored --nocapture`.
+/// `cargo test --test suite independent::extraction_over_sensor_geometry -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn extraction_over_sensor_geometry() {
@@ -850,7 +850,7 @@ fn extraction_over_sensor_geometry() {
 }
 
 /// Edge points and the calibration over sensor geometries, noise and dropout (README):
-/// `cargo test --test independent edge_over_sensor_geometry -- --ignored --nocapture`.
+/// `cargo test --test suite independent::edge_over_sensor_geometry -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn edge_over_sensor_geometry() {
@@ -943,7 +943,7 @@ fn edge_over_sensor_geometry() {
 
 /// The ball over sensor geometries (README, issue 13): the arc circle's centre and radius against
 /// the exact section of the sphere by the laser plane, and the calibration.
-/// `cargo test --release --test independent ball_over_sensor_geometry -- --ignored --nocapture`.
+/// `cargo test --release --test suite independent::ball_over_sensor_geometry -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn ball_over_sensor_geometry() {
@@ -1029,7 +1029,7 @@ fn ball_refinement_converges_on_independent_profiles() {
     // Issue 14 reports `ball-refined` stopping at its iteration limit on independent captures
     // (6 / 9 / 18 of 30 at sigma 0.05 / 0.1 / 0.2 mm). On these profiles every refinement
     // converges (as it did here with the former z residuals too: the discriminating case is the
-    // 1 deg / 2.3 mm start in tests/methods.rs) and ends ten times better than the closed form.
+    // 1 deg / 2.3 mm start in tests/suite/methods.rs) and ends ten times better than the closed form.
     let (s, fan, solids) = ball_case();
     for sigma_mm in [0.05, 0.1, 0.2] {
         let sensor = with_sigma(&common::declared(&fan, "fan"), sigma_mm);

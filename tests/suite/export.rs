@@ -1,6 +1,6 @@
 //! Exports (issue 15, item 3): YAML, URDF and the ROS 2 command each read back to the transform.
 
-mod common;
+use crate::common;
 
 use lasercal::captures::ProfileData;
 use lasercal::io::export::{Exported, from_yaml, ros2_command, to_urdf, to_yaml};

@@ -1,7 +1,7 @@
 //! Bad environments and bad inputs (issue 15, item 4): a clean error naming what failed, never a
 //! panic, a hang or a huge allocation. Each case failed (exit 101, abort or hang) before its fix.
 
-mod common;
+use crate::common;
 
 use std::process::{Command, Stdio};
 

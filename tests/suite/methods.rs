@@ -4,7 +4,7 @@
 //! round-trip, trials are deterministic, bad captures give typed errors. A new specimen method
 //! gets every test by adding its line to `CASES`.
 
-mod common;
+use crate::common;
 
 use lasercal::calib::CalibError;
 use lasercal::calib::refine::{Loss, Options};

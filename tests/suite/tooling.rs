@@ -1,6 +1,6 @@
 //! Issue 6 (part) and issue 3's scan command: end to end through the binary in temporary folders.
 
-mod common;
+use crate::common;
 use common::lasercal;
 use common::scen;
 
