@@ -117,6 +117,8 @@ pub struct Hit {
     pub reflectance: f64,
     pub specular: bool,
     pub what: HitWhat,
+    /// The part hit (its index among the placed parts; None: the table).
+    part: Option<usize>,
 }
 
 /// The table: the plane z = `height_m` in the base frame, seen from above.
@@ -177,6 +179,17 @@ impl Scene {
 
     /// First hit of the ray `origin + t * dir` (`dir` a unit vector) with `t` in [0, max_toi].
     pub fn cast_ray(&self, origin: &Point3<f64>, dir: &Vector3<f64>, max_toi: f64) -> Option<Hit> {
+        self.cast_ray_skipping(origin, dir, max_toi, None)
+    }
+
+    /// `cast_ray` past the placed part `skip`.
+    fn cast_ray_skipping(
+        &self,
+        origin: &Point3<f64>,
+        dir: &Vector3<f64>,
+        max_toi: f64,
+        skip: Option<usize>,
+    ) -> Option<Hit> {
         let mut best: Option<Hit> = None;
         let mut limit = max_toi;
         if let Some(t) = self.table
@@ -198,10 +211,14 @@ impl Scene {
                     reflectance: t.reflectance,
                     specular: false,
                     what: HitWhat::Table,
+                    part: None,
                 });
             }
         }
-        for pl in &self.placed {
+        for (index, pl) in self.placed.iter().enumerate() {
+            if skip == Some(index) {
+                continue;
+            }
             // Cull: distance from the bounding centre to the ray, and whether it lies ahead.
             let oc = pl.bound_centre - origin;
             let along = oc.dot(dir);
@@ -243,20 +260,33 @@ impl Scene {
                     reflectance,
                     specular,
                     what: HitWhat::Specimen(pl.specimen),
+                    part: Some(index),
                 });
             }
         }
         best
     }
 
-    /// True when something blocks the straight path from `from` to `to`.
-    pub fn blocked(&self, from: &Point3<f64>, to: &Point3<f64>) -> bool {
-        let d = to - from;
-        let len = d.norm();
-        if len == 0.0 {
+    /// Whether the camera at `camera` sees the point `hit` lit: the surface faces it and nothing
+    /// lies between. The path starts on the nominal surface, a nanometre out along the normal.
+    /// Every part is convex (a cylinder, a ball, a convex polyhedron, a flat sheet), so a path
+    /// leaving a part on the side its normal faces never meets that part again: only the other
+    /// parts and the table are cast against, which halves a profile's ray casts.
+    pub fn seen_from(&self, hit: &Hit, camera: &Point3<f64>) -> bool {
+        if hit.normal_in_base.dot(&(camera - hit.p_in_base)) <= 0.0 {
             return false;
         }
-        self.cast_ray(from, &(d / len), len).is_some()
+        let start = hit.nominal_in_base + hit.normal_in_base * 1e-9;
+        let d = camera - start;
+        let len = d.norm();
+        if len == 0.0 {
+            return true;
+        }
+        // Leaving the own part holds on the side its normal faces (a form error's displaced
+        // point can face the camera where the nominal start does not: cast against all then).
+        let skip = hit.part.filter(|_| hit.normal_in_base.dot(&d) > 0.0);
+        self.cast_ray_skipping(&start, &(d / len), len, skip)
+            .is_none()
     }
 }
 

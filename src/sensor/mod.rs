@@ -536,12 +536,7 @@ impl SensorModel {
                     return None;
                 }
                 // The camera must see the lit point: facing it and with nothing in between.
-                let to_cam = camera - hit.p_in_base;
-                if hit.normal_in_base.dot(&to_cam) <= 0.0 {
-                    return None;
-                }
-                let start = hit.nominal_in_base + hit.normal_in_base * 1e-9;
-                if scene.blocked(&start, &camera) {
+                if !scene.seen_from(&hit, &camera) {
                     return None;
                 }
                 let intensity = hit.reflectance * (-hit.normal_in_base.dot(&dir)).max(0.0);
