@@ -81,8 +81,11 @@ pub fn solve(views: &[ArcView], radius: f64) -> Result<AnyPose, CalibError> {
         .collect();
     starts.sort_by(|a, b| a.cost.total_cmp(&b.cost));
     let mut model = BallModel::new(radius);
+    let total = views.iter().map(|v| v.points.len()).sum();
+    let keep = super::points_per_profile(total, views.len(), usize::MAX);
     for v in views {
-        model.add(&v.base_to_flange, v.points.iter().copied());
+        let stride = super::stride_for(v.points.len(), keep);
+        model.add(&v.base_to_flange, v.points.iter().step_by(stride).copied());
     }
     let mut best: Option<AnyPose> = None;
     // The best few distinct starts: a wrong one that fits (1) nearly as well is refined too, and

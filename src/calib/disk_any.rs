@@ -65,15 +65,20 @@ pub fn solve(
         need: 3,
     })?;
     let centre = e1 * centre.x + e2 * centre.y + n * plane.plane.offset;
+    // Past the point budget, every profile's face thinned evenly (`super::POINT_BUDGET`).
+    let total = views.iter().map(|v| v.face.points.len()).sum();
+    let keep = super::points_per_profile(total, views.len(), usize::MAX);
     let model = DiskModel {
         radius,
         ends: Vec::new(),
         face: views
             .iter()
             .flat_map(|v| {
+                let stride = super::stride_for(v.face.points.len(), keep);
                 v.face
                     .points
                     .iter()
+                    .step_by(stride)
                     .map(move |p| (v.face.base_to_flange, *p))
             })
             .collect(),

@@ -183,7 +183,8 @@ pub fn solve_faces<'a, V>(
 
 /// Every profile's points against the plane from a screened start.
 pub fn refine_from(views: &[LineView], start: &Start) -> Result<PlaneSolution, CalibError> {
-    let model = model_of(views, &|_| 1);
+    let keep = points_per_view(views, usize::MAX);
+    let model = model_of(views, &|v| super::stride_for(v.points.len(), keep));
     let (refined, plane) = refine(
         &model,
         &start.flange_to_sensor,
@@ -200,6 +201,12 @@ pub fn refine_from(views: &[LineView], start: &Start) -> Result<PlaneSolution, C
             specimen: plane,
         },
     })
+}
+
+/// Points per view the fits keep (at most `most`; fewer past `super::POINT_BUDGET`).
+fn points_per_view(views: &[LineView], most: usize) -> usize {
+    let total = views.iter().map(|v| v.points.len()).sum();
+    super::points_per_profile(total, views.len(), most)
 }
 
 /// The points of every profile, every `stride`-th.
@@ -234,11 +241,14 @@ pub fn starts(
             need: MIN_VIEWS,
         });
     }
+    let subset = screening_views(views);
+    let views = &subset[..];
     let mut normals: Vec<(f64, Vector3<f64>)> = hemisphere(2000)
         .map(|n| (rotation_cost(views, &n).0, n))
         .collect();
     normals.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let screen = model_of(views, &|v| v.points.len().div_ceil(64).max(1));
+    let keep = points_per_view(views, 64);
+    let screen = model_of(views, &|v| super::stride_for(v.points.len(), keep));
     let mut out = Vec::new();
     let mut first_err = None;
     let mut tried: Vec<Vector3<f64>> = Vec::new();
@@ -274,6 +284,20 @@ pub fn starts(
         Some(e) if out.is_empty() => Err(e),
         _ => Ok(out),
     }
+}
+
+/// Views the screening of starts takes at most: it only has to find the basin, which a few
+/// hundred views spread over the pose set show as well as a continuous scan's thousands; the
+/// refinement from the best start then takes them all.
+const SCREENING_VIEWS: usize = 512;
+
+/// At most `SCREENING_VIEWS` of `views`, evenly spread (all of them when they are fewer).
+fn screening_views(views: &[LineView]) -> std::borrow::Cow<'_, [LineView]> {
+    if views.len() <= SCREENING_VIEWS {
+        return std::borrow::Cow::Borrowed(views);
+    }
+    let stride = views.len().div_ceil(SCREENING_VIEWS);
+    std::borrow::Cow::Owned(views.iter().step_by(stride).cloned().collect())
 }
 
 /// What a plane cannot fix, and what adds it.

@@ -653,6 +653,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     // Per scan: its chords and their ends, and what became of its profiles.
     let mut per_scan = Vec::new();
     let mut reports = Vec::new();
+    let keep = super::face_points(c.profiles.len());
     for g in &c.groups {
         // A scan's sign not recorded: the closed form needs it, the any-pose estimator does not.
         if g.sign != 1.0 && g.sign != -1.0 {
@@ -691,7 +692,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                 }) => {
                     // The full-profile refinement's face points: up to FACE_POINTS per profile, spread
                     // over the chord (more cost than information beyond that).
-                    let stride = points.len().div_ceil(super::FACE_POINTS).max(1);
+                    let stride = crate::calib::stride_for(points.len(), keep);
                     face.extend(points.into_iter().step_by(stride).map(|q| (flange, q)));
                     beyond.push(past);
                     ends.push((flange, ch.a));

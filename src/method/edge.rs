@@ -708,6 +708,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     let (mut per_group, mut reports) = (Vec::new(), Vec::new());
     // A two-face target's faces, for the full-profile variant (each used profile's).
     let mut two_faces = Vec::new();
+    let keep = super::face_points(c.profiles.len());
     for g in &c.groups {
         let (mut caps, mut pts, mut profiles, mut face) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new());
@@ -730,7 +731,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                     let points = std::mem::take(&mut seen.face);
                     // Face points for edge-full, as many per profile as disk-full keeps (64 gave
                     // 1.6-2x the rotation error on the comparison rig's bar).
-                    let stride = points.len().div_ceil(super::FACE_POINTS).max(1);
+                    let stride = crate::calib::stride_for(points.len(), keep);
                     face.extend(
                         points
                             .into_iter()

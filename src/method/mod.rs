@@ -537,6 +537,12 @@ pub fn check_any_pose_source(
 /// twice the cost.
 const FACE_POINTS: usize = 512;
 
+/// Face points per profile the full-profile refinements keep from `profiles` profiles:
+/// `FACE_POINTS`, fewer where that many from each would pass `calib::POINT_BUDGET`.
+fn face_points(profiles: usize) -> usize {
+    crate::calib::points_per_profile(profiles * FACE_POINTS, profiles, FACE_POINTS)
+}
+
 /// How far (m) from a specimen's wall, as the closed form places it, a point beyond a face's end
 /// may lie and be taken for the wall (`disk-full`, `edge-full`): the closed form's error there
 /// (tenths of a mm at 0.25 mm noise) with a margin. Points within this of the lowest such point
