@@ -497,9 +497,18 @@ pub fn best(results: &[(super::MethodId, Result<Assessed, crate::error::Error>)]
 /// generator's trials; a wrong label or size moves a variant by many times its bound.
 pub const DISAGREE_FACTOR: f64 = 2.0;
 
+/// The share of the user's tolerance two variants may differ by whatever their bounds: with
+/// tens of thousands of profiles the bounds shrink to thousandths of a millimetre, below the
+/// few-micron biases the estimators' models leave (chord ends against face fits), and 20,000
+/// ray-cast disk profiles made disk-full and disk-any-pose "disagree" by 0.007 deg / 0.011 mm,
+/// 0.0005 deg / 0.001 mm and 0.007 deg / 0.013 mm from the truth. A wrong label or size moves a
+/// variant by tenths of a millimetre or more, so a tenth of the tolerance (0.05 deg / 0.05 mm
+/// by default) still catches it.
+pub const DISAGREE_TOLERANCE_SHARE: f64 = 0.1;
+
 /// Variants not judged suspect that disagree beyond `DISAGREE_FACTOR` times both of their honest
-/// 95 % bounds: one of their model assumptions (a label, the radius) is wrong. A reason per
-/// disagreeing variant.
+/// 95 % bounds and beyond `DISAGREE_TOLERANCE_SHARE` of the tolerance: one of their model
+/// assumptions (a label, the radius) is wrong. A reason per disagreeing variant.
 pub fn disagreements(
     results: &[(super::MethodId, Result<Assessed, crate::error::Error>)],
     chosen: usize,
@@ -508,6 +517,11 @@ pub fn disagreements(
         return Vec::new();
     };
     let (cr, ct) = c.judged.quality.error_bound();
+    let judging = &c.judged.quality.judging;
+    let (fr, ft) = (
+        DISAGREE_TOLERANCE_SHARE * judging.tolerance_deg,
+        DISAGREE_TOLERANCE_SHARE * judging.tolerance_mm,
+    );
     results
         .iter()
         .enumerate()
@@ -521,11 +535,13 @@ pub fn disagreements(
             );
             let (or, ot) = o.judged.quality.error_bound();
             let (ar, at) = (DISAGREE_FACTOR * (cr + or), DISAGREE_FACTOR * (ct + ot));
-            (e.rotation_error_deg > ar || e.translation_error_mm > at).then(|| {
+            let rotation = e.rotation_error_deg > ar.max(fr);
+            let translation = e.translation_error_mm > at.max(ft);
+            (rotation || translation).then(|| {
                 format!(
                     "{} and {} disagree by {:.3} deg / {:.3} mm, more than twice their 95 % \
-                     bounds together ({:.3} deg / {:.3} mm): a label (sign, edge sense) or the \
-                     specimen's size fits one model and not the other",
+                     bounds together ({:.3} deg / {:.3} mm) and a tenth of the tolerance: a label \
+                     (sign, edge sense) or the specimen's size fits one model and not the other",
                     c.method, o.method, e.rotation_error_deg, e.translation_error_mm, ar, at
                 )
             })
