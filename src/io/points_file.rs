@@ -69,8 +69,13 @@ pub fn decode<R: Read>(
         at: "array".into(),
         message: m,
     };
-    let npy = npyz::NpyFile::new(GzDecoder::new(reader))
-        .map_err(|e| bad(format!("{e} (want a gzip-compressed NPY array)")))?;
+    // Buffered: npyz reads value by value, and each read straight from the decoder cost more
+    // than the inflating itself.
+    let npy = npyz::NpyFile::new(std::io::BufReader::with_capacity(
+        1 << 16,
+        GzDecoder::new(reader),
+    ))
+    .map_err(|e| bad(format!("{e} (want a gzip-compressed NPY array)")))?;
     let shape = npy.shape().to_vec();
     let values: u64 = shape.iter().product();
     if shape.len() != 3 || shape[0] != 3 || (shape[1] as usize) < min_rows || values > MAX_VALUES {

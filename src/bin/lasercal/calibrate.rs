@@ -75,6 +75,7 @@ pub fn run(a: Args) -> Result<i32> {
     lasercal::io::export::check_frame(&a.parent_frame, "--parent-frame")?;
     lasercal::io::export::check_frame(&a.child_frame, "--child-frame")?;
     let recorders = super::common::open_recorders(a.rerun.as_deref(), a.spawn)?;
+    let stage = super::common::Stage::start(&format!("reading {name}"));
     let (mut caps, sensor) = lasercal::io::captures::read(&a.file)?;
     if let Some(t) = a.orientation_tolerance_deg {
         caps.orientation_tolerance_deg =
@@ -108,7 +109,15 @@ pub fn run(a: Args) -> Result<i32> {
     }
     // Every variant the file supports, unless one is asked for; the best judged result is kept
     // and tested against the rest (docs/verdict.md).
-    let decision = super::common::decide(&name, &caps, &sensor, a.method)?;
+    stage.next(&format!(
+        "calibrating {} profiles ({})",
+        caps.profiles.len(),
+        a.method
+            .map_or("every variant".to_string(), |m| m.to_string())
+    ));
+    let decision = super::common::decide(&name, &caps, &sensor, a.method);
+    stage.done();
+    let decision = decision?;
     let mut variants = Vec::new();
     if a.method.is_none() {
         say!(

@@ -101,6 +101,55 @@ pub fn progress(total: u64, what: &str) -> Progress {
     }
 }
 
+/// A spinner naming the stage of a one-off run (`calibrate` of a continuous scan's thousands of
+/// profiles takes seconds), on a terminal only and only once the run has taken a second: a
+/// quick run prints nothing extra, and off a terminal the output stays clean.
+pub struct Stage(Option<indicatif::ProgressBar>);
+
+impl Stage {
+    pub fn start(what: &str) -> Stage {
+        use std::io::IsTerminal;
+        let terminal = std::env::var_os("CI").is_none() && std::io::stderr().is_terminal();
+        Stage(terminal.then(|| {
+            let pb = indicatif::ProgressBar::hidden();
+            pb.set_style(
+                indicatif::ProgressStyle::with_template("{spinner} {msg} ({elapsed})")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+            );
+            pb.set_message(what.to_string());
+            let shown = pb.clone();
+            // Drawn from the second second on, ticking a few times a second.
+            std::thread::spawn(move || {
+                std::thread::sleep(std::time::Duration::from_secs(1));
+                if !shown.is_finished() {
+                    shown.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+                    shown.enable_steady_tick(std::time::Duration::from_millis(200));
+                }
+            });
+            pb
+        }))
+    }
+
+    pub fn next(&self, what: &str) {
+        if let Some(pb) = &self.0 {
+            pb.set_message(what.to_string());
+        }
+    }
+
+    pub fn done(&self) {
+        if let Some(pb) = &self.0 {
+            pb.finish_and_clear();
+        }
+    }
+}
+
+impl Drop for Stage {
+    /// Cleared on every way out, an error's included, so no spinner line is left behind.
+    fn drop(&mut self) {
+        self.done();
+    }
+}
+
 /// `LASERCAL_MAX_TRIALS`, when set: the most trials a sweep point or `check` runs (the README
 /// command test runs every documented command in seconds with it). Said on stderr when it cuts.
 pub fn trials_cap(trials: usize) -> usize {
