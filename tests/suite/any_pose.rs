@@ -6,7 +6,7 @@
 use crate::common;
 
 use lasercal::calib::PoseError;
-use lasercal::captures::{CaptureProfile, Captures, Group, Role};
+use lasercal::captures::{CaptureProfile, Captures, Group, ProfileData, Role};
 use lasercal::method::{Estimator, Kind, MethodId};
 use lasercal::rng::{Rng, gauss};
 use lasercal::scene::SpecimenType;
@@ -708,6 +708,54 @@ fn plane_exact_on_a_hundred_random_rigs_and_pose_sets() {
     exact_on_a_hundred(PLANE, "plane", |seed, n| {
         random_plane_setup(2000 + seed, n, false, 0.0)
     });
+}
+
+/// A continuous scan's many profiles: past `calib::POINT_BUDGET` points every profile is thinned
+/// and the plane's starts are screened on a subset of the views; both must leave noise-free
+/// data exact. (The time this saves is measured in docs/performance.md, not here.)
+#[test]
+fn thinned_many_profiles_stay_exact() {
+    for (id, what, s) in [
+        (PLANE, "plane", random_plane_setup(2400, 1500, false, 0.0)),
+        (DISK, "disk", random_disk_setup(2401, 1500, 0.0)),
+    ] {
+        let raw: usize = s
+            .caps
+            .profiles
+            .iter()
+            .map(|p| match &p.data {
+                ProfileData::Raw(r) => r.points.iter().flatten().count(),
+                _ => 0,
+            })
+            .sum();
+        assert!(
+            raw > lasercal::calib::POINT_BUDGET,
+            "{what}: {raw} points do not reach the budget: the test would not thin"
+        );
+        exact_one(
+            id,
+            &s.caps,
+            &s.sensor,
+            &s.truth,
+            &format!("{what}, 1500 poses"),
+        );
+    }
+}
+
+#[test]
+fn points_per_profile_thins_only_past_the_budget() {
+    use lasercal::calib::{POINT_BUDGET, points_per_profile, stride_for};
+    assert_eq!(points_per_profile(POINT_BUDGET, 400, 512), 512);
+    assert_eq!(
+        points_per_profile(POINT_BUDGET + 1, 1000, 512),
+        POINT_BUDGET / 1000
+    );
+    // Never fewer than a line needs, never more than asked.
+    assert_eq!(points_per_profile(10 * POINT_BUDGET, 1_000_000, 512), 16);
+    assert_eq!(points_per_profile(10 * POINT_BUDGET, 1_000_000, 8), 8);
+    assert_eq!(stride_for(417, 16), 27);
+    assert_eq!(417usize.div_ceil(stride_for(417, 16)), 16);
+    assert_eq!(stride_for(10, usize::MAX), 1);
 }
 
 #[test]
