@@ -66,3 +66,34 @@ pub fn pose_to_rows_mm(p: &Isometry3<f64>) -> [[f64; 4]; 4] {
     }
     out
 }
+
+/// The pose at time `t` from a stream of timed poses (times strictly increasing): linear in
+/// position and spherical in rotation (the shorter way) between the two samples around `t`, a
+/// sample itself at its own time. None outside the stream's first and last times: a profile
+/// the controller logged no pose around is not placed by extrapolation.
+pub fn pose_at(stream: &[(f64, Isometry3<f64>)], t: f64) -> Option<Isometry3<f64>> {
+    let (first, last) = (stream.first()?, stream.last()?);
+    if !(t >= first.0 && t <= last.0) {
+        return None;
+    }
+    // The first sample later than t; t lies in [its predecessor's time, its time).
+    let k = stream.partition_point(|(s, _)| *s <= t);
+    if k == 0 || k == stream.len() {
+        return Some(if k == 0 { first.1 } else { last.1 });
+    }
+    let ((ta, a), (tb, b)) = (stream[k - 1], stream[k]);
+    let u = (t - ta) / (tb - ta);
+    if u == 0.0 {
+        return Some(a);
+    }
+    let translation = a.translation.vector.lerp(&b.translation.vector, u);
+    // Two samples of one stream are never half a turn apart; were they, the nearer one holds.
+    let rotation = a
+        .rotation
+        .try_slerp(&b.rotation, u, 1e-12)
+        .unwrap_or(if u < 0.5 { a.rotation } else { b.rotation });
+    Some(Isometry3::from_parts(
+        Translation3::from(translation),
+        rotation,
+    ))
+}

@@ -65,6 +65,15 @@ struct FileV1 {
     /// each profile naming its row.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     points_file: Option<String>,
+    /// The controller's log of flange poses while the arm moved (scanning on the move): each
+    /// profile then gives its time `t_s` instead of a pose, and its flange pose is interpolated
+    /// between the two logged poses around that time (linear in position, spherical in rotation).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pose_stream: Option<Vec<PoseSampleV1>>,
+    /// Seconds to add to a profile's `t_s` to put it on the pose stream's clock (the profiler's
+    /// latency against the controller's; default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    profile_clock_offset_s: Option<f64>,
     /// The capture groups (scans, rotation sets, poses), each with its role and sign.
     groups: Vec<GroupV1>,
     /// One record per profile: its group, the flange pose and the profile or its feature.
@@ -144,15 +153,34 @@ struct CircleV1 {
     radius: f64,
 }
 
+/// One logged flange pose with its time on the controller's clock.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PoseSampleV1 {
+    /// The time the pose was logged, s (any origin; strictly increasing along the stream).
+    t_s: f64,
+    /// The flange (tool0) position in the base frame, mm.
+    tcp_position_mm: [f64; 3],
+    /// The flange orientation as a unit quaternion (w, x, y, z).
+    tcp_quaternion_wxyz: [f64; 4],
+}
+
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ProfileV1 {
     /// The id of the group the profile belongs to.
     group: usize,
-    /// The flange (tool0) position in the base frame, mm.
-    tcp_position_mm: [f64; 3],
-    /// The flange orientation as a unit quaternion (w, x, y, z).
-    tcp_quaternion_wxyz: [f64; 4],
+    /// The flange (tool0) position in the base frame, mm (left out: `t_s` with a pose stream).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    tcp_position_mm: Option<[f64; 3]>,
+    /// The flange orientation as a unit quaternion (w, x, y, z) (left out: `t_s` with a pose
+    /// stream).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    tcp_quaternion_wxyz: Option<[f64; 4]>,
+    /// The profile's time stamp on the profiler's clock, s: its flange pose is interpolated from
+    /// the file's `pose_stream` at `t_s + profile_clock_offset_s`, in place of the tcp fields.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    t_s: Option<f64>,
     /// The raw profile: one [x, z] per sensor column in the sensor frame (mm), null where the
     /// sensor saw nothing.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -231,6 +259,8 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
         truth_flange_to_sensor_mm: c.truth.as_ref().map(crate::math::pose_to_rows_mm),
         nominal_flange_to_sensor_mm: c.judging.nominal.as_ref().map(crate::math::pose_to_rows_mm),
         points_file: None,
+        pose_stream: None,
+        profile_clock_offset_s: None,
         groups: c
             .groups
             .iter()
@@ -247,8 +277,9 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
                 let t = p.base_to_flange.translation.vector * 1e3;
                 let mut rec = ProfileV1 {
                     group: p.group,
-                    tcp_position_mm: [t.x, t.y, t.z],
-                    tcp_quaternion_wxyz: crate::math::quat_wxyz(&p.base_to_flange.rotation),
+                    tcp_position_mm: Some([t.x, t.y, t.z]),
+                    tcp_quaternion_wxyz: Some(crate::math::quat_wxyz(&p.base_to_flange.rotation)),
+                    t_s: None,
                     points_mm: None,
                     intensity: None,
                     columns: None,
@@ -496,11 +527,12 @@ fn from_file(f: FileV1, file: &str) -> Result<(Captures, SensorModel), FormatErr
         }
     };
     let groups = groups_of(&f, kind, file)?;
+    let clock = Clock::of(&f, file)?;
     let profiles = f
         .profiles
         .iter()
         .enumerate()
-        .map(|(i, p)| profile_of(p, i, &groups, &sensor, file))
+        .map(|(i, p)| profile_of(p, i, &groups, &sensor, &clock, file))
         .collect::<Result<Vec<_>, _>>()?;
     let sensor = with_measured_noise(sensor, &profiles, f.sensor_noise.is_some());
     Ok((
@@ -804,12 +836,158 @@ fn groups_of(f: &FileV1, kind: Kind, file: &str) -> Result<Vec<Group>, FormatErr
     Ok(groups)
 }
 
+/// The file's pose stream (sorted, checked) and the profiles' clock offset: what places a
+/// profile given by its time.
+struct Clock {
+    stream: Vec<(f64, Isometry3<f64>)>,
+    offset_s: f64,
+}
+
+impl Clock {
+    fn of(f: &FileV1, file: &str) -> Result<Clock, FormatError> {
+        let offset_s = f.profile_clock_offset_s.unwrap_or(0.0);
+        if !offset_s.is_finite() {
+            return Err(err(
+                file,
+                "profile_clock_offset_s",
+                format!("{offset_s} is not a number of seconds"),
+            ));
+        }
+        let Some(samples) = &f.pose_stream else {
+            return Ok(Clock {
+                stream: Vec::new(),
+                offset_s,
+            });
+        };
+        if samples.len() < 2 {
+            return Err(err(
+                file,
+                "pose_stream",
+                format!(
+                    "{} samples: interpolating needs at least two (the poses before and after \
+                     each profile)",
+                    samples.len()
+                ),
+            ));
+        }
+        let mut stream = Vec::with_capacity(samples.len());
+        for (k, s) in samples.iter().enumerate() {
+            let at = |field: &str| format!("pose_stream[{k}].{field}");
+            let pose = flange_pose(s.tcp_position_mm, s.tcp_quaternion_wxyz, &at, file)?;
+            let previous = stream.last().map(|(t, _): &(f64, _)| *t);
+            if !s.t_s.is_finite() || previous.is_some_and(|t| s.t_s <= t) {
+                return Err(err(
+                    file,
+                    &at("t_s"),
+                    format!(
+                        "{}: the stream's times must be finite and strictly increasing (the \
+                         sample before is at {} s); sort the log by time and drop repeated \
+                         samples",
+                        s.t_s,
+                        previous.map_or("-".to_string(), |t| t.to_string())
+                    ),
+                ));
+            }
+            stream.push((s.t_s, pose));
+        }
+        Ok(Clock { stream, offset_s })
+    }
+}
+
+/// A flange pose from a record's position (mm) and unit quaternion (w, x, y, z), checked.
+fn flange_pose(
+    t: [f64; 3],
+    q: [f64; 4],
+    at: &dyn Fn(&str) -> String,
+    file: &str,
+) -> Result<Isometry3<f64>, FormatError> {
+    let quat = Quaternion::new(q[0], q[1], q[2], q[3]);
+    if !((quat.norm() - 1.0).abs() <= 1e-3) {
+        return Err(err(
+            file,
+            &at("tcp_quaternion_wxyz"),
+            format!("{q:?} is not a unit quaternion (norm {:.6})", quat.norm()),
+        ));
+    }
+    if t.iter().any(|x| !x.is_finite()) {
+        return Err(err(
+            file,
+            &at("tcp_position_mm"),
+            format!("{t:?} is not finite"),
+        ));
+    }
+    Ok(Isometry3::from_parts(
+        Translation3::from(Vector3::from(t) * 1e-3),
+        UnitQuaternion::from_quaternion(quat),
+    ))
+}
+
+/// Profile record `i`'s flange pose: its own, or the pose stream's at its time.
+fn profile_pose(
+    p: &ProfileV1,
+    at: &dyn Fn(&str) -> String,
+    clock: &Clock,
+    file: &str,
+) -> Result<Isometry3<f64>, FormatError> {
+    match (p.tcp_position_mm, p.tcp_quaternion_wxyz, p.t_s) {
+        (Some(t), Some(q), None) => flange_pose(t, q, at, file),
+        (None, None, Some(t_s)) => {
+            let (Some(first), Some(last)) = (clock.stream.first(), clock.stream.last()) else {
+                return Err(err(
+                    file,
+                    &at("t_s"),
+                    format!(
+                        "{t_s}: a profile given by its time needs the file's pose_stream (the \
+                         controller's logged poses); add it, or give the profile's \
+                         tcp_position_mm and tcp_quaternion_wxyz"
+                    ),
+                ));
+            };
+            let t = t_s + clock.offset_s;
+            crate::math::pose_at(&clock.stream, t).ok_or_else(|| {
+                err(
+                    file,
+                    &at("t_s"),
+                    format!(
+                        "{t_s} (+ profile_clock_offset_s {} = {t} s on the controller's clock) is \
+                         outside the pose stream's {} .. {} s: start logging poses before the \
+                         scan and stop after it, or check the clock offset",
+                        clock.offset_s, first.0, last.0
+                    ),
+                )
+            })
+        }
+        (None, None, None) => Err(err(
+            file,
+            &at("tcp_position_mm"),
+            "missing: give the flange pose (tcp_position_mm and tcp_quaternion_wxyz) or the \
+             profile's time t_s with a pose_stream",
+        )),
+        (_, _, Some(_)) => Err(err(
+            file,
+            &at("t_s"),
+            "given with a tcp pose: give the pose or the time (with a pose_stream), not both",
+        )),
+        (Some(_), None, None) => Err(err(
+            file,
+            &at("tcp_quaternion_wxyz"),
+            "missing beside tcp_position_mm: give both",
+        )),
+        (None, Some(_), None) => Err(err(
+            file,
+            &at("tcp_position_mm"),
+            "missing beside tcp_quaternion_wxyz: give both",
+        )),
+    }
+}
+
 /// Profile record `i`: its flange pose and its one data field.
 fn profile_of(
     p: &ProfileV1,
     i: usize,
     groups: &[Group],
     sensor: &SensorModel,
+    clock: &Clock,
     file: &str,
 ) -> Result<CaptureProfile, FormatError> {
     let at = |k: &str| format!("profiles[{i}].{k}");
@@ -820,27 +998,7 @@ fn profile_of(
             format!("{} is not among the groups", p.group),
         ));
     }
-    let q = p.tcp_quaternion_wxyz;
-    let quat = Quaternion::new(q[0], q[1], q[2], q[3]);
-    if !((quat.norm() - 1.0).abs() <= 1e-3) {
-        return Err(err(
-            file,
-            &at("tcp_quaternion_wxyz"),
-            format!("{q:?} is not a unit quaternion (norm {:.6})", quat.norm()),
-        ));
-    }
-    let t = p.tcp_position_mm;
-    if t.iter().any(|x| !x.is_finite()) {
-        return Err(err(
-            file,
-            &at("tcp_position_mm"),
-            format!("{t:?} is not finite"),
-        ));
-    }
-    let base_to_flange = Isometry3::from_parts(
-        Translation3::from(Vector3::from(t) * 1e-3),
-        UnitQuaternion::from_quaternion(quat),
-    );
+    let base_to_flange = profile_pose(p, &at, clock, file)?;
     let v = |a: [f64; 2]| Vector2::new(a[0] * 1e-3, a[1] * 1e-3);
     let data = match (
         &p.points_mm,

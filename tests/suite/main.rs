@@ -30,6 +30,7 @@ mod scenario;
 mod sensor;
 mod slurm;
 mod sweep;
+mod time_stamps;
 mod tooling;
 mod verdict;
 mod view;
