@@ -424,6 +424,109 @@ pub enum ProfileSource<'a> {
     Long(String, Box<dyn Read + 'a>),
 }
 
+/// Scanning on the move: the pose list is the controller's log (`pose_times`, one per row) and
+/// the profiles carry their own time stamps (`profile_times`, one per profile, on the
+/// profiler's clock; `offset_s` puts them on the controller's).
+pub struct Timing {
+    pub pose_times: Vec<f64>,
+    pub profile_times: Vec<f64>,
+    pub offset_s: Option<f64>,
+}
+
+/// A pose log whose first column is `t_s`: the times, and the rest of the CSV (a pose list in
+/// one of the conventions `pose_rows` reads).
+pub fn split_times(text: &str, file: &str) -> Result<(Vec<f64>, String), FormatError> {
+    let mut lines = text.lines();
+    let header = lines.next().unwrap_or("");
+    let Some((first, rest)) = header.split_once(',') else {
+        return Err(field(
+            file,
+            "header".into(),
+            format!("'{header}': a pose log starts with a t_s column, then the pose's columns"),
+        ));
+    };
+    if first.trim().to_ascii_lowercase() != "t_s" {
+        return Err(field(
+            file,
+            "header".into(),
+            format!(
+                "'{first}': with --profile-times the pose list is the controller's log, its \
+                 first column t_s (seconds) and then the pose's columns (x_mm,y_mm,z_mm,qw,...)"
+            ),
+        ));
+    }
+    let (mut times, mut out) = (Vec::new(), format!("{rest}\n"));
+    for (i, line) in lines.enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let (t, pose) = line.split_once(',').unwrap_or((line, ""));
+        let t = t.trim();
+        times.push(
+            t.parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| {
+                    field(
+                        file,
+                        format!("line {}, t_s", i + 2),
+                        format!("'{t}' is not a finite number of seconds"),
+                    )
+                })?,
+        );
+        out += pose;
+        out += "\n";
+    }
+    Ok((times, out))
+}
+
+/// Profile time stamps: a CSV with a `t_s` column, one row per profile in the profiles' order.
+pub fn profile_times<R: Read>(reader: R, file: &str) -> Result<Vec<f64>, FormatError> {
+    let mut r = ::csv::ReaderBuilder::new()
+        .trim(::csv::Trim::All)
+        .from_reader(reader);
+    let headers = r
+        .headers()
+        .map_err(|e| field(file, "header".into(), e.to_string()))?
+        .clone();
+    let Some(col) = headers.iter().position(|h| h.eq_ignore_ascii_case("t_s")) else {
+        return Err(field(
+            file,
+            "header".into(),
+            format!(
+                "no t_s column among {:?}: give each profile's time stamp (seconds) in a t_s \
+                 column, one row per profile in the profiles' order",
+                headers.iter().collect::<Vec<_>>()
+            ),
+        ));
+    };
+    let mut times = Vec::new();
+    for (i, rec) in r.records().enumerate() {
+        let rec = rec.map_err(|e| field(file, format!("line {}", i + 2), e.to_string()))?;
+        let cell = rec.get(col).unwrap_or("");
+        if times.len() >= 10_000_000 {
+            return Err(field(
+                file,
+                format!("line {}", i + 2),
+                "more than 10 million profiles".into(),
+            ));
+        }
+        times.push(
+            cell.parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| {
+                    field(
+                        file,
+                        format!("line {}, t_s", i + 2),
+                        format!("'{cell}' is not a finite number of seconds"),
+                    )
+                })?,
+        );
+    }
+    Ok(times)
+}
+
 /// What the capture file says besides the data.
 pub struct Header<'a> {
     pub method: &'a str,
@@ -449,21 +552,31 @@ pub fn capture_file(
     poses_file: &str,
     poses: &[Isometry3<f64>],
     profiles: ProfileSource,
+    timing: Option<&Timing>,
 ) -> Result<String, FormatError> {
-    let mut per_pose: Vec<Vec<Option<[f64; 2]>>> = vec![Vec::new(); poses.len()];
+    // One profile per pose, or with a log one per time stamp.
+    let count = timing.map_or(poses.len(), |t| t.profile_times.len());
+    let mut per_pose: Vec<Vec<Option<[f64; 2]>>> = vec![Vec::new(); count];
     let profiles_missing = h.missing_z_mm;
     match profiles {
         ProfileSource::PerPose(files) => {
-            if files.len() != poses.len() {
+            if files.len() != count {
                 return Err(field(
                     poses_file,
                     "rows".into(),
-                    format!(
-                        "{} poses but {} profile files: one profile CSV per pose, in the \
-                         pose list's order",
-                        poses.len(),
-                        files.len()
-                    ),
+                    match timing {
+                        None => format!(
+                            "{} poses but {} profile files: one profile CSV per pose, in the \
+                             pose list's order",
+                            poses.len(),
+                            files.len()
+                        ),
+                        Some(_) => format!(
+                            "{count} profile time stamps but {} profile files: one time stamp \
+                             per profile file, in the files' order",
+                            files.len()
+                        ),
+                    },
                 ));
             }
             for (i, (name, r)) in files.into_iter().enumerate() {
@@ -480,8 +593,8 @@ pub fn capture_file(
                         &name,
                         "pose".into(),
                         format!(
-                            "pose {pose} does not exist: the pose list has {} rows (0-based)",
-                            poses.len()
+                            "pose {pose} does not exist: there are {count} profiles (0-based; \
+                             one per pose, or per time stamp with --profile-times)"
                         ),
                     )
                 })?;
@@ -489,22 +602,32 @@ pub fn capture_file(
             }
         }
     }
-    let profiles: Vec<serde_json::Value> = poses
+    let pose_json = |f: &Isometry3<f64>| {
+        let t = f.translation.vector * 1e3;
+        let q = f.rotation;
+        ([t.x, t.y, t.z], [q.w, q.i, q.j, q.k])
+    };
+    let profiles: Vec<serde_json::Value> = per_pose
         .iter()
-        .zip(&per_pose)
         .enumerate()
-        .map(|(i, (f, pts))| {
-            let t = f.translation.vector * 1e3;
-            let q = f.rotation;
-            serde_json::json!({
+        .map(|(i, pts)| match timing {
+            Some(t) => serde_json::json!({
                 "group": i,
-                "tcp_position_mm": [t.x, t.y, t.z],
-                "tcp_quaternion_wxyz": [q.w, q.i, q.j, q.k],
+                "t_s": t.profile_times[i],
                 "points_mm": pts,
-            })
+            }),
+            None => {
+                let (t, q) = pose_json(&poses[i]);
+                serde_json::json!({
+                    "group": i,
+                    "tcp_position_mm": t,
+                    "tcp_quaternion_wxyz": q,
+                    "points_mm": pts,
+                })
+            }
         })
         .collect();
-    let groups: Vec<serde_json::Value> = (0..poses.len())
+    let groups: Vec<serde_json::Value> = (0..count)
         .map(|i| serde_json::json!({ "id": i, "role": "pose" }))
         .collect();
     let mut doc = serde_json::json!({
@@ -518,6 +641,28 @@ pub fn capture_file(
     });
     if let Some(r) = h.radius_mm {
         doc["specimen"]["radius_mm"] = serde_json::json!(r);
+    }
+    if let Some(t) = timing {
+        if t.pose_times.len() != poses.len() {
+            return Err(field(
+                poses_file,
+                "t_s".into(),
+                format!("{} times for {} poses", t.pose_times.len(), poses.len()),
+            ));
+        }
+        let stream: Vec<serde_json::Value> = t
+            .pose_times
+            .iter()
+            .zip(poses)
+            .map(|(s, f)| {
+                let (p, q) = pose_json(f);
+                serde_json::json!({"t_s": s, "tcp_position_mm": p, "tcp_quaternion_wxyz": q})
+            })
+            .collect();
+        doc["pose_stream"] = serde_json::Value::Array(stream);
+        if let Some(o) = t.offset_s {
+            doc["profile_clock_offset_s"] = serde_json::json!(o);
+        }
     }
     if let Some(z) = h.z_sigma_mm {
         doc["sensor_noise"] = serde_json::json!({

@@ -912,3 +912,119 @@ fn compact_capture_files_keep_every_point_in_a_fraction_of_the_size() {
         "{err}"
     );
 }
+
+/// Scanning on the move: a controller's log with a t_s column and the profiles' own time stamps
+/// (`--profile-times`, `--profile-clock-offset-s`) give the capture file a pose stream; each
+/// profile is placed at its time. Here the profiles were taken at the logged poses' times, with
+/// other poses logged between them (a move 5 mm off): the calibration is the one from the poses
+/// themselves.
+#[test]
+fn import_places_time_stamped_profiles_on_a_pose_log() {
+    let dir = tempfile::tempdir().unwrap();
+    let (caps, doc) = common::simulated_capture(dir.path(), "ball-free.toml", "sim.json");
+    let want = calibrated(caps.to_str().unwrap(), dir.path(), "sim");
+    let profiles = doc["profiles"].as_array().unwrap();
+    let per_pose = dir.path().join("profiles");
+    std::fs::create_dir_all(&per_pose).unwrap();
+    let offset_s = 0.0137;
+    let (mut log, mut times) = (
+        String::from("t_s,x_mm,y_mm,z_mm,qw,qx,qy,qz\n"),
+        String::from("t_s\n"),
+    );
+    for (i, p) in profiles.iter().enumerate() {
+        let mut csv = String::from("x_mm,z_mm\n");
+        for pt in p["points_mm"].as_array().unwrap() {
+            csv += &match pt.as_array() {
+                Some(xz) => format!("{},{}\n", xz[0], xz[1]),
+                None => ",\n".into(),
+            };
+        }
+        std::fs::write(per_pose.join(format!("pose_{i:03}.csv")), csv).unwrap();
+        let t: Vec<f64> = serde_json::from_value(p["tcp_position_mm"].clone()).unwrap();
+        let q: Vec<f64> = serde_json::from_value(p["tcp_quaternion_wxyz"].clone()).unwrap();
+        let row = |t_s: f64, dz: f64| {
+            format!(
+                "{t_s},{},{},{},{},{},{},{}\n",
+                t[0],
+                t[1],
+                t[2] + dz,
+                q[0],
+                q[1],
+                q[2],
+                q[3]
+            )
+        };
+        log += &row(2.0 * i as f64, 0.0);
+        log += &row(2.0 * i as f64 + 1.0, 5.0);
+        times += &format!("{}\n", 2.0 * i as f64 - offset_s);
+    }
+    let (log_path, times_path) = (dir.path().join("log.csv"), dir.path().join("times.csv"));
+    std::fs::write(&log_path, &log).unwrap();
+    std::fs::write(&times_path, &times).unwrap();
+    let out = dir.path().join("timed.json");
+    let offset = offset_s.to_string();
+    let (code, _, err) = import_ball(
+        &doc,
+        doc["sensor"].as_str().unwrap(),
+        &log_path,
+        &per_pose,
+        &out,
+        &[
+            "--profile-times",
+            times_path.to_str().unwrap(),
+            "--profile-clock-offset-s",
+            &offset,
+        ],
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("placed by their time stamps"), "{err}");
+    let written: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(
+        written["pose_stream"].as_array().unwrap().len(),
+        2 * profiles.len()
+    );
+    assert!(written["profiles"][0].get("tcp_position_mm").is_none());
+    assert_calibrates_to(&out, dir.path(), "timed", &want);
+    // Without the offset the first profile's time falls 13.7 ms before the log begins: refused,
+    // naming it (no extrapolation).
+    let early = dir.path().join("early.json");
+    let (code, _, err) = import_ball(
+        &doc,
+        doc["sensor"].as_str().unwrap(),
+        &log_path,
+        &per_pose,
+        &early,
+        &["--profile-times", times_path.to_str().unwrap()],
+    );
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("profiles[0].t_s") && err.contains("outside the pose stream"),
+        "{err}"
+    );
+    // A log without its t_s column, and a times file without one, are named.
+    let abb = dir.path().join("abb.csv");
+    std::fs::write(&abb, log.replacen("t_s,", "", 1)).unwrap();
+    let (code, _, err) = import_ball(
+        &doc,
+        doc["sensor"].as_str().unwrap(),
+        &abb,
+        &per_pose,
+        &early,
+        &["--profile-times", times_path.to_str().unwrap()],
+    );
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("first column t_s"), "{err}");
+    let bad_times = dir.path().join("bad-times.csv");
+    std::fs::write(&bad_times, "time\n0\n").unwrap();
+    let (code, _, err) = import_ball(
+        &doc,
+        doc["sensor"].as_str().unwrap(),
+        &log_path,
+        &per_pose,
+        &early,
+        &["--profile-times", bad_times.to_str().unwrap()],
+    );
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("no t_s column"), "{err}");
+}

@@ -1,5 +1,5 @@
 use anyhow::{Context, Result, bail};
-use lasercal::io::import::{Header, ProfileSource, capture_file, flange_poses};
+use lasercal::io::import::{Header, ProfileSource, Timing, capture_file, flange_poses};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -59,6 +59,15 @@ pub struct Args {
     /// float32: about a tenth of the size)
     #[arg(long)]
     compact: bool,
+    /// Scanning on the move: a CSV with each profile's time stamp (s, column t_s; one row per
+    /// profile in the profiles' order). The pose list is then the controller's log: its first
+    /// column t_s, then the pose's columns; each profile's pose is interpolated at its time
+    #[arg(long)]
+    profile_times: Option<PathBuf>,
+    /// Seconds to add to the profiles' time stamps to put them on the pose log's clock (the
+    /// profiler's latency; default 0)
+    #[arg(long, allow_negative_numbers = true, requires = "profile_times")]
+    profile_clock_offset_s: Option<f64>,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -74,6 +83,18 @@ pub fn run(a: Args) -> Result<()> {
         None
     } else {
         Some(std::fs::read_to_string(&a.poses).with_context(|| format!("{pname}: cannot read"))?)
+    };
+    // With time stamps the pose list is a log: its t_s column split off first.
+    let (pose_times, text) = match (&a.profile_times, text) {
+        (Some(_), Some(t)) => {
+            let (times, rest) = lasercal::io::import::split_times(&t, &pname)?;
+            (Some(times), Some(rest))
+        }
+        (Some(_), None) => bail!(
+            "{pname}: with --profile-times the poses are a CSV log (t_s, then the pose's columns), \
+             not a folder"
+        ),
+        (None, t) => (None, t),
     };
     let list = lasercal::io::import::pose_list(&a.poses, text.as_deref())?;
     let robot = a
@@ -164,13 +185,37 @@ pub fn run(a: Args) -> Result<()> {
         robot_accuracy_mm: a.robot_accuracy_mm,
         missing_z_mm: a.missing_z_mm,
     };
-    let text = capture_file(&header, &pname, &poses, source)?;
+    let timing = match (&a.profile_times, pose_times) {
+        (Some(path), Some(pose_times)) => {
+            let name = path.display().to_string();
+            let f = std::fs::File::open(path).with_context(|| format!("{name}: cannot read"))?;
+            if let Some(o) = a.profile_clock_offset_s
+                && !o.is_finite()
+            {
+                bail!("--profile-clock-offset-s {o}: give a number of seconds");
+            }
+            Some(Timing {
+                pose_times,
+                profile_times: lasercal::io::import::profile_times(f, &name)?,
+                offset_s: a.profile_clock_offset_s,
+            })
+        }
+        _ => None,
+    };
+    let text = capture_file(&header, &pname, &poses, source, timing.as_ref())?;
     lasercal::io::captures::write(&a.out, &text, a.compact)?;
+    let what = match &timing {
+        Some(t) => format!(
+            "{} profiles placed by their time stamps on a log of {} poses ({})",
+            t.profile_times.len(),
+            poses.len(),
+            list.key
+        ),
+        None => format!("{} poses ({}) with their profiles", poses.len(), list.key),
+    };
     note!(
-        "{}: {} poses ({}) with their profiles; calibrate it with `lasercal calibrate {}`",
+        "{}: {what}; calibrate it with `lasercal calibrate {}`",
         a.out.display(),
-        poses.len(),
-        list.key,
         a.out.display()
     );
     Ok(())

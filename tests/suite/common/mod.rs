@@ -245,6 +245,30 @@ pub fn pose_files(doc: &serde_json::Value, dir: &std::path::Path) -> Vec<&'stati
     )
     .unwrap();
     std::fs::write(dir.join("poses.txt"), text).unwrap();
+    // A controller's log while moving (`log.csv`: t_s then the ABB columns, each profile's pose
+    // at 2 i s and another 5 mm off at 2 i + 1 s) and the profiles' time stamps (`times.csv`).
+    let (mut log, mut times) = (
+        String::from("t_s,x_mm,y_mm,z_mm,qw,qx,qy,qz\n"),
+        String::from("t_s\n"),
+    );
+    for (i, (t, q)) in poses.iter().enumerate() {
+        for (dt, dz) in [(0.0, 0.0), (1.0, 5.0)] {
+            log += &format!(
+                "{},{},{},{},{},{},{},{}\n",
+                2.0 * i as f64 + dt,
+                t[0],
+                t[1],
+                t[2] + dz,
+                q.w,
+                q.i,
+                q.j,
+                q.k
+            );
+        }
+        times += &format!("{}\n", 2.0 * i as f64);
+    }
+    std::fs::write(dir.join("log.csv"), log).unwrap();
+    std::fs::write(dir.join("times.csv"), times).unwrap();
     // HALCON pose files of types 0 ('gba'), 2 ('abg') and 4 ('rodriguez'); t in metres.
     for (folder, kind) in [("halcon", 0), ("halcon-abg", 2), ("halcon-rodriguez", 4)] {
         let halcon = dir.join(folder);
