@@ -18,7 +18,7 @@ use crate::schema::{Common, Scenario, ScenarioError, Source, Validator};
 use crate::sensor::SensorModel;
 use crate::sim::disk::{Coverage, Direction, DiskPlanSpec, DiskScanPlan, DiskTarget, ScanRequest};
 use crate::sim::{Rig, flange_pose};
-use nalgebra::{Isometry3, Point3, Vector2, Vector3};
+use nalgebra::{Isometry3, Point3, Translation3, Vector2, Vector3};
 
 /// The disk method.
 pub struct Disk;
@@ -79,6 +79,28 @@ impl Method for Disk {
         }
         v.open_interval("disk.span_fraction", d.span_fraction, 0.0, 1.0)?;
         v.non_negative("disk.sigma_mm", d.sigma_mm)?;
+        if !(d.scan_speed_mm_s >= 0.0 && d.scan_speed_mm_s <= 10_000.0) {
+            return Err(v.bad(
+                "disk.scan_speed_mm_s",
+                d.scan_speed_mm_s,
+                "must be in [0, 10000] mm/s (0: stop and go)",
+            ));
+        }
+        if !(d.clock_offset_ms.abs() <= 1000.0) {
+            return Err(v.bad(
+                "disk.clock_offset_ms",
+                d.clock_offset_ms,
+                "must be within +-1000 ms (a profiler's latency is milliseconds)",
+            ));
+        }
+        if d.clock_offset_ms != 0.0 && d.poses.is_some() {
+            return Err(v.bad(
+                "disk.clock_offset_ms",
+                d.clock_offset_ms,
+                "free poses are taken at rest (no move for a clock offset to act on): leave it \
+                 out with [disk.poses]",
+            ));
+        }
         if !(d.min_angle_deg >= 0.0 && d.min_angle_deg < 45.0) {
             return Err(v.bad("disk.min_angle_deg", d.min_angle_deg, "must be in [0, 45)"));
         }
@@ -176,6 +198,8 @@ impl Method for Disk {
             free,
             raycast: d.source == Source::Raycast,
             sigma: d.sigma_mm * 1e-3,
+            // Speed (m/s) times offset (s): how far ahead along its move a profile is recorded.
+            lead: d.scan_speed_mm_s * 1e-3 * d.clock_offset_ms * 1e-3,
             radius_tolerance: sc.specimen.radius_tolerance_mm.unwrap_or(0.0) * 1e-3,
             form: sc.specimen.form(),
             scene: common.scene.clone(),
@@ -256,6 +280,9 @@ pub struct DiskPlan {
     pub raycast: bool,
     /// Eq. 52 sigma, metres.
     pub sigma: f64,
+    /// How far ahead along its scan's move each profile's recorded pose lies of where it was
+    /// taken (metres): the scan speed times the profiler's clock offset.
+    pub lead: f64,
     /// Standard deviation of the true radius (metres).
     pub radius_tolerance: f64,
     pub form: FormTolerance,
@@ -322,6 +349,11 @@ impl Plan for DiskPlan {
                 role: Role::Scan,
                 sign: crate::sim::disk::scan_sign(rig, p),
             });
+            // The recorded pose leads the one the profile was taken at by `lead` along the move.
+            let back = Translation3::from(
+                -(p.t_end - p.t_start).try_normalize(0.0).unwrap_or_default() * self.lead,
+            );
+            let mut actual = |f: &Isometry3<f64>| actual(&(back * f));
             if self.raycast {
                 for j in 0..p.m {
                     let f = flange_pose(&p.r_tcp, &p.tcp(j));

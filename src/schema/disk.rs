@@ -43,6 +43,15 @@ pub struct Section {
     /// disk.
     #[serde(default)]
     pub poses: Option<super::poses::PoseSet>,
+    /// Scanning on the move: the speed of each scan's straight move, mm/s (0: stop and go, each
+    /// profile taken at rest).
+    #[serde(default)]
+    pub scan_speed_mm_s: f64,
+    /// How late the profiler's time stamps are against the controller's clock, ms (negative:
+    /// early). Each profile is paired with the controller's pose at its stamp, so while the arm
+    /// moves its recorded pose lies speed x offset ahead along the move of where it was taken.
+    #[serde(default)]
+    pub clock_offset_ms: f64,
 }
 
 fn d_span() -> f64 {

@@ -20,6 +20,7 @@ mod hardening;
 mod imperfection;
 mod independent;
 mod methods;
+mod on_the_move;
 mod plot;
 mod readme;
 mod reference;
