@@ -109,6 +109,10 @@ pub struct Judging {
     /// `method::verdict::NOMINAL_DEG` / `NOMINAL_MM` is suspect. A sensor mirrored in x fits its
     /// data as well as the right one, turned 180 deg about z; only the drawing tells them apart.
     pub nominal: Option<Isometry3<f64>>,
+    /// The flange's largest speed (m/s) at the time of a profile placed by its time stamp on a
+    /// pose stream (None: every profile at a stated pose): an error in the profiles' clock offset
+    /// moves them this far per second of it, which no residual shows.
+    pub scan_speed: Option<f64>,
 }
 
 impl Judging {
@@ -126,6 +130,7 @@ impl Default for Judging {
             tolerance_mm: Judging::DEFAULT_TOLERANCE_MM,
             robot_accuracy: Judging::DEFAULT_ROBOT_ACCURACY_MM * 1e-3,
             nominal: None,
+            scan_speed: None,
         }
     }
 }

@@ -535,11 +535,21 @@ fn from_file(f: FileV1, file: &str) -> Result<(Captures, SensorModel), FormatErr
         .map(|(i, p)| profile_of(p, i, &groups, &sensor, &clock, file))
         .collect::<Result<Vec<_>, _>>()?;
     let sensor = with_measured_noise(sensor, &profiles, f.sensor_noise.is_some());
+    // The fastest the flange moved at a profile placed by its time stamp (the verdict's note).
+    let scan_speed = f
+        .profiles
+        .iter()
+        .filter_map(|p| p.t_s)
+        .filter_map(|t| clock.speed_at(t + clock.offset_s))
+        .reduce(f64::max);
     Ok((
         Captures {
             orientation_tolerance_deg: tolerance,
             feature_sigma,
-            judging: judging_of(&f, file)?,
+            judging: Judging {
+                scan_speed,
+                ..judging_of(&f, file)?
+            },
             method: kind,
             sensor: sensor.name.clone(),
             specimen_kind: f.specimen.kind,
@@ -894,6 +904,26 @@ impl Clock {
     }
 }
 
+impl Clock {
+    /// The flange's speed (m/s) between the two logged poses around controller time `t`; at a
+    /// logged pose's own time the slower of the two segments it joins (a scan's last pose joins
+    /// the move to the next scan).
+    fn speed_at(&self, t: f64) -> Option<f64> {
+        let segment = |k: usize| {
+            let (a, b) = (self.stream.get(k.checked_sub(1)?)?, self.stream.get(k)?);
+            Some((b.1.translation.vector - a.1.translation.vector).norm() / (b.0 - a.0))
+        };
+        let k = self.stream.partition_point(|(s, _)| *s <= t);
+        if k > 0 && self.stream[k - 1].0 == t {
+            return match (segment(k - 1), segment(k)) {
+                (Some(x), Some(y)) => Some(x.min(y)),
+                (x, y) => x.or(y),
+            };
+        }
+        segment(k)
+    }
+}
+
 /// A flange pose from a record's position (mm) and unit quaternion (w, x, y, z), checked.
 fn flange_pose(
     t: [f64; 3],
@@ -1218,6 +1248,7 @@ fn judging_of(f: &FileV1, file: &str) -> Result<Judging, FormatError> {
             .nominal_flange_to_sensor_mm
             .map(|m| transform_of(&m, file, "nominal_flange_to_sensor_mm"))
             .transpose()?,
+        scan_speed: None,
     })
 }
 

@@ -307,6 +307,16 @@ pub fn judge(q: Quality) -> Judged {
             ));
         }
     }
+    if let Some(v) = q.judging.scan_speed.filter(|v| *v > 0.0) {
+        notes.push(format!(
+            "the profiles were placed on the pose log by their time stamps while the flange moved \
+             at up to {:.0} mm/s: each millisecond of error in their clock offset \
+             (profile_clock_offset_s) moves them {v:.3} mm along the motion, a bias the residuals \
+             hardly show and the bound does not include (docs/guide/causes.md, \"Scanning on the \
+             move\")",
+            v * 1e3
+        ));
+    }
     if q.profiles > 0 && q.rejected as f64 > MAX_REJECTED_SHARE * q.profiles as f64 {
         reasons.push(format!(
             "{} of {} profiles were rejected (more than {:.0} %): the rest may not be \

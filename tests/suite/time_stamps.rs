@@ -96,6 +96,19 @@ fn profiles_given_by_time_get_the_poses_back_and_the_same_calibration() {
             v["flange_to_sensor"].clone()
         };
         let (a, b) = (json_of(&file), json_of(&plain));
+        // The verdict says the profiles were placed by time while moving, and what a clock
+        // offset error would do; the plain file has no such note.
+        let note = "placed on the pose log by their time stamps";
+        let said = |f: &Path| {
+            let (_, out, err) = lasercal(&["calibrate", f.to_str().unwrap(), "--method", "disk"]);
+            out + &err
+        };
+        let (timed_out, plain_out) = (said(&file), said(&plain));
+        assert!(
+            timed_out.contains(note) && timed_out.contains("mm/s"),
+            "{timed_out}"
+        );
+        assert!(!plain_out.contains(note), "{plain_out}");
         let flat = |v: &Value| -> Vec<f64> {
             v.as_array()
                 .unwrap()
