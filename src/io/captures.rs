@@ -480,7 +480,7 @@ pub fn write(path: &Path, text: &str, compact_points: bool) -> Result<(), crate:
     super::write(path, json.as_bytes())
 }
 
-fn from_file(f: FileV1, file: &str) -> Result<(Captures, SensorModel), FormatError> {
+fn from_file(mut f: FileV1, file: &str) -> Result<(Captures, SensorModel), FormatError> {
     if f.format != FORMAT {
         return Err(err(
             file,
@@ -528,13 +528,6 @@ fn from_file(f: FileV1, file: &str) -> Result<(Captures, SensorModel), FormatErr
     };
     let groups = groups_of(&f, kind, file)?;
     let clock = Clock::of(&f, file)?;
-    let profiles = f
-        .profiles
-        .iter()
-        .enumerate()
-        .map(|(i, p)| profile_of(p, i, &groups, &sensor, &clock, file))
-        .collect::<Result<Vec<_>, _>>()?;
-    let sensor = with_measured_noise(sensor, &profiles, f.sensor_noise.is_some());
     // The fastest the flange moved at a profile placed by its time stamp (the verdict's note).
     let scan_speed = f
         .profiles
@@ -542,14 +535,22 @@ fn from_file(f: FileV1, file: &str) -> Result<(Captures, SensorModel), FormatErr
         .filter_map(|p| p.t_s)
         .filter_map(|t| clock.speed_at(t + clock.offset_s))
         .reduce(f64::max);
+    let judging = Judging {
+        scan_speed,
+        ..judging_of(&f, file)?
+    };
+    // Each record dropped once converted: a continuous scan's points are not held twice.
+    let profiles = std::mem::take(&mut f.profiles)
+        .into_iter()
+        .enumerate()
+        .map(|(i, p)| profile_of(&p, i, &groups, &sensor, &clock, file))
+        .collect::<Result<Vec<_>, _>>()?;
+    let sensor = with_measured_noise(sensor, &profiles, f.sensor_noise.is_some());
     Ok((
         Captures {
             orientation_tolerance_deg: tolerance,
             feature_sigma,
-            judging: Judging {
-                scan_speed,
-                ..judging_of(&f, file)?
-            },
+            judging,
             method: kind,
             sensor: sensor.name.clone(),
             specimen_kind: f.specimen.kind,
