@@ -92,6 +92,22 @@ pub struct Captures {
     pub feature_sigma: Option<f64>,
     /// What the verdict judges a result against (tolerance, the robot's accuracy).
     pub judging: Judging,
+    /// Scanning on the move: the controller's pose log and each profile's time stamp, when the
+    /// profiles were placed by time (None: each at a stated pose).
+    pub timing: Option<Timing>,
+}
+
+/// The controller's log of flange poses and each profile's time stamp on the profiler's clock
+/// (a capture file's `pose_stream` and `t_s`); every profile's `base_to_flange` is the log's pose
+/// at its stamp plus `offset_s`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Timing {
+    /// (controller time s, flange pose), the times strictly increasing.
+    pub stream: Vec<(f64, Isometry3<f64>)>,
+    /// Each profile's time stamp (s, the profiler's clock), in profile order.
+    pub stamps: Vec<f64>,
+    /// Seconds added to a stamp to put it on the controller's clock (the stated offset).
+    pub offset_s: f64,
 }
 
 /// What the verdict judges a result against: the user's tolerance on the 95 % error bound, and

@@ -214,6 +214,11 @@ struct ProfileV1 {
 
 /// Serialise captures (with the sensor model whose noise tuned the feature extraction).
 pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
+    // The log and the stamps, when every profile has one.
+    let timing = c
+        .timing
+        .as_ref()
+        .filter(|t| t.stamps.len() == c.profiles.len() && t.stream.len() >= 2);
     let v2 = |v: &Vector2<f64>| [v.x * 1e3, v.y * 1e3];
     let n = &sensor.noise;
     let file = FileV1 {
@@ -259,8 +264,20 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
         truth_flange_to_sensor_mm: c.truth.as_ref().map(crate::math::pose_to_rows_mm),
         nominal_flange_to_sensor_mm: c.judging.nominal.as_ref().map(crate::math::pose_to_rows_mm),
         points_file: None,
-        pose_stream: None,
-        profile_clock_offset_s: None,
+        pose_stream: timing.map(|t| {
+            t.stream
+                .iter()
+                .map(|(s, f)| {
+                    let p = f.translation.vector * 1e3;
+                    PoseSampleV1 {
+                        t_s: *s,
+                        tcp_position_mm: [p.x, p.y, p.z],
+                        tcp_quaternion_wxyz: crate::math::quat_wxyz(&f.rotation),
+                    }
+                })
+                .collect()
+        }),
+        profile_clock_offset_s: timing.map(|t| t.offset_s).filter(|o| *o != 0.0),
         groups: c
             .groups
             .iter()
@@ -273,13 +290,18 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
         profiles: c
             .profiles
             .iter()
-            .map(|p| {
+            .enumerate()
+            .map(|(i, p)| {
                 let t = p.base_to_flange.translation.vector * 1e3;
+                // Placed by time: the stamp stands for the pose (which the log gives back).
+                let stamp = timing.map(|t| t.stamps[i]);
                 let mut rec = ProfileV1 {
                     group: p.group,
-                    tcp_position_mm: Some([t.x, t.y, t.z]),
-                    tcp_quaternion_wxyz: Some(crate::math::quat_wxyz(&p.base_to_flange.rotation)),
-                    t_s: None,
+                    tcp_position_mm: stamp.is_none().then_some([t.x, t.y, t.z]),
+                    tcp_quaternion_wxyz: stamp
+                        .is_none()
+                        .then(|| crate::math::quat_wxyz(&p.base_to_flange.rotation)),
+                    t_s: stamp,
                     points_mm: None,
                     intensity: None,
                     columns: None,
@@ -539,6 +561,15 @@ fn from_file(mut f: FileV1, file: &str) -> Result<(Captures, SensorModel), Forma
         scan_speed,
         ..judging_of(&f, file)?
     };
+    // Kept (for a file written back) when every profile was placed by time.
+    let stamps: Option<Vec<f64>> = f.profiles.iter().map(|p| p.t_s).collect();
+    let timing = stamps
+        .filter(|s| !s.is_empty() && clock.stream.len() >= 2)
+        .map(|stamps| crate::captures::Timing {
+            stream: clock.stream.clone(),
+            stamps,
+            offset_s: clock.offset_s,
+        });
     // Each record dropped once converted: a continuous scan's points are not held twice.
     let profiles = std::mem::take(&mut f.profiles)
         .into_iter()
@@ -551,6 +582,7 @@ fn from_file(mut f: FileV1, file: &str) -> Result<(Captures, SensorModel), Forma
             orientation_tolerance_deg: tolerance,
             feature_sigma,
             judging,
+            timing,
             method: kind,
             sensor: sensor.name.clone(),
             specimen_kind: f.specimen.kind,

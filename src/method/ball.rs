@@ -363,6 +363,7 @@ impl Plan for BallPlanned {
             truth: Some(rig.flange_to_sensor),
             groups,
             profiles,
+            timing: None,
         })
     }
 }

@@ -200,6 +200,8 @@ impl Method for Disk {
             sigma: d.sigma_mm * 1e-3,
             // Speed (m/s) times offset (s): how far ahead along its move a profile is recorded.
             lead: d.scan_speed_mm_s * 1e-3 * d.clock_offset_ms * 1e-3,
+            speed: d.scan_speed_mm_s * 1e-3,
+            clock_offset: d.clock_offset_ms * 1e-3,
             radius_tolerance: sc.specimen.radius_tolerance_mm.unwrap_or(0.0) * 1e-3,
             form: sc.specimen.form(),
             scene: common.scene.clone(),
@@ -283,6 +285,9 @@ pub struct DiskPlan {
     /// How far ahead along its scan's move each profile's recorded pose lies of where it was
     /// taken (metres): the scan speed times the profiler's clock offset.
     pub lead: f64,
+    /// The scans' speed (m/s; 0: stop and go) and how late the profiler's stamps are (s).
+    pub speed: f64,
+    pub clock_offset: f64,
     /// Standard deviation of the true radius (metres).
     pub radius_tolerance: f64,
     pub form: FormTolerance,
@@ -414,7 +419,9 @@ impl Plan for DiskPlan {
                 }
             }
         }
+        let timing = self.timing(&profiles);
         Ok(Captures {
+            timing,
             orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
             feature_sigma: (!self.raycast).then_some(self.sigma),
             judging: crate::captures::Judging::default(),
@@ -426,6 +433,50 @@ impl Plan for DiskPlan {
             truth: Some(rig.flange_to_sensor),
             groups,
             profiles,
+        })
+    }
+}
+
+/// The controller's pose log rate of a simulated moving scan (Hz): ABB EGM's and its peers'.
+const POSE_STREAM_HZ: f64 = 250.0;
+
+impl DiskPlan {
+    /// Scanning on the move: the controller's log of each scan (its straight move at `speed`,
+    /// scans a second apart, logged at `POSE_STREAM_HZ` from before the first profile to after
+    /// the last) and each profile's stamp, the time the log shows its recorded pose (the profile
+    /// itself taken `clock_offset` earlier, `lead` back along the move). None when stopping.
+    fn timing(&self, profiles: &[CaptureProfile]) -> Option<crate::captures::Timing> {
+        if !(self.speed > 0.0) || self.plans.is_empty() || !self.free.is_empty() {
+            return None;
+        }
+        let margin = 0.1 + self.clock_offset.abs();
+        let (mut stream, mut starts) = (Vec::new(), Vec::new());
+        let mut t0 = margin;
+        for p in &self.plans {
+            let (d, length) = (
+                (p.t_end - p.t_start).normalize(),
+                (p.t_end - p.t_start).norm(),
+            );
+            starts.push((t0, p.t_start, d));
+            let samples = ((length / self.speed + 2.0 * margin) * POSE_STREAM_HZ).ceil() as usize;
+            for k in 0..=samples {
+                let t = t0 - margin + k as f64 / POSE_STREAM_HZ;
+                let at = p.t_start + d * (self.speed * (t - t0));
+                stream.push((t, flange_pose(&p.r_tcp, &at)));
+            }
+            t0 += length / self.speed + 2.0 * margin + 1.0;
+        }
+        let stamps = profiles
+            .iter()
+            .map(|c| {
+                let (t0, start, d) = starts[c.group];
+                t0 + (c.base_to_flange.translation.vector - start).dot(&d) / self.speed
+            })
+            .collect();
+        Some(crate::captures::Timing {
+            stream,
+            stamps,
+            offset_s: 0.0,
         })
     }
 }

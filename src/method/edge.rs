@@ -358,6 +358,7 @@ impl Plan for EdgePlan {
             truth: Some(rig.flange_to_sensor),
             groups,
             profiles,
+            timing: None,
         })
     }
 }

@@ -180,6 +180,7 @@ impl Plan for PlanePlan {
             truth: Some(rig.flange_to_sensor),
             groups,
             profiles,
+            timing: None,
         })
     }
 }

@@ -134,6 +134,7 @@ fn random_setup(seed: u64, n: usize, translations: usize, sigma: f64) -> Setup {
     }
     Setup {
         caps: Captures {
+            timing: None,
             feature_sigma: None,
             // A simulated rig without robot error states so.
             judging: lasercal::captures::Judging {
@@ -515,6 +516,7 @@ fn random_face_setup(
     }
     Setup {
         caps: Captures {
+            timing: None,
             feature_sigma: None,
             // A simulated rig without robot error states so.
             judging: lasercal::captures::Judging {

@@ -109,3 +109,59 @@ fn bad_motion_keys_are_refused() {
         assert!(e.contains(want) && e.contains("bad.toml"), "{e}");
     }
 }
+
+/// A simulated moving scan's capture file carries the controller's pose log and each profile's
+/// stamp, as a real cell's would: read back, the poses are the simulation's own; stating the
+/// clock's offset in the file (`profile_clock_offset_s`) removes the bias.
+#[test]
+fn the_simulated_file_logs_poses_and_stamps_and_the_stated_offset_removes_the_bias() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("moving.toml");
+    let path = format!(
+        "{}/scenarios/disk-on-the-move.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let text = std::fs::read_to_string(path)
+        .unwrap()
+        .replace("sigma_mm = 0.05", "sigma_mm = 0.0")
+        .replace("clock_offset_ms = 0.0", "clock_offset_ms = 10.0");
+    std::fs::write(&scenario, text).unwrap();
+    let file = dir.path().join("moving.json");
+    let (code, _, err) = crate::common::lasercal(&[
+        "simulate",
+        scenario.to_str().unwrap(),
+        "--out",
+        file.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    let stream = doc["pose_stream"].as_array().expect("a pose log").len();
+    assert!(stream > 400, "{stream} logged poses");
+    assert!(doc["profiles"][0]["t_s"].is_number());
+    assert!(doc["profiles"][0].get("tcp_position_mm").is_none());
+    let error_mm = |f: &std::path::Path| {
+        let (code, out, err) =
+            crate::common::lasercal(&["calibrate", f.to_str().unwrap(), "--method", "disk"]);
+        assert!(code == 0 || code == 3 || code == 4, "{out}{err}");
+        let line = out
+            .lines()
+            .find(|l| l.contains("against the file's truth"))
+            .unwrap_or_else(|| panic!("{out}"));
+        line.rsplit("translation error ")
+            .next()
+            .unwrap()
+            .trim_end_matches(" mm")
+            .parse::<f64>()
+            .unwrap()
+    };
+    // 100 mm/s and 10 ms: 1 mm of lead, 0.415 mm of bias.
+    let biased = error_mm(&file);
+    assert!((biased - 0.415).abs() < 0.01, "{biased} mm");
+    // The profiler's stamps are 10 ms late: 10 ms taken off each puts it on the log's clock.
+    doc["profile_clock_offset_s"] = serde_json::json!(-0.010);
+    let fixed = dir.path().join("fixed.json");
+    std::fs::write(&fixed, serde_json::to_string(&doc).unwrap()).unwrap();
+    let unbiased = error_mm(&fixed);
+    assert!(unbiased < 1e-5, "{unbiased} mm");
+}
