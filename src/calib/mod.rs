@@ -29,8 +29,7 @@ pub const MIN_LINE_SPREAD: f64 = 0.02;
 /// continuous scan's tens of thousands of profiles stay bounded. Thinning the 8.3 million face
 /// points of 20,000 ray-cast disk profiles to it left disk-full 0.0005 deg / 0.0012 mm from the
 /// truth (0.0003 deg / 0.0003 mm with every point, at twelve times the time and three times the
-/// memory), far below
-/// what a robot reaches; captures of a few hundred profiles keep every point.
+/// memory), far below what a robot reaches; captures of a few hundred profiles keep every point.
 pub const POINT_BUDGET: usize = 250_000;
 
 /// Fewest points per profile thinning keeps: a face's line needs its spread, not its count.
