@@ -462,22 +462,25 @@ pub fn split_times(text: &str, file: &str) -> Result<(Vec<f64>, String), FormatE
         }
         let (t, pose) = line.split_once(',').unwrap_or((line, ""));
         let t = t.trim();
-        times.push(
-            t.parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| {
-                    field(
-                        file,
-                        format!("line {}, t_s", i + 2),
-                        format!("'{t}' is not a finite number of seconds"),
-                    )
-                })?,
-        );
+        times.push(seconds(t, file, i + 2)?);
         out += pose;
         out += "\n";
     }
     Ok((times, out))
+}
+
+/// A `t_s` cell on CSV line `line`: a finite number of seconds.
+fn seconds(cell: &str, file: &str, line: usize) -> Result<f64, FormatError> {
+    cell.parse::<f64>()
+        .ok()
+        .filter(|x| x.is_finite())
+        .ok_or_else(|| {
+            field(
+                file,
+                format!("line {line}, t_s"),
+                format!("'{cell}' is not a finite number of seconds"),
+            )
+        })
 }
 
 /// Profile time stamps: a CSV with a `t_s` column, one row per profile in the profiles' order.
@@ -511,18 +514,7 @@ pub fn profile_times<R: Read>(reader: R, file: &str) -> Result<Vec<f64>, FormatE
                 "more than 10 million profiles".into(),
             ));
         }
-        times.push(
-            cell.parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| {
-                    field(
-                        file,
-                        format!("line {}, t_s", i + 2),
-                        format!("'{cell}' is not a finite number of seconds"),
-                    )
-                })?,
-        );
+        times.push(seconds(cell, file, i + 2)?);
     }
     Ok(times)
 }
