@@ -7,7 +7,8 @@
 //!   (the profile in the sensor frame); `world/sensor/estimated` (the recovered sensor pose);
 //! - `world/profile_in_base`, `world/features`: the profile and its feature in the base frame;
 //! - `sweep/<series>/<column>`: a sweep's curves as scalar series on the timeline `x`.
-//! Timelines: `capture` (profile index) for runs, `x` for sweeps.
+//! Timelines: `capture` (profile index) for runs, `x` for sweeps, and `profile_time` (seconds on
+//! the profiler's clock) for profiles placed by their time stamps.
 
 use super::FormatError;
 use crate::captures::Captures;
@@ -18,6 +19,9 @@ use crate::scene::{PartShape, Scene, Specimen};
 use crate::sensor::SensorModel;
 use nalgebra::Vector2;
 use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
+
+/// The timeline of profiles placed by their time stamps: seconds on the profiler's clock.
+const PROFILE_TIME: &str = "profile_time";
 
 type Res = Result<(), FormatError>;
 
@@ -428,8 +432,13 @@ impl Recorder {
             self.axes("world/truth/sensor/axes", 0.05)?;
         }
         let mut q_prev = [0.0; 6];
+        // Profiles placed by their time stamps (scanning on the move) are on their own clock too.
+        let stamps = caps.timing.as_ref().map(|t| &t.stamps);
         for (i, p) in view.profiles.iter().enumerate() {
             self.rec.set_time_sequence("capture", i as i64);
+            if let Some(s) = stamps.and_then(|s| s.get(i)) {
+                self.rec.set_duration_secs(PROFILE_TIME, *s);
+            }
             if let Some(robot) = what.robot
                 && let Ok(q) = robot.ik_nearest(&p.base_to_flange, &q_prev)
             {
@@ -503,6 +512,9 @@ impl Recorder {
             }
         }
         self.rec.disable_timeline("capture");
+        if stamps.is_some() {
+            self.rec.disable_timeline(PROFILE_TIME);
+        }
         self.mapped(&view, estimate, scale)?;
         self.rec.flush_blocking().map_err(e)?;
         Ok(())

@@ -349,3 +349,45 @@ fn expect_rows(m: &BTreeMap<String, usize>, entities: &[&str], n: usize) {
         assert_eq!(m.get(*e).copied(), Some(n), "{e}: {m:?}");
     }
 }
+
+/// A capture file whose profiles were placed by their time stamps on a pose log (a simulated
+/// moving scan) shows them on their own clock too, the timeline `profile_time`; a file of stated
+/// poses has no such timeline.
+#[test]
+fn profiles_placed_by_time_get_their_own_timeline() {
+    let Some(cli) = rerun_cli() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let timelines = |scenario: &str| {
+        let caps = dir.path().join(format!("{scenario}.json"));
+        let rrd = dir.path().join(format!("{scenario}.rrd"));
+        let (code, _, err) = common::lasercal(&[
+            "simulate",
+            &common::scen(&format!("{scenario}.toml")),
+            "--out",
+            caps.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let (code, _, err) = common::lasercal(&[
+            "calibrate",
+            caps.to_str().unwrap(),
+            "--method",
+            "disk",
+            "--rerun",
+            rrd.to_str().unwrap(),
+        ]);
+        assert!(code == 0 || code == 3 || code == 4, "{err}");
+        let out = Command::new(&cli)
+            .args(["rrd", "print", "-vv"])
+            .arg(&rrd)
+            .output()
+            .unwrap();
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let moving = timelines("disk-on-the-move");
+    assert!(
+        moving.contains("index_name: profile_time"),
+        "no profile_time timeline"
+    );
+    assert!(moving.contains("index_name: capture"));
+    assert!(!timelines("chen2018-disk").contains("index_name: profile_time"));
+}
