@@ -212,6 +212,21 @@ struct ProfileV1 {
     edge_point_mm: Option<[f64; 2]>,
 }
 
+/// A pose log as the capture file's `pose_stream` records.
+fn stream_records(t: &crate::captures::Timing) -> Vec<PoseSampleV1> {
+    t.stream
+        .iter()
+        .map(|(s, f)| {
+            let p = f.translation.vector * 1e3;
+            PoseSampleV1 {
+                t_s: *s,
+                tcp_position_mm: [p.x, p.y, p.z],
+                tcp_quaternion_wxyz: crate::math::quat_wxyz(&f.rotation),
+            }
+        })
+        .collect()
+}
+
 /// Serialise captures (with the sensor model whose noise tuned the feature extraction).
 pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
     // The log and the stamps, when every profile has one.
@@ -264,19 +279,7 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
         truth_flange_to_sensor_mm: c.truth.as_ref().map(crate::math::pose_to_rows_mm),
         nominal_flange_to_sensor_mm: c.judging.nominal.as_ref().map(crate::math::pose_to_rows_mm),
         points_file: None,
-        pose_stream: timing.map(|t| {
-            t.stream
-                .iter()
-                .map(|(s, f)| {
-                    let p = f.translation.vector * 1e3;
-                    PoseSampleV1 {
-                        t_s: *s,
-                        tcp_position_mm: [p.x, p.y, p.z],
-                        tcp_quaternion_wxyz: crate::math::quat_wxyz(&f.rotation),
-                    }
-                })
-                .collect()
-        }),
+        pose_stream: timing.map(stream_records),
         profile_clock_offset_s: timing.map(|t| t.offset_s).filter(|o| *o != 0.0),
         groups: c
             .groups

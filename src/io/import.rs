@@ -519,6 +519,36 @@ pub fn profile_times<R: Read>(reader: R, file: &str) -> Result<Vec<f64>, FormatE
     Ok(times)
 }
 
+/// A position (mm) and a quaternion (w, x, y, z) as the capture file writes a flange pose.
+fn pose_json(f: &Isometry3<f64>) -> ([f64; 3], [f64; 4]) {
+    let t = f.translation.vector * 1e3;
+    let q = f.rotation;
+    ([t.x, t.y, t.z], [q.w, q.i, q.j, q.k])
+}
+
+/// The capture file's `pose_stream`: the log's poses with their times.
+fn pose_stream(
+    t: &Timing,
+    poses: &[Isometry3<f64>],
+    file: &str,
+) -> Result<serde_json::Value, FormatError> {
+    if t.pose_times.len() != poses.len() {
+        return Err(field(
+            file,
+            "t_s".into(),
+            format!("{} times for {} poses", t.pose_times.len(), poses.len()),
+        ));
+    }
+    Ok(t.pose_times
+        .iter()
+        .zip(poses)
+        .map(|(s, f)| {
+            let (p, q) = pose_json(f);
+            serde_json::json!({"t_s": s, "tcp_position_mm": p, "tcp_quaternion_wxyz": q})
+        })
+        .collect())
+}
+
 /// What the capture file says besides the data.
 pub struct Header<'a> {
     pub method: &'a str,
@@ -594,11 +624,6 @@ pub fn capture_file(
             }
         }
     }
-    let pose_json = |f: &Isometry3<f64>| {
-        let t = f.translation.vector * 1e3;
-        let q = f.rotation;
-        ([t.x, t.y, t.z], [q.w, q.i, q.j, q.k])
-    };
     let profiles: Vec<serde_json::Value> = per_pose
         .iter()
         .enumerate()
@@ -635,23 +660,7 @@ pub fn capture_file(
         doc["specimen"]["radius_mm"] = serde_json::json!(r);
     }
     if let Some(t) = timing {
-        if t.pose_times.len() != poses.len() {
-            return Err(field(
-                poses_file,
-                "t_s".into(),
-                format!("{} times for {} poses", t.pose_times.len(), poses.len()),
-            ));
-        }
-        let stream: Vec<serde_json::Value> = t
-            .pose_times
-            .iter()
-            .zip(poses)
-            .map(|(s, f)| {
-                let (p, q) = pose_json(f);
-                serde_json::json!({"t_s": s, "tcp_position_mm": p, "tcp_quaternion_wxyz": q})
-            })
-            .collect();
-        doc["pose_stream"] = serde_json::Value::Array(stream);
+        doc["pose_stream"] = pose_stream(t, poses, poses_file)?;
         if let Some(o) = t.offset_s {
             doc["profile_clock_offset_s"] = serde_json::json!(o);
         }
