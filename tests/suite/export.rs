@@ -924,22 +924,14 @@ fn import_places_time_stamped_profiles_on_a_pose_log() {
     let (caps, doc) = common::simulated_capture(dir.path(), "ball-free.toml", "sim.json");
     let want = calibrated(caps.to_str().unwrap(), dir.path(), "sim");
     let profiles = doc["profiles"].as_array().unwrap();
-    let per_pose = dir.path().join("profiles");
-    std::fs::create_dir_all(&per_pose).unwrap();
+    // The profiles as a rig writes them, one CSV per pose (the log below is this test's own).
+    let (_, per_pose) = common::rig_recording(&doc, dir.path());
     let offset_s = 0.0137;
     let (mut log, mut times) = (
         String::from("t_s,x_mm,y_mm,z_mm,qw,qx,qy,qz\n"),
         String::from("t_s\n"),
     );
     for (i, p) in profiles.iter().enumerate() {
-        let mut csv = String::from("x_mm,z_mm\n");
-        for pt in p["points_mm"].as_array().unwrap() {
-            csv += &match pt.as_array() {
-                Some(xz) => format!("{},{}\n", xz[0], xz[1]),
-                None => ",\n".into(),
-            };
-        }
-        std::fs::write(per_pose.join(format!("pose_{i:03}.csv")), csv).unwrap();
         let t: Vec<f64> = serde_json::from_value(p["tcp_position_mm"].clone()).unwrap();
         let q: Vec<f64> = serde_json::from_value(p["tcp_quaternion_wxyz"].clone()).unwrap();
         let row = |t_s: f64, dz: f64| {
