@@ -108,6 +108,9 @@ pub struct Timing {
     pub stamps: Vec<f64>,
     /// Seconds added to a stamp to put it on the controller's clock (the stated offset).
     pub offset_s: f64,
+    /// Whether the refined, full-profile and any-pose estimators estimate the offset's error
+    /// with the transform (`calib::refine::timed`) rather than hold the stated offset.
+    pub estimate_offset: bool,
 }
 
 /// What the verdict judges a result against: the user's tolerance on the 95 % error bound, and

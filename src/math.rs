@@ -88,12 +88,40 @@ pub fn pose_at(stream: &[(f64, Isometry3<f64>)], t: f64) -> Option<Isometry3<f64
     }
     let translation = a.translation.vector.lerp(&b.translation.vector, u);
     // Two samples of one stream are never half a turn apart; were they, the nearer one holds.
+    // nalgebra's slerp of two nearby rotations leaves |q| off 1 by up to 1e-10 (a turn of that
+    // many radians in every point it maps): normalised again.
     let rotation = a
         .rotation
         .try_slerp(&b.rotation, u, 1e-12)
+        .map(|q| UnitQuaternion::new_normalize(q.into_inner()))
         .unwrap_or(if u < 0.5 { a.rotation } else { b.rotation });
     Some(Isometry3::from_parts(
         Translation3::from(translation),
         rotation,
     ))
+}
+
+/// The flange's velocity at time `t` on `pose_at`'s interpolation of `stream`, in the moving
+/// frame (a body twist): angular (rad/s) and linear (m/s) such that the pose at `t + h` is the
+/// pose at `t` times (exp(h angular), h linear) to first order in `h`. The interpolation is
+/// piecewise, so this is the velocity of the segment holding `t` (the later one at a sample's
+/// own time); zero at the stream's ends and outside it.
+pub fn velocity_at(stream: &[(f64, Isometry3<f64>)], t: f64) -> (Vector3<f64>, Vector3<f64>) {
+    let zero = (Vector3::zeros(), Vector3::zeros());
+    let (Some(first), Some(last)) = (stream.first(), stream.last()) else {
+        return zero;
+    };
+    if !(t >= first.0 && t < last.0) {
+        return zero;
+    }
+    let k = stream.partition_point(|(s, _)| *s <= t);
+    let ((ta, a), (tb, b)) = (stream[k - 1], stream[k]);
+    let dt = tb - ta;
+    // Slerp turns about one axis fixed in the moving frame at a constant rate: a^-1 b's.
+    let turn = (a.rotation.inverse() * b.rotation).scaled_axis() / dt;
+    let Some(here) = pose_at(stream, t) else {
+        return zero;
+    };
+    let linear = here.rotation.inverse() * ((b.translation.vector - a.translation.vector) / dt);
+    (turn, linear)
 }

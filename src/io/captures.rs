@@ -74,6 +74,10 @@ struct FileV1 {
     /// latency against the controller's; default 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     profile_clock_offset_s: Option<f64>,
+    /// With a pose_stream: estimate the offset's error with the transform (default true), or hold
+    /// the stated offset (false).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    estimate_clock_offset: Option<bool>,
     /// The capture groups (scans, rotation sets, poses), each with its role and sign.
     groups: Vec<GroupV1>,
     /// One record per profile: its group, the flange pose and the profile or its feature.
@@ -281,6 +285,7 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
         points_file: None,
         pose_stream: timing.map(stream_records),
         profile_clock_offset_s: timing.map(|t| t.offset_s).filter(|o| *o != 0.0),
+        estimate_clock_offset: timing.and_then(|t| (!t.estimate_offset).then_some(false)),
         groups: c
             .groups
             .iter()
@@ -572,6 +577,7 @@ fn from_file(mut f: FileV1, file: &str) -> Result<(Captures, SensorModel), Forma
             stream: clock.stream.clone(),
             stamps,
             offset_s: clock.offset_s,
+            estimate_offset: f.estimate_clock_offset.unwrap_or(true),
         });
     // Each record dropped once converted: a continuous scan's points are not held twice.
     let profiles = std::mem::take(&mut f.profiles)

@@ -202,6 +202,7 @@ impl Method for Disk {
             lead: d.scan_speed_mm_s * 1e-3 * d.clock_offset_ms * 1e-3,
             speed: d.scan_speed_mm_s * 1e-3,
             clock_offset: d.clock_offset_ms * 1e-3,
+            estimate_clock_offset: d.estimate_clock_offset,
             radius_tolerance: sc.specimen.radius_tolerance_mm.unwrap_or(0.0) * 1e-3,
             form: sc.specimen.form(),
             scene: common.scene.clone(),
@@ -288,6 +289,8 @@ pub struct DiskPlan {
     /// The scans' speed (m/s; 0: stop and go) and how late the profiler's stamps are (s).
     pub speed: f64,
     pub clock_offset: f64,
+    /// Whether the estimators estimate the clock offset (`captures::Timing::estimate_offset`).
+    pub estimate_clock_offset: bool,
     /// Standard deviation of the true radius (metres).
     pub radius_tolerance: f64,
     pub form: FormTolerance,
@@ -477,6 +480,7 @@ impl DiskPlan {
             stream,
             stamps,
             offset_s: 0.0,
+            estimate_offset: self.estimate_clock_offset,
         })
     }
 }

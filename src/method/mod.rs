@@ -818,6 +818,71 @@ pub fn estimate(
     caps: &Captures,
     sensor: &SensorModel,
 ) -> Result<(Calibration, Option<Refined>), Error> {
+    let (mut cal, r) = estimate_at_stated_times(id, caps, sensor)?;
+    let Some(r) = r else {
+        return Ok((cal, None));
+    };
+    let r = with_clock(id, caps, &mut cal, r);
+    // The features were found and labelled (a bar's edges, a face's walls) at the poses of the
+    // stated offset: where the estimate moved a profile's pose noticeably, once more from the
+    // poses at the estimated offset.
+    let Some(moved) = r.clock.and_then(|c| replaced(caps, c.shift_s)) else {
+        return Ok((cal, Some(r)));
+    };
+    let (mut again, r2) = estimate_at_stated_times(id, &moved, sensor)?;
+    let Some(r2) = r2 else {
+        return Ok((cal, Some(r)));
+    };
+    let mut r2 = with_clock(id, &moved, &mut again, r2);
+    let shift = r.clock.map_or(0.0, |c| c.shift_s);
+    match r2.clock.as_mut() {
+        Some(c) if c.sd_s.is_finite() => c.shift_s += shift,
+        // Estimated once, not the second time: the first stands.
+        _ => return Ok((cal, Some(r))),
+    }
+    Ok((again, Some(r2)))
+}
+
+/// How far (m, or rad at 0.1 m) an estimated clock shift must move some profile's pose before
+/// its features are found again at the new poses.
+const REPLACE_MOVE: f64 = 1e-5;
+
+/// The captures with every profile at its pose for the stated offset plus `shift_s` (the offset
+/// moved by it), when that moves some pose by more than `REPLACE_MOVE`.
+fn replaced(caps: &Captures, shift_s: f64) -> Option<Captures> {
+    let t = caps.timing.as_ref()?;
+    if !(shift_s.abs() > 0.0) {
+        return None;
+    }
+    let offset_s = t.offset_s + shift_s;
+    let poses: Vec<Isometry3<f64>> = t
+        .stamps
+        .iter()
+        .map(|s| crate::math::pose_at(&t.stream, s + offset_s))
+        .collect::<Option<_>>()?;
+    let moves = caps.profiles.iter().zip(&poses).any(|(p, f)| {
+        let d = p.base_to_flange.inverse() * f;
+        d.translation.vector.norm() > REPLACE_MOVE || d.rotation.angle() * 0.1 > REPLACE_MOVE
+    });
+    if !moves {
+        return None;
+    }
+    let mut moved = caps.clone();
+    for (p, f) in moved.profiles.iter_mut().zip(poses) {
+        p.base_to_flange = f;
+    }
+    if let Some(t) = moved.timing.as_mut() {
+        t.offset_s = offset_s;
+    }
+    Some(moved)
+}
+
+/// `estimate` with each profile at the pose its stamp and the stated offset give.
+fn estimate_at_stated_times(
+    id: MethodId,
+    caps: &Captures,
+    sensor: &SensorModel,
+) -> Result<(Calibration, Option<Refined>), Error> {
     if id.estimator == Estimator::AnyPose {
         let (cal, r) =
             method(id.kind).calibrate_any_pose(caps, &extraction_sensor(caps, sensor))?;
@@ -844,4 +909,70 @@ pub fn estimate(
             Ok((cal, Some(r)))
         }
     }
+}
+
+/// Below this share of its effect that no other parameter can take
+/// (`calib::refine::timed::ClockFit::separation`) the clock offset is not estimated: the motion
+/// cannot tell it from a moved specimen or mounting.
+pub const MIN_CLOCK_SEPARATION: f64 = 1e-3;
+/// Below this share of the flange's fastest speed at the profiles
+/// (`ClockFit::visible_speed` over it) the residuals do not see the offset at all.
+pub const MIN_CLOCK_VISIBILITY: f64 = 1e-3;
+
+/// Scanning on the move: `id`'s problem refitted from its result `r` with the profiles' clock
+/// shift as one more parameter (`calib::refine::timed`), when the captures were placed by time
+/// and ask for it. The timed fit and its problem replace the estimator's; where the motion cannot
+/// determine the shift (or the fit fails), `r` stands with a clock figure that says so.
+fn with_clock(id: MethodId, caps: &Captures, cal: &mut Calibration, r: Refined) -> Refined {
+    use crate::calib::refine::timed::{ClockFit, Timeline};
+    let Some(t) = caps.timing.as_ref().filter(|t| {
+        t.estimate_offset && t.stamps.len() == caps.profiles.len() && t.stream.len() >= 2
+    }) else {
+        return r;
+    };
+    let placed =
+        (caps.profiles.iter().zip(&t.stamps)).map(|(p, s)| (p.base_to_flange, s + t.offset_s));
+    let line = Arc::new(Timeline::new(t.stream.clone(), placed));
+    let Some(timed) = cal.problem(id.estimator).and_then(|p| p.timed(line)) else {
+        return r;
+    };
+    let undetermined = |separation: f64| Refined {
+        clock: Some(ClockFit {
+            shift_s: 0.0,
+            sd_s: f64::INFINITY,
+            separation,
+            visible_speed: 0.0,
+        }),
+        ..r.clone()
+    };
+    // The flange's fastest speed at a profile (rotation as the speed it gives 0.1 m away).
+    let fastest = (t.stamps.iter())
+        .map(|s| {
+            let (w, v) = crate::math::velocity_at(&t.stream, s + t.offset_s);
+            v.norm() + 0.1 * w.norm()
+        })
+        .fold(0.0, f64::max);
+    let fit = match timed.refine(&r.flange_to_sensor, &refine_options(id.estimator)) {
+        Ok(fit) => fit,
+        // The shift takes a direction of the transform: the motion cannot tell them apart.
+        Err(_) => return undetermined(0.0),
+    };
+    let (separation, visible) = fit
+        .clock
+        .map_or((0.0, 0.0), |c| (c.separation, c.visible_speed));
+    if !(separation >= MIN_CLOCK_SEPARATION && visible >= MIN_CLOCK_VISIBILITY * fastest)
+        || !matches!(fit.status, Status::Converged { .. })
+    {
+        return undetermined(separation);
+    }
+    cal.flange_to_sensor = fit.flange_to_sensor;
+    cal.status = fit.status;
+    if let Some(c) = fit.centre {
+        cal.centre_in_base = Some(c.coords);
+    }
+    match id.estimator {
+        Estimator::FullProfile if cal.full_profile.is_some() => cal.full_profile = Some(timed),
+        _ => cal.refinable = Some(timed),
+    }
+    fit
 }

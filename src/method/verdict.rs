@@ -26,6 +26,8 @@ use nalgebra::{Isometry3, Matrix6, UnitQuaternion, Vector3};
 pub const NOISE_FACTOR: f64 = 2.0;
 /// The chi-square test's one-sided 99.9 % normal quantile.
 const Z_999: f64 = 3.09;
+/// The two-sided 95 % normal quantile.
+const Z_975: f64 = 1.959_963_985;
 /// The scale of a large error (deg, mm): leave-one-out moves are ranked in these units.
 pub const MAX_ERROR_DEG: f64 = 1.0;
 pub const MAX_ERROR_MM: f64 = 1.0;
@@ -116,6 +118,9 @@ pub struct Quality {
     pub judging: Judging,
     /// How far the result lies from the nominal mounting, when the captures state one.
     pub from_nominal: Option<FromNominal>,
+    /// Scanning on the move: the clock shift the fit estimated (or could not), and the offset the
+    /// captures stated (s).
+    pub clock: Option<(crate::calib::refine::timed::ClockFit, f64)>,
 }
 
 impl Quality {
@@ -276,7 +281,45 @@ pub fn quality(
             .judging
             .nominal
             .map(|n| FromNominal::between(&cal.flange_to_sensor, &n)),
+        clock: figures
+            .and_then(|f| f.clock)
+            .zip(caps.timing.as_ref().map(|t| t.offset_s)),
     }
+}
+
+/// Scanning on the move: the clock offset the fit estimated, or (where it was held or the motion
+/// cannot determine it) the bias an error in it leaves.
+fn clock_note(q: &Quality) -> Option<String> {
+    if let Some((c, stated_s)) = q.clock
+        && c.sd_s.is_finite()
+    {
+        return Some(format!(
+            "the profiles' clock offset was estimated with the transform: {:+.3} ms +- {:.3} ms \
+             (95 %; {:+.3} ms from the stated {:+.3} ms); the bounds include its uncertainty",
+            (stated_s + c.shift_s) * 1e3,
+            Z_975 * c.sd_s * 1e3,
+            c.shift_s * 1e3,
+            stated_s * 1e3
+        ));
+    }
+    let v = q.judging.scan_speed.filter(|v| *v > 0.0)?;
+    let mut note = format!(
+        "the profiles were placed on the pose log by their time stamps while the flange moved at \
+         up to {:.0} mm/s: each millisecond of error in their clock offset \
+         (profile_clock_offset_s) moves them {v:.3} mm along the motion, a bias the residuals \
+         hardly show and the bound does not include (docs/guide/causes.md, \"Scanning on the \
+         move\")",
+        v * 1e3
+    );
+    if q.clock.is_some() {
+        note.push_str(
+            "; the motion cannot determine the offset: every profile moved with one velocity \
+             relative to the flange or to the specimen, so a lag looks like a moved mounting or \
+             specimen. Scan in two or more directions with the flange turned differently, or \
+             along an S-shaped or circular path",
+        );
+    }
+    Some(note)
 }
 
 /// Judge a result from its quality figures.
@@ -307,15 +350,8 @@ pub fn judge(q: Quality) -> Judged {
             ));
         }
     }
-    if let Some(v) = q.judging.scan_speed.filter(|v| *v > 0.0) {
-        notes.push(format!(
-            "the profiles were placed on the pose log by their time stamps while the flange moved \
-             at up to {:.0} mm/s: each millisecond of error in their clock offset \
-             (profile_clock_offset_s) moves them {v:.3} mm along the motion, a bias the residuals \
-             hardly show and the bound does not include (docs/guide/causes.md, \"Scanning on the \
-             move\")",
-            v * 1e3
-        ));
+    if let Some(note) = clock_note(&q) {
+        notes.push(note);
     }
     if q.profiles > 0 && q.rejected as f64 > MAX_REJECTED_SHARE * q.profiles as f64 {
         reasons.push(format!(

@@ -52,6 +52,14 @@ pub struct Section {
     /// moves its recorded pose lies speed x offset ahead along the move of where it was taken.
     #[serde(default)]
     pub clock_offset_ms: f64,
+    /// Scanning on the move: whether the refined, full-profile and any-pose estimators estimate
+    /// the clock offset with the transform (true) or take the stamps as they are (false).
+    #[serde(default = "yes")]
+    pub estimate_clock_offset: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 fn d_span() -> f64 {

@@ -219,3 +219,43 @@ pub fn random_edge_setup(
     let plans = crate::sim::edge::plan_unchecked(&rig, &edge, &spec).expect("valid spec");
     (rig, edge, plans)
 }
+
+/// Scanning on the move, for tests: a controller's pose log through `passes` (pose, body twist:
+/// angular rad/s, linear m/s), pass i at time `i spacing_s`, the flange moving through each at
+/// its steady twist for `half_s` either side (F(t) = pose exp((t - t_i) twist)) and straight from
+/// the end of one pass to the start of the next, logged at `rate_hz`. A profile's true pose is
+/// the log's pose at its time (`math::pose_at`): what a capture file's reader interpolates, so
+/// noise-free data fit exactly. Written apart from the simulator's moving scans.
+pub fn pose_log(
+    passes: &[(Isometry3<f64>, Vector3<f64>, Vector3<f64>)],
+    spacing_s: f64,
+    half_s: f64,
+    rate_hz: f64,
+) -> Vec<(f64, Isometry3<f64>)> {
+    let step = 1.0 / rate_hz;
+    let along = |(pose, w, v): &(Isometry3<f64>, Vector3<f64>, Vector3<f64>), u: f64| {
+        // The steady twist's exact motion: rotation exp(u w); the position's integral of the
+        // turning linear velocity, summed finely (the log need only be some smooth motion).
+        let n = ((u.abs() / 1e-4).ceil() as usize).max(1);
+        let h = u / n as f64;
+        let mut p = Vector3::zeros();
+        for k in 0..n {
+            let mid = UnitQuaternion::from_scaled_axis(w * (h * (k as f64 + 0.5)));
+            p += mid * v * h;
+        }
+        Isometry3::from_parts(
+            Translation3::from(pose.translation.vector + pose.rotation * p),
+            pose.rotation * UnitQuaternion::from_scaled_axis(w * u),
+        )
+    };
+    let mut log = Vec::new();
+    for (i, pass) in passes.iter().enumerate() {
+        let t0 = i as f64 * spacing_s;
+        let samples = (2.0 * half_s / step).round() as usize;
+        for k in 0..=samples {
+            let u = -half_s + k as f64 * step;
+            log.push((t0 + u, along(pass, u)));
+        }
+    }
+    log
+}

@@ -77,17 +77,20 @@ fn sensor_pose(
     Isometry3::from_parts(Translation3::from(centre.coords - rot * s), rot)
 }
 
-struct Setup {
-    caps: Captures,
-    sensor: SensorModel,
-    truth: Isometry3<f64>,
+pub(crate) struct Setup {
+    pub(crate) caps: Captures,
+    pub(crate) sensor: SensorModel,
+    pub(crate) truth: Isometry3<f64>,
     /// The plane's or bar's frame (top face z = 0).
     face: Isometry3<f64>,
+    /// What made the profiles: the fan and the solids it saw.
+    pub(crate) fan: Fan,
+    pub(crate) solids: Vec<Solid>,
 }
 
 /// A random rig and `n` poses (`translations` of them pure translations of the first), one group
 /// each, no signs recorded.
-fn random_setup(seed: u64, n: usize, translations: usize, sigma: f64) -> Setup {
+pub(crate) fn random_setup(seed: u64, n: usize, translations: usize, sigma: f64) -> Setup {
     let mut rng = lasercal::testkit::rng(seed);
     let fan = random_fan(&mut rng);
     let sensor = common::declared(&fan, "random fan");
@@ -154,6 +157,8 @@ fn random_setup(seed: u64, n: usize, translations: usize, sigma: f64) -> Setup {
         sensor,
         truth,
         face: Isometry3::identity(),
+        fan,
+        solids: solids.to_vec(),
     }
 }
 
@@ -315,14 +320,14 @@ fn calibrate_a_capture_file_without_signs() {
 
 /// A random plane, rig and `n` free poses looking at it (tilt 5-40 deg from its normal, the line's
 /// middle at a random depth in the range); `same_orientation`: every pose at the first's.
-fn random_plane_setup(seed: u64, n: usize, same_orientation: bool, sigma: f64) -> Setup {
+pub(crate) fn random_plane_setup(seed: u64, n: usize, same_orientation: bool, sigma: f64) -> Setup {
     random_face_setup(seed, n, same_orientation, sigma, Target::Plane)
 }
 
 /// A bar lying on a plane, its long edges along its frame's x, 10-60 mm wide: `n` free poses
 /// looking at its top face as `random_plane_setup` does, the laser crossing the edges at 30 deg or
 /// more, the line's middle on the face or up to 10 mm beside it.
-fn random_bar_setup(seed: u64, n: usize, sigma: f64) -> Setup {
+pub(crate) fn random_bar_setup(seed: u64, n: usize, sigma: f64) -> Setup {
     let mut rng = lasercal::testkit::rng(seed ^ 0xba5);
     let width = uniform(&mut rng, 0.01, 0.06);
     let height = uniform(&mut rng, 0.005, 0.03);
@@ -549,6 +554,8 @@ fn random_face_setup(
         sensor,
         truth,
         face: face_frame,
+        fan,
+        solids,
     }
 }
 

@@ -7,6 +7,7 @@ mod common;
 mod any_pose;
 mod ball;
 mod cli;
+mod clock;
 mod declared_sensor;
 mod disk;
 mod disturb;

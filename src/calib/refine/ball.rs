@@ -46,6 +46,14 @@ impl Model for BallModel {
             .collect()
     }
 
+    fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> BallModel {
+        BallModel {
+            radius: self.radius,
+            poses: self.poses.iter().map(|f| to(f)).collect(),
+            points: self.points.clone(),
+        }
+    }
+
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> BallModel {
         let mut kept = BallModel::new(self.radius);
         for (k, f) in self.poses.iter().enumerate() {

@@ -75,6 +75,29 @@ impl Model for BarModel {
         face.chain(edges).chain(walls).collect()
     }
 
+    fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> BarModel {
+        BarModel {
+            face: self.face.iter().map(|(f, p)| (to(f), *p)).collect(),
+            edges: self
+                .edges
+                .iter()
+                .map(|e| EdgeSeen {
+                    base_to_flange: to(&e.base_to_flange),
+                    ..*e
+                })
+                .collect(),
+            n_edges: self.n_edges,
+            walls: self
+                .walls
+                .iter()
+                .map(|w| WallSeen {
+                    base_to_flange: to(&w.base_to_flange),
+                    ..*w
+                })
+                .collect(),
+        }
+    }
+
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> BarModel {
         BarModel {
             face: self

@@ -150,6 +150,17 @@ impl Model for DiskModel {
         ends.chain(face).chain(rims).chain(walls).collect()
     }
 
+    fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> DiskModel {
+        DiskModel {
+            radius: self.radius,
+            ends: self.ends.iter().map(|(f, p)| (to(f), *p)).collect(),
+            end_weights: self.end_weights.clone(),
+            face: self.face.iter().map(|(f, p)| (to(f), *p)).collect(),
+            rims: self.rims.iter().map(|(f, a, b)| (to(f), *a, *b)).collect(),
+            walls: self.walls.iter().map(|(f, p, w)| (to(f), *p, *w)).collect(),
+        }
+    }
+
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> DiskModel {
         let kept_ends: Vec<usize> = (0..self.ends.len())
             .filter(|&i| !drop(&self.ends[i].0))

@@ -53,6 +53,12 @@ impl Model for EdgeModel {
         self.points.iter().flat_map(|(f, _)| [f, f]).collect()
     }
 
+    fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> EdgeModel {
+        EdgeModel {
+            points: self.points.iter().map(|(f, p)| (to(f), *p)).collect(),
+        }
+    }
+
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> EdgeModel {
         EdgeModel {
             points: self

@@ -34,6 +34,16 @@ impl Model for FacesModel {
         self.points.iter().map(|(f, _, _)| f).collect()
     }
 
+    fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> FacesModel {
+        FacesModel {
+            points: self
+                .points
+                .iter()
+                .map(|(f, p, k)| (to(f), *p, *k))
+                .collect(),
+        }
+    }
+
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> FacesModel {
         FacesModel {
             points: self

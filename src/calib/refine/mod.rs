@@ -18,6 +18,7 @@ pub mod honest;
 pub mod plane;
 pub mod predict;
 pub mod slant;
+pub mod timed;
 
 use super::{CalibError, Status};
 use nalgebra::{
@@ -204,6 +205,31 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
     /// The same model without the features seen from the flange poses `drop` picks (the
     /// verdict's leave-one-out runs, warm-started from the full result).
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Self;
+
+    /// The same model with every flange pose replaced by `to`'s image of it (`timed`: the poses
+    /// a profile clock offset puts the profiles at). Features keep their order.
+    fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> Self;
+
+    /// The estimated shift of the profiles' clock (s) when the model estimates it (`timed`).
+    fn clock_shift(&self, _s: &Self::Specimen) -> Option<f64> {
+        None
+    }
+
+    /// `Refinable::timed` of this model from specimen `s` (a timed model is not timed again).
+    fn timed_problem(
+        &self,
+        s: &Self::Specimen,
+        line: std::sync::Arc<timed::Timeline>,
+    ) -> Option<std::sync::Arc<dyn Refinable>>
+    where
+        Self: 'static,
+    {
+        let model = timed::Timed::new(self.clone(), line)?;
+        Some(std::sync::Arc::new(Problem {
+            model,
+            specimen: (*s, 0.0),
+        }))
+    }
 }
 
 /// The sensor's depth direction in the base frame when the flange is at `f`.
@@ -279,6 +305,8 @@ pub struct Refined {
     /// residual-level one above and the one clustered by flange pose, whichever is larger in
     /// every direction.
     pub honest: honest::Honest,
+    /// The profiles' clock shift, where the fit estimated it (`timed`).
+    pub clock: Option<timed::ClockFit>,
 }
 
 /// A refinement problem whose specimen model is hidden: what a calibration carries so that the
@@ -303,6 +331,10 @@ pub trait Refinable: Send + Sync + fmt::Debug {
     fn sums(&self, x: &Isometry3<f64>) -> Sums;
     /// Each pose predicted from the others with the transform held at `x` (`predict`).
     fn predict(&self, x: &Isometry3<f64>) -> Option<predict::Prediction>;
+    /// The same problem with the profiles' clock shift as one more parameter, their poses on
+    /// `line` (`timed`); None when a residual's pose is not on it.
+    fn timed(&self, line: std::sync::Arc<timed::Timeline>)
+    -> Option<std::sync::Arc<dyn Refinable>>;
 }
 
 /// What a fit's figures need from its residuals r and Jacobian J, summed over the rows: J^T J,
@@ -424,6 +456,12 @@ impl<M: Model + 'static> Refinable for Problem<M> {
     }
     fn predict(&self, x: &Isometry3<f64>) -> Option<predict::Prediction> {
         predict::of(&self.model, &self.specimen, x)
+    }
+    fn timed(
+        &self,
+        line: std::sync::Arc<timed::Timeline>,
+    ) -> Option<std::sync::Arc<dyn Refinable>> {
+        self.model.timed_problem(&self.specimen, line)
     }
     fn sums(&self, x: &Isometry3<f64>) -> Sums {
         let clusters = self.clusters();
@@ -878,6 +916,9 @@ pub fn refine<M: Model>(
     let cov = covariance_from(&normal, &sums);
     let honest = honest::Honest::of(normal.inverse(), &sums, &normal.used, &cov);
     let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
+    let clock = model
+        .clock_shift(&s)
+        .map(|d| timed::clock_fit(d, p - 1, &sums, &normal));
     Ok((
         Refined {
             flange_to_sensor: x.to_isometry(),
@@ -894,6 +935,7 @@ pub fn refine<M: Model>(
             observability: obs,
             slant: None,
             honest,
+            clock,
         },
         s,
     ))
@@ -958,6 +1000,7 @@ fn figures_of(
         observability: observability_from(sums.ata.clone()),
         slant: None,
         honest,
+        clock: None,
     }
 }
 

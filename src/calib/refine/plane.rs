@@ -53,6 +53,12 @@ impl Model for PlaneModel {
         self.points.iter().map(|(f, _)| f).collect()
     }
 
+    fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> PlaneModel {
+        PlaneModel {
+            points: self.points.iter().map(|(f, p)| (to(f), *p)).collect(),
+        }
+    }
+
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> PlaneModel {
         PlaneModel {
             points: self

@@ -1,0 +1,317 @@
+//! Scanning on the move (beyond both papers): the profiles' clock offset estimated with the
+//! transform. A profile time-stamped on the profiler's clock is placed on the controller's pose log
+//! at its stamp plus the stated offset; an error d in that offset puts it where the flange was d
+//! later. `Timed` wraps any model with d as one more specimen parameter: every evaluation places
+//! the profiles on the log at their times plus d (the same interpolation as the capture file's,
+//! so noise-free data fit exactly), and d's Jacobian column is the flange's velocity there.
+//!
+//! The column needs no model's help: a residual depends on the flange pose F and the transform X
+//! only through F X, and F(t + d) = F(t) exp(d xi) with xi the flange's body twist (angular w,
+//! linear v), so moving d is moving X to exp(d xi) X: rotation increment R^T w and translation
+//! w x t + v, whose columns every model already has.
+
+use super::{Model, Transform, slant::SlantNoise};
+use crate::math::{pose_at, velocity_at};
+use nalgebra::{DMatrix, DVector, Isometry3, Point3, Vector3};
+use rustc_hash::FxHashMap;
+use std::sync::Arc;
+
+/// The controller's pose log and the time on it (stated offset applied) of every flange pose the
+/// profiles were placed at.
+#[derive(Debug)]
+pub struct Timeline {
+    stream: Vec<(f64, Isometry3<f64>)>,
+    times: FxHashMap<PoseKey, f64>,
+}
+
+type PoseKey = [u64; 7];
+
+fn key(f: &Isometry3<f64>) -> PoseKey {
+    let (t, q) = (f.translation.vector, f.rotation.coords);
+    [t.x, t.y, t.z, q.x, q.y, q.z, q.w].map(f64::to_bits)
+}
+
+impl Timeline {
+    /// From the log and each placed profile's (flange pose, time on the log). Profiles at one
+    /// pose share its first time: two at one pose at different times are an arm standing still,
+    /// whose velocity there is zero either way.
+    pub fn new(
+        stream: Vec<(f64, Isometry3<f64>)>,
+        placed: impl IntoIterator<Item = (Isometry3<f64>, f64)>,
+    ) -> Timeline {
+        let mut times = FxHashMap::default();
+        for (f, t) in placed {
+            times.entry(key(&f)).or_insert(t);
+        }
+        Timeline { stream, times }
+    }
+
+    /// The log's pose at `t`, held at its first or last sample outside it.
+    fn pose(&self, t: f64) -> Isometry3<f64> {
+        let (first, last) = (self.stream[0], self.stream[self.stream.len() - 1]);
+        pose_at(&self.stream, t.clamp(first.0, last.0)).unwrap_or(first.1)
+    }
+
+    /// Seconds of the log before the first and after the last placed profile, at the stated
+    /// offset: how far the estimate may move before a profile leaves the log.
+    pub fn margins(&self) -> (f64, f64) {
+        let (lo, hi) = self
+            .times
+            .values()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), t| {
+                (a.min(*t), b.max(*t))
+            });
+        let (first, last) = (self.stream[0].0, self.stream[self.stream.len() - 1].0);
+        (lo - first, last - hi)
+    }
+}
+
+/// A model whose profiles' clock shift d (s) is its last specimen parameter.
+#[derive(Debug, Clone)]
+pub struct Timed<M: Model> {
+    base: M,
+    line: Arc<Timeline>,
+    /// Distinct flange poses of `base` and their times at the stated offset (None: not placed
+    /// by time; it stays where it is).
+    slots: Vec<(Isometry3<f64>, Option<f64>)>,
+    slot_of: FxHashMap<PoseKey, u32>,
+    /// Each residual's slot.
+    residual_slot: Vec<u32>,
+}
+
+impl<M: Model> Timed<M> {
+    /// None when a flange pose of `base` is not on `line` (not placed by time), or the model
+    /// does not say which pose each residual is from.
+    pub fn new(base: M, line: Arc<Timeline>) -> Option<Timed<M>> {
+        let t = Timed::build(base, line);
+        let placed = t.slots.iter().all(|(_, time)| time.is_some());
+        (placed && t.residual_slot.len() == t.base.n_residuals()).then_some(t)
+    }
+
+    fn build(base: M, line: Arc<Timeline>) -> Timed<M> {
+        let (mut slots, mut slot_of) = (Vec::new(), FxHashMap::default());
+        let mut residual_slot = Vec::with_capacity(base.n_residuals());
+        for f in base.residual_flanges() {
+            let k = key(f);
+            let slot = *slot_of.entry(k).or_insert_with(|| {
+                slots.push((*f, line.times.get(&k).copied()));
+                (slots.len() - 1) as u32
+            });
+            residual_slot.push(slot);
+        }
+        Timed {
+            base,
+            line,
+            slots,
+            slot_of,
+            residual_slot,
+        }
+    }
+
+    /// The base model with its poses placed at the times shifted by `d`, and each slot's pose.
+    fn placed(&self, d: f64) -> (M, Vec<Isometry3<f64>>) {
+        let poses: Vec<Isometry3<f64>> = self
+            .slots
+            .iter()
+            .map(|(f, t)| t.map_or(*f, |t| self.line.pose(t + d)))
+            .collect();
+        // Runs of points share a pose: remember the last one looked up.
+        let mut last: Option<(Isometry3<f64>, Isometry3<f64>)> = None;
+        let model = self.base.map_poses(&mut |f| {
+            if let Some((from, to)) = last
+                && from == *f
+            {
+                return to;
+            }
+            let to = self.slot_of.get(&key(f)).map_or(*f, |&s| poses[s as usize]);
+            last = Some((*f, to));
+            to
+        });
+        (model, poses)
+    }
+}
+
+impl<M: Model + 'static> Model for Timed<M> {
+    type Specimen = (M::Specimen, f64);
+
+    fn name(&self) -> &'static str {
+        self.base.name()
+    }
+    fn n_specimen_params(&self) -> usize {
+        self.base.n_specimen_params() + 1
+    }
+    fn n_features(&self) -> usize {
+        self.base.n_features()
+    }
+    fn residuals_per_feature(&self) -> usize {
+        self.base.residuals_per_feature()
+    }
+    fn n_residuals(&self) -> usize {
+        self.base.n_residuals()
+    }
+    fn labels(&self, x: &Transform, s: &Self::Specimen) -> Vec<f64> {
+        self.base.labels(x, &s.0)
+    }
+
+    fn eval(
+        &self,
+        x: &Transform,
+        s: &Self::Specimen,
+        labels: &[f64],
+        r: &mut DVector<f64>,
+        j: Option<&mut DMatrix<f64>>,
+    ) {
+        let (model, _) = self.placed(s.1);
+        let Some(j) = j else {
+            model.eval(x, &s.0, labels, r, None);
+            return;
+        };
+        // The base model's columns into the first columns of j's storage (column-major: they
+        // are its first n p entries), then d's column after them.
+        let (n, p) = (j.nrows(), j.ncols() - 1);
+        let mut data: Vec<f64> = std::mem::replace(j, DMatrix::zeros(0, 0)).data.into();
+        data.truncate(n * p);
+        let mut inner = DMatrix::from_vec(n, p, data);
+        model.eval(x, &s.0, labels, r, Some(&mut inner));
+        let twists: Vec<(Vector3<f64>, Vector3<f64>)> = self
+            .slots
+            .iter()
+            .map(|(_, t)| {
+                let (w, v) = t.map_or((Vector3::zeros(), Vector3::zeros()), |t| {
+                    velocity_at(&self.line.stream, t + s.1)
+                });
+                (x.rot.inverse() * w, w.cross(&x.t) + v)
+            })
+            .collect();
+        let mut data: Vec<f64> = inner.data.into();
+        let column: Vec<f64> = (self.residual_slot.iter().enumerate())
+            .map(|(k, &slot)| {
+                let (a, b) = twists[slot as usize];
+                (0..3)
+                    .map(|c| data[c * n + k] * a[c] + data[(3 + c) * n + k] * b[c])
+                    .sum::<f64>()
+            })
+            .collect();
+        data.extend(column);
+        *j = DMatrix::from_vec(n, p + 1, data);
+    }
+
+    fn step(&self, s: &Self::Specimen, dx: &[f64]) -> Self::Specimen {
+        let k = self.base.n_specimen_params();
+        (self.base.step(&s.0, &dx[..k]), s.1 + dx[k])
+    }
+
+    fn centre(&self, s: &Self::Specimen) -> Option<Point3<f64>> {
+        self.base.centre(&s.0)
+    }
+
+    /// The weights from the residuals where the profiles are now placed; the model keeps the
+    /// poses as recorded.
+    fn reweighted(&self, x: &Transform, s: &Self::Specimen) -> Option<(Self, SlantNoise)> {
+        let (placed, poses) = self.placed(s.1);
+        let (weighted, noise) = placed.reweighted(x, &s.0)?;
+        let back: FxHashMap<PoseKey, Isometry3<f64>> = poses
+            .iter()
+            .zip(&self.slots)
+            .map(|(to, (from, _))| (key(to), *from))
+            .collect();
+        let base = weighted.map_poses(&mut |f| back.get(&key(f)).copied().unwrap_or(*f));
+        Some((Timed::build(base, self.line.clone()), noise))
+    }
+
+    fn residual_flanges(&self) -> Vec<&Isometry3<f64>> {
+        self.base.residual_flanges()
+    }
+
+    fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Self {
+        Timed::build(self.base.without_poses(drop), self.line.clone())
+    }
+
+    fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> Self {
+        // The mapped poses keep their times.
+        let placed = self
+            .slots
+            .iter()
+            .filter_map(|(f, t)| t.map(|t| (to(f), t)))
+            .collect::<Vec<_>>();
+        let line = Timeline::new(self.line.stream.clone(), placed);
+        Timed::build(self.base.map_poses(to), Arc::new(line))
+    }
+
+    fn clock_shift(&self, s: &Self::Specimen) -> Option<f64> {
+        Some(s.1)
+    }
+
+    fn timed_problem(
+        &self,
+        _s: &Self::Specimen,
+        _line: Arc<Timeline>,
+    ) -> Option<Arc<dyn super::Refinable>> {
+        None
+    }
+}
+
+/// The clock shift a fit estimated, with its uncertainty.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClockFit {
+    /// The profiles' clock shift from the stated offset (s): their true times are the stamps plus
+    /// the stated offset plus this.
+    pub shift_s: f64,
+    /// Its standard deviation (s): the larger of the residual-level and the flange-pose-clustered
+    /// sandwich (a robot's pose error moves a pose's points together).
+    pub sd_s: f64,
+    /// The share of the shift's effect on the residuals that no other parameter can take (0-1:
+    /// the sine of the angle between its Jacobian column and the others' span). Near 0 the motion
+    /// cannot tell a clock shift from a moved specimen or mounting.
+    pub separation: f64,
+    /// How fast (m/s) the points move with the shift in what no other parameter takes, on the
+    /// translation's scale: next to the flange's speed, near 0 where the motion moves the points
+    /// along the specimen only (a plane scanned along itself).
+    pub visible_speed: f64,
+}
+
+/// The fit's clock figures: the shift is parameter `index` (the last) of the fit whose sums and
+/// normal matrix are given.
+pub(super) fn clock_fit(
+    shift_s: f64,
+    index: usize,
+    sums: &super::Sums,
+    normal: &super::Normal,
+) -> ClockFit {
+    let unknown = ClockFit {
+        shift_s,
+        sd_s: f64::INFINITY,
+        separation: 0.0,
+        visible_speed: 0.0,
+    };
+    let (used, n) = (&normal.used, sums.n);
+    let (Some(k), Some(inv)) = (used.iter().position(|&c| c == index), normal.inverse()) else {
+        return unknown;
+    };
+    let p = used.len();
+    if n <= p {
+        return unknown;
+    }
+    let row = inv.row(k);
+    let quad = |m: &DMatrix<f64>| (&row * m * row.transpose())[(0, 0)];
+    let meat = sums.meat.select_rows(used).select_columns(used);
+    let residual = quad(&meat) * n as f64 / (n - p) as f64;
+    let g = sums.scores.ncols();
+    let clustered = if g >= 2 {
+        let scores = sums.scores.select_rows(used);
+        quad(&(&scores * scores.transpose()))
+            * (g as f64 / (g - 1) as f64)
+            * ((n - 1) as f64 / (n - p) as f64)
+    } else {
+        0.0
+    };
+    let translation = (3..6).map(|c| sums.ata[(c, c)]).sum::<f64>() / 3.0;
+    ClockFit {
+        shift_s,
+        sd_s: residual.max(clustered).max(0.0).sqrt(),
+        separation: (1.0 / (inv[(k, k)] * sums.ata[(index, index)]))
+            .clamp(0.0, 1.0)
+            .sqrt(),
+        visible_speed: (1.0 / (inv[(k, k)] * translation)).max(0.0).sqrt(),
+    }
+}

@@ -1,0 +1,168 @@
+//! The profiles' clock offset estimated with the transform (`calib::refine::timed`), on the
+//! independent generator's random rigs scanned on the move (`testkit::pose_log`): each pose
+//! passed through at its own steady twist, its profile ray-cast where the log puts the flange at
+//! the profile's true time, and time-stamped late by a clock offset the capture does not state.
+
+use crate::any_pose::{Setup, random_bar_setup, random_plane_setup, random_setup};
+use crate::common;
+use lasercal::calib::PoseError;
+use lasercal::captures::Timing;
+use lasercal::math::pose_at;
+use lasercal::method::{Estimator, Kind, MethodId};
+use lasercal::rng::{Rng, gauss};
+use lasercal::testkit::fan::{Noise, profile};
+use lasercal::testkit::pose_log;
+use nalgebra::{Isometry3, Vector3};
+use rand::RngExt;
+
+fn uniform(rng: &mut Rng, lo: f64, hi: f64) -> f64 {
+    lo + (hi - lo) * rng.random::<f64>()
+}
+
+/// A random vector of length `lo`-`hi`.
+fn random_vector(rng: &mut Rng, lo: f64, hi: f64) -> Vector3<f64> {
+    let d = Vector3::new(gauss(rng), gauss(rng), gauss(rng)).normalize();
+    d * uniform(rng, lo, hi)
+}
+
+/// `s` scanned on the move: pose i passed at time i s with `twist(rng, pose)` (angular rad/s,
+/// linear m/s, in the flange frame), its profile taken up to 5 ms either side and time-stamped
+/// `late_s` late; the capture placed by the stamps with no offset stated.
+fn on_the_move(
+    mut s: Setup,
+    seed: u64,
+    late_s: f64,
+    sigma: f64,
+    twist: &dyn Fn(&mut Rng, &Isometry3<f64>) -> (Vector3<f64>, Vector3<f64>),
+) -> Setup {
+    let mut rng = lasercal::testkit::rng(seed ^ 0xc10c);
+    let passes: Vec<_> = (s.caps.profiles.iter())
+        .map(|p| {
+            let (w, v) = twist(&mut rng, &p.base_to_flange);
+            (p.base_to_flange, w, v)
+        })
+        .collect();
+    let log = pose_log(&passes, 1.0, 0.1, 250.0);
+    let mut stamps = Vec::new();
+    for (i, p) in s.caps.profiles.iter_mut().enumerate() {
+        let t = i as f64 + uniform(&mut rng, -0.005, 0.005);
+        let actual = pose_at(&log, t).unwrap();
+        let noise = Noise {
+            sigma_z: sigma,
+            dropout: 0.0,
+        };
+        p.data = common::raw(profile(
+            &s.fan,
+            &s.solids,
+            &(actual * s.truth),
+            noise,
+            &mut rng,
+        ));
+        p.base_to_flange = pose_at(&log, t + late_s).unwrap();
+        stamps.push(t + late_s);
+    }
+    s.caps.timing = Some(Timing {
+        stream: log,
+        stamps,
+        offset_s: 0.0,
+        estimate_offset: true,
+    });
+    s
+}
+
+/// A steady scan: 50-200 mm/s along a random direction, turning at 0.05-0.3 rad/s.
+fn scanning(rng: &mut Rng, _pose: &Isometry3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    (random_vector(rng, 0.05, 0.3), random_vector(rng, 0.05, 0.2))
+}
+
+const BALL: MethodId = MethodId::new(Kind::Ball, Estimator::AnyPose);
+const PLANE: MethodId = MethodId::new(Kind::Plane, Estimator::AnyPose);
+const EDGE: MethodId = MethodId::new(Kind::Edge, Estimator::AnyPose);
+
+/// `id` on `rigs` noise-free random rigs on the move (`setup(seed)`), the stamps 0-20 ms late:
+/// the offset recovered to 1e-6 s and the transform to 1e-9; returns the worst of each.
+fn exact_on_the_move(id: MethodId, rigs: u64, setup: impl Fn(u64) -> Setup) -> (f64, f64) {
+    let mut worst = (0.0f64, 0.0f64);
+    for seed in 0..rigs {
+        let late = 0.02 * lasercal::testkit::rng(seed).random::<f64>();
+        let s = on_the_move(setup(seed), seed, late, 0.0, &scanning);
+        let what = format!("{id} seed {seed}, {:.2} ms late", late * 1e3);
+        let (cal, r) = lasercal::method::estimate(id, &s.caps, &s.sensor)
+            .unwrap_or_else(|e| panic!("{what}: {e}"));
+        let clock = r
+            .unwrap()
+            .clock
+            .unwrap_or_else(|| panic!("{what}: no clock"));
+        let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
+        let off = (clock.shift_s + late).abs();
+        assert!(
+            off < 1e-6 && e.rotation_error_deg < 1e-9 && e.translation_error_mm < 1e-9,
+            "{what}: offset off by {off} s, {e:?}"
+        );
+        worst = (worst.0.max(off), worst.1.max(e.translation_error_mm));
+    }
+    eprintln!(
+        "{id}: worst offset error {:.1e} s, translation {:.1e} mm",
+        worst.0, worst.1
+    );
+    worst
+}
+
+#[test]
+fn noise_free_offsets_and_transforms_are_exact_for_the_ball_plane_and_edge() {
+    // The rigs (and pose counts) the static exact suites use (`any_pose`).
+    let n = |seed: u64| 7 + (seed as usize * 7) % 44;
+    exact_on_the_move(BALL, 12, |seed| random_setup(1000 + seed, n(seed), 0, 0.0));
+    exact_on_the_move(PLANE, 12, |seed| {
+        random_plane_setup(2000 + seed, n(seed), false, 0.0)
+    });
+    exact_on_the_move(EDGE, 12, |seed| random_bar_setup(8000 + seed, n(seed), 0.0));
+}
+
+/// The clock shift's Jacobian column (the flange's velocity through every model's transform
+/// columns) against finite differences.
+#[test]
+fn the_clock_column_matches_finite_differences() {
+    for (id, s) in [
+        (BALL, random_setup(7300, 10, 0, 0.0)),
+        (PLANE, random_plane_setup(7301, 10, false, 0.0)),
+        (EDGE, random_bar_setup(7302, 12, 0.0)),
+    ] {
+        let s = on_the_move(s, 1, 0.012, 0.0, &scanning);
+        let (cal, _) = lasercal::method::estimate(id, &s.caps, &s.sensor).unwrap();
+        let p = cal.refinable.as_ref().unwrap();
+        // Away from the optimum, so every residual moves.
+        let x = lasercal::testkit::perturb(&mut lasercal::testkit::rng(3), &s.truth, 0.01, 0.002);
+        let (_, worst) = common::jacobian_error(&**p, &x);
+        assert!(worst < 1e-5, "{id}: Jacobian off by {worst}");
+    }
+}
+
+/// A plane scanned with every move along the plane and no turn: a lag moves the points within
+/// the plane, where no residual sees it. The offset is not estimated and the verdict says what
+/// motion would determine it.
+#[test]
+fn a_motion_that_cannot_show_the_offset_is_said_so() {
+    let s = random_plane_setup(7400, 14, false, 0.0);
+    let normal = s.solids.iter().find_map(|x| match x {
+        lasercal::testkit::fan::Solid::Plane { normal, .. } => Some(*normal),
+        _ => None,
+    });
+    let normal = normal.unwrap();
+    let along_plane = move |rng: &mut Rng, pose: &Isometry3<f64>| {
+        let v = random_vector(rng, 0.05, 0.2);
+        let v = v - normal * normal.dot(&v);
+        (Vector3::zeros(), pose.rotation.inverse() * v)
+    };
+    let mut s = on_the_move(s, 2, 0.01, 0.0, &along_plane);
+    s.caps.judging.scan_speed = Some(0.2);
+    let (_, r) = lasercal::method::estimate(PLANE, &s.caps, &s.sensor).unwrap();
+    let clock = r.unwrap().clock.unwrap();
+    assert!(
+        clock.sd_s.is_infinite() && clock.shift_s == 0.0,
+        "{clock:?}"
+    );
+    let d = lasercal::method::verdict::decide(&s.caps, &s.sensor, Some(PLANE)).unwrap();
+    let text = d.judged.lines().cloned().collect::<Vec<_>>().join("\n");
+    assert!(text.contains("cannot determine the offset"), "{text}");
+}
