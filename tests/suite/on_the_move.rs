@@ -165,3 +165,131 @@ fn the_simulated_file_logs_poses_and_stamps_and_the_stated_offset_removes_the_bi
     let unbiased = error_mm(&fixed);
     assert!(unbiased < 1e-5, "{unbiased} mm");
 }
+
+/// The offset estimated with the transform (`calib::refine::timed`): on the paper's four scans
+/// without noise, `disk-refined` recovers the stamps' lateness and the transform exactly, for
+/// every speed and offset; with the offset held (`estimate_clock_offset = false`) the bias
+/// stands.
+#[test]
+fn disk_refined_estimates_the_offset_exactly_without_noise() {
+    let id: MethodId = "disk-refined".parse().unwrap();
+    for (speed, offset) in [(100.0, 10.0), (50.0, 20.0), (200.0, -5.0), (150.0, 0.0)] {
+        let setup = moving(speed, offset);
+        let mut caps = trial_captures(&setup, Kind::Disk, 1, 0).0.unwrap();
+        let (cal, r) = lasercal::method::estimate(id, &caps, &setup.rig.sensor).unwrap();
+        let clock = r.unwrap().clock.expect("a clock figure");
+        let e =
+            lasercal::calib::PoseError::between(&cal.flange_to_sensor, &setup.rig.flange_to_sensor);
+        // The stamps are `offset` late: the estimate takes it off.
+        let off = (clock.shift_s + offset * 1e-3).abs();
+        assert!(
+            off < 1e-6 && e.rotation_error_deg < 1e-9 && e.translation_error_mm < 1e-9,
+            "{speed} mm/s, {offset} ms: offset off by {off} s, {e:?}"
+        );
+        caps.timing.as_mut().unwrap().estimate_offset = false;
+        let (held, r) = lasercal::method::estimate(id, &caps, &setup.rig.sensor).unwrap();
+        assert!(r.unwrap().clock.is_none());
+        let bias = lasercal::calib::PoseError::between(
+            &held.flange_to_sensor,
+            &setup.rig.flange_to_sensor,
+        );
+        let lead_mm = (speed * offset * 1e-3).abs();
+        assert!(
+            lead_mm == 0.0 || bias.translation_error_mm > 0.2 * lead_mm,
+            "{speed} mm/s, {offset} ms held: {bias:?}"
+        );
+    }
+}
+
+/// The paper's four scans at z noise 0.05 mm, moving at `speed` mm/s with the stamps `offset` ms
+/// late.
+fn noisy_moving(speed: f64, offset: f64) -> lasercal::scenario::Setup {
+    let path = format!(
+        "{}/scenarios/disk-on-the-move.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let text = std::fs::read_to_string(path)
+        .unwrap()
+        .replace(
+            "scan_speed_mm_s = 100.0",
+            &format!("scan_speed_mm_s = {speed}"),
+        )
+        .replace(
+            "clock_offset_ms = 0.0",
+            &format!("clock_offset_ms = {offset}"),
+        );
+    ScenarioFile::parse(&text, "moving.toml")
+        .unwrap()
+        .scenario
+        .build("moving.toml")
+        .unwrap()
+}
+
+/// Monte Carlo of the estimated offset (issue 30's acceptance): at 50-200 mm/s with the stamps
+/// 0-20 ms late and z noise 0.05 mm, `disk-refined` estimating the offset against the same trials
+/// with no offset at all, and the offset's predicted sd against its scatter over the trials.
+/// `cargo test --release --test suite on_the_move::offset_monte_carlo -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn offset_monte_carlo() {
+    let id: MethodId = "disk-refined".parse().unwrap();
+    let trials = 300;
+    let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+    eprintln!(
+        "speed mm/s | offset ms | rms error mm: none, estimated, held | offset sd ms: predicted, MC"
+    );
+    for speed in [50.0, 100.0, 200.0] {
+        let still = noisy_moving(speed, 0.0);
+        let reference: Vec<f64> = (0..trials)
+            .map(|t| {
+                let mut caps = trial_captures(&still, Kind::Disk, 2030, t).0.unwrap();
+                caps.timing.as_mut().unwrap().estimate_offset = false;
+                let (cal, _) = lasercal::method::estimate(id, &caps, &still.rig.sensor).unwrap();
+                (cal.flange_to_sensor.translation.vector
+                    - still.rig.flange_to_sensor.translation.vector)
+                    .norm()
+                    * 1e3
+            })
+            .collect();
+        for offset in [0.0, 10.0, 20.0] {
+            let setup = noisy_moving(speed, offset);
+            let (mut estimated, mut held, mut shifts, mut sds) = (vec![], vec![], vec![], vec![]);
+            for t in 0..trials {
+                let mut caps = trial_captures(&setup, Kind::Disk, 2030, t).0.unwrap();
+                let (cal, r) = lasercal::method::estimate(id, &caps, &setup.rig.sensor).unwrap();
+                let c = r.unwrap().clock.unwrap();
+                let err = |c: &lasercal::method::Calibration| {
+                    (c.flange_to_sensor.translation.vector
+                        - setup.rig.flange_to_sensor.translation.vector)
+                        .norm()
+                        * 1e3
+                };
+                estimated.push(err(&cal));
+                shifts.push(c.shift_s * 1e3 + offset);
+                sds.push(c.sd_s * 1e3);
+                caps.timing.as_mut().unwrap().estimate_offset = false;
+                let (h, _) = lasercal::method::estimate(id, &caps, &setup.rig.sensor).unwrap();
+                held.push(err(&h));
+            }
+            let mean = shifts.iter().sum::<f64>() / trials as f64;
+            let mc = (shifts.iter().map(|s| (s - mean).powi(2)).sum::<f64>() / (trials - 1) as f64)
+                .sqrt();
+            sds.sort_by(f64::total_cmp);
+            let predicted = sds[sds.len() / 2];
+            eprintln!(
+                "{speed:>5} | {offset:>4} | {:.4} {:.4} {:.4} | {predicted:.4} {mc:.4} (bias {mean:+.4})",
+                rms(&reference),
+                rms(&estimated),
+                rms(&held)
+            );
+            assert!(
+                rms(&estimated) <= 1.2 * rms(&reference),
+                "{speed} mm/s {offset} ms"
+            );
+            assert!(
+                (predicted / mc - 1.0).abs() <= 0.2,
+                "{speed} mm/s {offset} ms: sd {predicted} vs {mc}"
+            );
+        }
+    }
+}

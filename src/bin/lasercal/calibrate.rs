@@ -32,6 +32,11 @@ pub struct Args {
     /// [default: 0.5]
     #[arg(long, allow_negative_numbers = true)]
     robot_accuracy_mm: Option<f64>,
+    /// Profiles placed by time stamps on a pose_stream: take their clock offset as stated
+    /// (profile_clock_offset_s) instead of estimating it with the transform; overrides the file's
+    /// estimate_clock_offset
+    #[arg(long)]
+    hold_clock_offset: bool,
     /// Write the result as JSON
     #[arg(long)]
     json: Option<PathBuf>,
@@ -91,6 +96,15 @@ pub fn run(a: Args) -> Result<i32> {
     if let Some(r) = a.robot_accuracy_mm {
         caps.judging.robot_accuracy =
             lasercal::io::captures::robot_accuracy(r, &name, "--robot-accuracy-mm")?;
+    }
+    if a.hold_clock_offset {
+        match caps.timing.as_mut() {
+            Some(t) => t.estimate_offset = false,
+            None => anyhow::bail!(
+                "--hold-clock-offset: {name} places no profile by its time stamp (no pose_stream \
+                 and t_s): there is no clock offset to hold; leave the flag out"
+            ),
+        }
     }
     let known: Vec<String> = caps
         .method

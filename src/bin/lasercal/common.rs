@@ -333,6 +333,13 @@ pub fn verdict_text(
         "error_bound_mm": bt,
         "profiles": q.profiles,
         "rejected_profiles": q.rejected,
+        // Scanning on the move: the clock offset estimated (null sd: the motion cannot tell it).
+        "clock_offset": q.clock.map(|(c, stated)| serde_json::json!({
+            "stated_ms": stated * 1e3,
+            "estimated_ms": c.sd_s.is_finite().then_some((stated + c.shift_s) * 1e3),
+            "sd_ms": c.sd_s.is_finite().then_some(c.sd_s * 1e3),
+            "separation": c.separation,
+        })),
         "leave_one_out": loo.map(|l| serde_json::json!({
             "runs": l.runs, "failed": l.failed, "rotation_deg": l.rotation_deg,
             "translation_mm": l.translation_mm, "group": l.group,
