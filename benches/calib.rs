@@ -183,5 +183,41 @@ fn any_pose(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, bench, any_pose);
+/// Scanning on the move (the ray-cast disk paper rig at 100 mm/s, the stamps 10 ms late): each
+/// estimator with the clock offset held as stated and estimated with the transform.
+fn on_the_move(c: &mut Criterion) {
+    let dir = env!("CARGO_MANIFEST_DIR");
+    let text = std::fs::read_to_string(format!("{dir}/scenarios/chen2018-disk-raycast.toml"))
+        .unwrap()
+        .replace(
+            "[disk]\n",
+            "[disk]\nscan_speed_mm_s = 100.0\nclock_offset_ms = 10.0\n",
+        );
+    let sf = ScenarioFile::parse(&text, "moving.toml").unwrap();
+    let setup = sf.scenario.build(&sf.file).unwrap();
+    let estimated = lasercal::trial::trial_captures(&setup, lasercal::method::Kind::Disk, 1, 0)
+        .0
+        .unwrap();
+    let mut held = estimated.clone();
+    held.timing.as_mut().unwrap().estimate_offset = false;
+    let mut g = c.benchmark_group("on_the_move");
+    g.sample_size(10);
+    for m in ["disk-refined", "disk-full", "disk-any-pose"] {
+        let id: lasercal::method::MethodId = m.parse().unwrap();
+        for (what, caps) in [("held", &held), ("estimated", &estimated)] {
+            g.bench_function(format!("{m}/{what}"), |b| {
+                b.iter(|| {
+                    black_box(lasercal::method::estimate(
+                        id,
+                        black_box(caps),
+                        &setup.rig.sensor,
+                    ))
+                })
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, any_pose, on_the_move);
 criterion_main!(benches);
