@@ -824,9 +824,15 @@ pub fn estimate(
     };
     let r = with_clock(id, caps, &mut cal, r);
     // The features were found and labelled (a bar's edges, a face's walls) at the poses of the
-    // stated offset: where the estimate moved a profile's pose noticeably, once more from the
-    // poses at the estimated offset.
-    let Some(moved) = r.clock.and_then(|c| replaced(caps, c.shift_s)) else {
+    // stated offset: where the estimate moved a profile's pose noticeably and the fit still
+    // leaves residuals beyond the noise, once more from the poses at the estimated offset.
+    let misfit = verdict::stated_noise(caps, sensor)
+        .is_some_and(|s| !(r.residual_rms <= REPLACE_NOISE_RATIO * s));
+    let Some(moved) = r
+        .clock
+        .filter(|_| misfit)
+        .and_then(|c| replaced(caps, c.shift_s))
+    else {
         return Ok((cal, Some(r)));
     };
     let (mut again, r2) = estimate_at_stated_times(id, &moved, sensor)?;
@@ -843,9 +849,11 @@ pub fn estimate(
     Ok((again, Some(r2)))
 }
 
-/// How far (m, or rad at 0.1 m) an estimated clock shift must move some profile's pose before
-/// its features are found again at the new poses.
+/// How far (m, or rad at 0.1 m) an estimated clock shift must move some profile's pose, and how
+/// far above the stated noise the fit's residual RMS must stay, before the features are found
+/// again at the new poses (a second estimator run: only where a label may have gone wrong).
 const REPLACE_MOVE: f64 = 1e-5;
+const REPLACE_NOISE_RATIO: f64 = 1.5;
 
 /// The captures with every profile at its pose for the stated offset plus `shift_s` (the offset
 /// moved by it), when that moves some pose by more than `REPLACE_MOVE`.
