@@ -818,11 +818,10 @@ pub fn estimate(
     caps: &Captures,
     sensor: &SensorModel,
 ) -> Result<(Calibration, Option<Refined>), Error> {
-    let (mut cal, r) = estimate_at_stated_times(id, caps, sensor)?;
+    let (cal, r) = estimate_at_stated_times(id, caps, sensor)?;
     let Some(r) = r else {
         return Ok((cal, None));
     };
-    let r = with_clock(id, caps, &mut cal, r);
     // The features were found and labelled (a bar's edges, a face's walls) at the poses of the
     // stated offset: where the estimate moved a profile's pose noticeably and the fit still
     // leaves residuals beyond the noise, once more from the poses at the estimated offset.
@@ -830,16 +829,15 @@ pub fn estimate(
         .is_some_and(|s| !(r.residual_rms <= REPLACE_NOISE_RATIO * s));
     let Some(moved) = r
         .clock
-        .filter(|_| misfit)
+        .filter(|c| misfit && c.sd_s.is_finite())
         .and_then(|c| replaced(caps, c.shift_s))
     else {
         return Ok((cal, Some(r)));
     };
-    let (mut again, r2) = estimate_at_stated_times(id, &moved, sensor)?;
-    let Some(r2) = r2 else {
+    let (again, r2) = estimate_at_stated_times(id, &moved, sensor)?;
+    let Some(mut r2) = r2 else {
         return Ok((cal, Some(r)));
     };
-    let mut r2 = with_clock(id, &moved, &mut again, r2);
     let shift = r.clock.map_or(0.0, |c| c.shift_s);
     match r2.clock.as_mut() {
         Some(c) if c.sd_s.is_finite() => c.shift_s += shift,
@@ -885,38 +883,54 @@ fn replaced(caps: &Captures, shift_s: f64) -> Option<Captures> {
     Some(moved)
 }
 
-/// `estimate` with each profile at the pose its stamp and the stated offset give.
+/// `estimate` from the poses the stamps and the stated offset give: the estimator, its last fit
+/// with the profiles' clock shift as one more parameter where the captures ask for it
+/// (`with_clock`; in place of the plain fit for the refined and full-profile variants, after the
+/// any-pose estimator's own).
 fn estimate_at_stated_times(
     id: MethodId,
     caps: &Captures,
     sensor: &SensorModel,
 ) -> Result<(Calibration, Option<Refined>), Error> {
     if id.estimator == Estimator::AnyPose {
-        let (cal, r) =
+        let (mut cal, r) =
             method(id.kind).calibrate_any_pose(caps, &extraction_sensor(caps, sensor))?;
+        let start = r.flange_to_sensor;
+        let r = match with_clock(id, caps, &mut cal, &start) {
+            Some(Ok(fit)) => fit,
+            Some(Err(clock)) => Refined {
+                clock: Some(clock),
+                ..r
+            },
+            None => r,
+        };
         return Ok((cal, Some(r)));
     }
     let mut cal = calibrate(caps, sensor)?;
-    match id.estimator {
-        Estimator::ClosedForm | Estimator::AnyPose => Ok((cal, None)),
-        Estimator::Refined | Estimator::FullProfile => {
-            let r = if id.estimator == Estimator::FullProfile {
-                let p = cal
-                    .full_profile
-                    .as_ref()
-                    .ok_or(CaptureError::NoFullProfile { method: id.kind })?;
-                p.refine(&cal.flange_to_sensor, &refine_options(id.estimator))?
-            } else {
-                cal.refine(id.kind, &refine_options(id.estimator))?
-            };
-            cal.flange_to_sensor = r.flange_to_sensor;
-            cal.status = r.status;
-            if let Some(c) = r.centre {
-                cal.centre_in_base = Some(c.coords);
-            }
-            Ok((cal, Some(r)))
-        }
+    if id.estimator == Estimator::ClosedForm {
+        return Ok((cal, None));
     }
+    if id.estimator == Estimator::FullProfile && cal.full_profile.is_none() {
+        return Err(CaptureError::NoFullProfile { method: id.kind }.into());
+    }
+    let start = cal.flange_to_sensor;
+    let clock = match with_clock(id, caps, &mut cal, &start) {
+        Some(Ok(fit)) => return Ok((cal, Some(fit))),
+        Some(Err(clock)) => Some(clock),
+        None => None,
+    };
+    let r = match cal.full_profile.as_ref() {
+        Some(p) if id.estimator == Estimator::FullProfile => {
+            p.refine(&cal.flange_to_sensor, &refine_options(id.estimator))?
+        }
+        _ => cal.refine(id.kind, &refine_options(id.estimator))?,
+    };
+    cal.flange_to_sensor = r.flange_to_sensor;
+    cal.status = r.status;
+    if let Some(c) = r.centre {
+        cal.centre_in_base = Some(c.coords);
+    }
+    Ok((cal, Some(Refined { clock, ..r })))
 }
 
 /// Below this share of its effect that no other parameter can take
@@ -927,31 +941,32 @@ pub const MIN_CLOCK_SEPARATION: f64 = 1e-3;
 /// (`ClockFit::visible_speed` over it) the residuals do not see the offset at all.
 pub const MIN_CLOCK_VISIBILITY: f64 = 1e-3;
 
-/// Scanning on the move: `id`'s problem refitted from its result `r` with the profiles' clock
-/// shift as one more parameter (`calib::refine::timed`), when the captures were placed by time
-/// and ask for it. The timed fit and its problem replace the estimator's; where the motion cannot
-/// determine the shift (or the fit fails), `r` stands with a clock figure that says so.
-fn with_clock(id: MethodId, caps: &Captures, cal: &mut Calibration, r: Refined) -> Refined {
+/// Scanning on the move: `id`'s problem fitted from `start` with the profiles' clock shift as one
+/// more parameter (`calib::refine::timed`), when the captures were placed by time and ask for it
+/// (None otherwise). The fit and its problem replace the calibration's; where the motion cannot
+/// determine the shift (or the fit fails) the calibration is left alone and the clock figure
+/// that says so returned.
+fn with_clock(
+    id: MethodId,
+    caps: &Captures,
+    cal: &mut Calibration,
+    start: &Isometry3<f64>,
+) -> Option<Result<Refined, crate::calib::refine::timed::ClockFit>> {
     use crate::calib::refine::timed::{ClockFit, Timeline};
-    let Some(t) = caps.timing.as_ref().filter(|t| {
+    let t = caps.timing.as_ref().filter(|t| {
         t.estimate_offset && t.stamps.len() == caps.profiles.len() && t.stream.len() >= 2
-    }) else {
-        return r;
-    };
+    })?;
     let placed =
         (caps.profiles.iter().zip(&t.stamps)).map(|(p, s)| (p.base_to_flange, s + t.offset_s));
     let line = Arc::new(Timeline::new(t.stream.clone(), placed));
-    let Some(timed) = cal.problem(id.estimator).and_then(|p| p.timed(line)) else {
-        return r;
-    };
-    let undetermined = |separation: f64| Refined {
-        clock: Some(ClockFit {
+    let timed = cal.problem(id.estimator).and_then(|p| p.timed(line))?;
+    let undetermined = |separation: f64| {
+        Some(Err(ClockFit {
             shift_s: 0.0,
             sd_s: f64::INFINITY,
             separation,
             visible_speed: 0.0,
-        }),
-        ..r.clone()
+        }))
     };
     // The flange's fastest speed at a profile (rotation as the speed it gives 0.1 m away).
     let fastest = (t.stamps.iter())
@@ -960,7 +975,7 @@ fn with_clock(id: MethodId, caps: &Captures, cal: &mut Calibration, r: Refined) 
             v.norm() + 0.1 * w.norm()
         })
         .fold(0.0, f64::max);
-    let fit = match timed.refine(&r.flange_to_sensor, &refine_options(id.estimator)) {
+    let fit = match timed.refine(start, &refine_options(id.estimator)) {
         Ok(fit) => fit,
         // The shift takes a direction of the transform: the motion cannot tell them apart.
         Err(_) => return undetermined(0.0),
@@ -982,5 +997,5 @@ fn with_clock(id: MethodId, caps: &Captures, cal: &mut Calibration, r: Refined) 
         Estimator::FullProfile if cal.full_profile.is_some() => cal.full_profile = Some(timed),
         _ => cal.refinable = Some(timed),
     }
-    fit
+    Some(Ok(fit))
 }
