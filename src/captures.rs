@@ -111,6 +111,9 @@ pub struct Timing {
     /// Whether the refined, full-profile and any-pose estimators estimate the offset's error
     /// with the transform (`calib::refine::timed`) rather than hold the stated offset.
     pub estimate_offset: bool,
+    /// With it, whether the profiler's clock may also run at another rate (a drift, estimated
+    /// as one more parameter).
+    pub estimate_drift: bool,
 }
 
 /// What the verdict judges a result against: the user's tolerance on the 95 % error bound, and

@@ -78,6 +78,10 @@ struct FileV1 {
     /// the stated offset (false).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     estimate_clock_offset: Option<bool>,
+    /// With estimate_clock_offset: estimate a drift of the profiler's clock too (s per s;
+    /// default false).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    estimate_clock_drift: Option<bool>,
     /// The capture groups (scans, rotation sets, poses), each with its role and sign.
     groups: Vec<GroupV1>,
     /// One record per profile: its group, the flange pose and the profile or its feature.
@@ -286,6 +290,7 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
         pose_stream: timing.map(stream_records),
         profile_clock_offset_s: timing.map(|t| t.offset_s).filter(|o| *o != 0.0),
         estimate_clock_offset: timing.and_then(|t| (!t.estimate_offset).then_some(false)),
+        estimate_clock_drift: timing.and_then(|t| t.estimate_drift.then_some(true)),
         groups: c
             .groups
             .iter()
@@ -578,6 +583,7 @@ fn from_file(mut f: FileV1, file: &str) -> Result<(Captures, SensorModel), Forma
             stamps,
             offset_s: clock.offset_s,
             estimate_offset: f.estimate_clock_offset.unwrap_or(true),
+            estimate_drift: f.estimate_clock_drift.unwrap_or(false),
         });
     // Each record dropped once converted: a continuous scan's points are not held twice.
     let profiles = std::mem::take(&mut f.profiles)

@@ -481,6 +481,7 @@ impl DiskPlan {
             stamps,
             offset_s: 0.0,
             estimate_offset: self.estimate_clock_offset,
+            estimate_drift: false,
         })
     }
 }

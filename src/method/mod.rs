@@ -958,7 +958,7 @@ fn with_clock(
     })?;
     let placed =
         (caps.profiles.iter().zip(&t.stamps)).map(|(p, s)| (p.base_to_flange, s + t.offset_s));
-    let line = Arc::new(Timeline::new(t.stream.clone(), placed));
+    let line = Arc::new(Timeline::new(t.stream.clone(), placed, t.estimate_drift));
     let timed = cal.problem(id.estimator).and_then(|p| p.timed(line))?;
     let undetermined = |separation: f64| {
         Some(Err(ClockFit {
@@ -966,6 +966,7 @@ fn with_clock(
             sd_s: f64::INFINITY,
             separation,
             visible_speed: 0.0,
+            drift: None,
         }))
     };
     // The flange's fastest speed at a profile (rotation as the speed it gives 0.1 m away).

@@ -293,9 +293,17 @@ fn clock_note(q: &Quality) -> Option<String> {
     if let Some((c, stated_s)) = q.clock
         && c.sd_s.is_finite()
     {
+        let drift = c.drift.map_or(String::new(), |(d, sd)| {
+            format!(
+                " at the profiles' mean time, drifting {:+.1} ppm +- {:.1} ppm",
+                d * 1e6,
+                Z_975 * sd * 1e6
+            )
+        });
         return Some(format!(
             "the profiles' clock offset was estimated with the transform: {:+.3} ms +- {:.3} ms \
-             (95 %; {:+.3} ms from the stated {:+.3} ms); the bounds include its uncertainty",
+             (95 %; {:+.3} ms from the stated {:+.3} ms){drift}; the bounds include its \
+             uncertainty",
             (stated_s + c.shift_s) * 1e3,
             Z_975 * c.sd_s * 1e3,
             c.shift_s * 1e3,

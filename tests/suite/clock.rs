@@ -29,9 +29,22 @@ fn random_vector(rng: &mut Rng, lo: f64, hi: f64) -> Vector3<f64> {
 /// linear m/s, in the flange frame), its profile taken up to 5 ms either side and time-stamped
 /// `late_s` late; the capture placed by the stamps with no offset stated.
 fn on_the_move(
+    s: Setup,
+    seed: u64,
+    late_s: f64,
+    sigma: f64,
+    twist: &dyn Fn(&mut Rng, &Isometry3<f64>) -> (Vector3<f64>, Vector3<f64>),
+) -> Setup {
+    drifting(s, seed, late_s, 0.0, sigma, twist)
+}
+
+/// `on_the_move` with the profiler's clock also running fast by `rate` (s per s) about the
+/// stamps' mean: a profile stamped at u was taken at u - late - rate (u - mean).
+fn drifting(
     mut s: Setup,
     seed: u64,
     late_s: f64,
+    rate: f64,
     sigma: f64,
     twist: &dyn Fn(&mut Rng, &Isometry3<f64>) -> (Vector3<f64>, Vector3<f64>),
 ) -> Setup {
@@ -43,9 +56,12 @@ fn on_the_move(
         })
         .collect();
     let log = pose_log(&passes, 1.0, 0.1, 250.0);
-    let mut stamps = Vec::new();
-    for (i, p) in s.caps.profiles.iter_mut().enumerate() {
-        let t = i as f64 + uniform(&mut rng, -0.005, 0.005);
+    let stamps: Vec<f64> = (0..s.caps.profiles.len())
+        .map(|i| i as f64 + uniform(&mut rng, -0.005, 0.005) + late_s)
+        .collect();
+    let mean = stamps.iter().sum::<f64>() / stamps.len() as f64;
+    for (p, &stamp) in s.caps.profiles.iter_mut().zip(&stamps) {
+        let t = stamp - late_s - rate * (stamp - mean);
         let actual = pose_at(&log, t).unwrap();
         let noise = Noise {
             sigma_z: sigma,
@@ -58,14 +74,14 @@ fn on_the_move(
             noise,
             &mut rng,
         ));
-        p.base_to_flange = pose_at(&log, t + late_s).unwrap();
-        stamps.push(t + late_s);
+        p.base_to_flange = pose_at(&log, stamp).unwrap();
     }
     s.caps.timing = Some(Timing {
         stream: log,
         stamps,
         offset_s: 0.0,
         estimate_offset: true,
+        estimate_drift: false,
     });
     s
 }
@@ -173,4 +189,35 @@ fn a_motion_that_cannot_show_the_offset_is_said_so() {
     let d = lasercal::method::verdict::decide(&s.caps, &s.sensor, Some(PLANE)).unwrap();
     let text = d.judged.lines().cloned().collect::<Vec<_>>().join("\n");
     assert!(text.contains("cannot determine the offset"), "{text}");
+}
+
+/// A profiler clock that also runs at another rate (200-1,000 ppm over the rig's 7-50 s):
+/// with the drift estimated too, noise-free shift, drift and transform come back exactly.
+#[test]
+fn a_drifting_clock_is_estimated_exactly_without_noise() {
+    let n = |seed: u64| 7 + (seed as usize * 7) % 44;
+    for (id, seed) in [(BALL, 1001), (PLANE, 2002), (EDGE, 8003)] {
+        let s = match id.kind {
+            Kind::Ball => random_setup(seed, n(seed), 0, 0.0),
+            Kind::Plane => random_plane_setup(seed, n(seed), false, 0.0),
+            _ => random_bar_setup(seed, n(seed), 0.0),
+        };
+        let (late, rate) = (
+            0.008,
+            2e-4 + 8e-4 * lasercal::testkit::rng(seed).random::<f64>(),
+        );
+        let mut s = drifting(s, seed, late, rate, 0.0, &scanning);
+        s.caps.timing.as_mut().unwrap().estimate_drift = true;
+        let (cal, r) = lasercal::method::estimate(id, &s.caps, &s.sensor).unwrap();
+        let c = r.unwrap().clock.unwrap();
+        let (drift, _) = c.drift.expect("a drift");
+        let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
+        assert!(
+            (c.shift_s + late).abs() < 1e-9
+                && (drift + rate).abs() < 1e-9
+                && e.rotation_error_deg < 1e-9
+                && e.translation_error_mm < 1e-9,
+            "{id}: {c:?} for {late} s, {rate} s/s; {e:?}"
+        );
+    }
 }

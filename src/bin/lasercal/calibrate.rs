@@ -37,6 +37,10 @@ pub struct Args {
     /// estimate_clock_offset
     #[arg(long)]
     hold_clock_offset: bool,
+    /// With the clock offset estimated: estimate a drift of the profiler's clock against the
+    /// controller's too (s per s); overrides the file's estimate_clock_drift
+    #[arg(long, conflicts_with = "hold_clock_offset")]
+    estimate_clock_drift: bool,
     /// Write the result as JSON
     #[arg(long)]
     json: Option<PathBuf>,
@@ -97,12 +101,14 @@ pub fn run(a: Args) -> Result<i32> {
         caps.judging.robot_accuracy =
             lasercal::io::captures::robot_accuracy(r, &name, "--robot-accuracy-mm")?;
     }
-    if a.hold_clock_offset {
+    if a.hold_clock_offset || a.estimate_clock_drift {
         match caps.timing.as_mut() {
-            Some(t) => t.estimate_offset = false,
+            Some(t) if a.hold_clock_offset => t.estimate_offset = false,
+            Some(t) => t.estimate_drift = true,
             None => anyhow::bail!(
-                "--hold-clock-offset: {name} places no profile by its time stamp (no pose_stream \
-                 and t_s): there is no clock offset to hold; leave the flag out"
+                "--hold-clock-offset / --estimate-clock-drift: {name} places no profile by its \
+                 time stamp (no pose_stream and t_s): there is no profiler clock to hold or \
+                 estimate; leave the flag out"
             ),
         }
     }

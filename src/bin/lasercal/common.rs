@@ -339,6 +339,8 @@ pub fn verdict_text(
             "estimated_ms": c.sd_s.is_finite().then_some((stated + c.shift_s) * 1e3),
             "sd_ms": c.sd_s.is_finite().then_some(c.sd_s * 1e3),
             "separation": c.separation,
+            "drift_ppm": c.drift.map(|(d, _)| d * 1e6),
+            "drift_sd_ppm": c.drift.map(|(_, sd)| sd * 1e6),
         })),
         "leave_one_out": loo.map(|l| serde_json::json!({
             "runs": l.runs, "failed": l.failed, "rotation_deg": l.rotation_deg,

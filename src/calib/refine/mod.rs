@@ -211,7 +211,8 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
     fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> Self;
 
     /// The estimated shift of the profiles' clock (s) when the model estimates it (`timed`).
-    fn clock_shift(&self, _s: &Self::Specimen) -> Option<f64> {
+    /// With the clock's drift (s per s) where that is estimated too.
+    fn clock_shift(&self, _s: &Self::Specimen) -> Option<(f64, Option<f64>)> {
         None
     }
 
@@ -227,7 +228,7 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
         let model = timed::Timed::new(self.clone(), line)?;
         Some(std::sync::Arc::new(Problem {
             model,
-            specimen: (*s, 0.0),
+            specimen: (*s, [0.0; 2]),
         }))
     }
 }
@@ -918,7 +919,7 @@ pub fn refine<M: Model>(
     let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
     let clock = model
         .clock_shift(&s)
-        .map(|d| timed::clock_fit(d, p - 1, &sums, &normal));
+        .map(|c| timed::clock_fit(c, p - 1 - c.1.is_some() as usize, &sums, &normal));
     Ok((
         Refined {
             flange_to_sensor: x.to_isometry(),

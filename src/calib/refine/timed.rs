@@ -22,6 +22,10 @@ use std::sync::Arc;
 pub struct Timeline {
     stream: Vec<(f64, Isometry3<f64>)>,
     times: FxHashMap<PoseKey, f64>,
+    /// Whether the profiler's clock may also run at another rate (a drift, s per s, about
+    /// `t_ref`, the placed profiles' mean time): one more parameter.
+    drift: bool,
+    t_ref: f64,
 }
 
 type PoseKey = [u64; 7];
@@ -38,12 +42,31 @@ impl Timeline {
     pub fn new(
         stream: Vec<(f64, Isometry3<f64>)>,
         placed: impl IntoIterator<Item = (Isometry3<f64>, f64)>,
+        drift: bool,
     ) -> Timeline {
         let mut times = FxHashMap::default();
+        let (mut sum, mut n) = (0.0, 0usize);
         for (f, t) in placed {
             times.entry(key(&f)).or_insert(t);
+            sum += t;
+            n += 1;
         }
-        Timeline { stream, times }
+        Timeline {
+            stream,
+            times,
+            drift,
+            t_ref: sum / n.max(1) as f64,
+        }
+    }
+
+    /// The time a profile placed at `t` is at under `clock` (shift s, drift s per s).
+    fn shifted(&self, t: f64, clock: &[f64; 2]) -> f64 {
+        t + clock[0] + clock[1] * (t - self.t_ref)
+    }
+
+    /// The clock's parameters: the shift, and the drift where it is estimated.
+    fn n_params(&self) -> usize {
+        1 + self.drift as usize
     }
 
     /// The log's pose at `t`, held at its first or last sample outside it.
@@ -108,12 +131,12 @@ impl<M: Model> Timed<M> {
         }
     }
 
-    /// The base model with its poses placed at the times shifted by `d`, and each slot's pose.
-    fn placed(&self, d: f64) -> (M, Vec<Isometry3<f64>>) {
+    /// The base model with its poses placed at the times `clock` gives, and each slot's pose.
+    fn placed(&self, clock: &[f64; 2]) -> (M, Vec<Isometry3<f64>>) {
         let poses: Vec<Isometry3<f64>> = self
             .slots
             .iter()
-            .map(|(f, t)| t.map_or(*f, |t| self.line.pose(t + d)))
+            .map(|(f, t)| t.map_or(*f, |t| self.line.pose(self.line.shifted(t, clock))))
             .collect();
         // Runs of points share a pose: remember the last one looked up.
         let mut last: Option<(Isometry3<f64>, Isometry3<f64>)> = None;
@@ -132,13 +155,15 @@ impl<M: Model> Timed<M> {
 }
 
 impl<M: Model + 'static> Model for Timed<M> {
-    type Specimen = (M::Specimen, f64);
+    /// The base model's specimen and the clock: its shift (s) and drift (s per s; 0 unless
+    /// estimated).
+    type Specimen = (M::Specimen, [f64; 2]);
 
     fn name(&self) -> &'static str {
         self.base.name()
     }
     fn n_specimen_params(&self) -> usize {
-        self.base.n_specimen_params() + 1
+        self.base.n_specimen_params() + self.line.n_params()
     }
     fn n_features(&self) -> usize {
         self.base.n_features()
@@ -161,14 +186,15 @@ impl<M: Model + 'static> Model for Timed<M> {
         r: &mut DVector<f64>,
         j: Option<&mut DMatrix<f64>>,
     ) {
-        let (model, _) = self.placed(s.1);
+        let (model, _) = self.placed(&s.1);
         let Some(j) = j else {
             model.eval(x, &s.0, labels, r, None);
             return;
         };
         // The base model's columns into the first columns of j's storage (column-major: they
-        // are its first n p entries), then d's column after them.
-        let (n, p) = (j.nrows(), j.ncols() - 1);
+        // are its first n p entries), then the clock's after them.
+        let extra = self.line.n_params();
+        let (n, p) = (j.nrows(), j.ncols() - extra);
         let mut data: Vec<f64> = std::mem::replace(j, DMatrix::zeros(0, 0)).data.into();
         data.truncate(n * p);
         let mut inner = DMatrix::from_vec(n, p, data);
@@ -178,7 +204,7 @@ impl<M: Model + 'static> Model for Timed<M> {
             .iter()
             .map(|(_, t)| {
                 let (w, v) = t.map_or((Vector3::zeros(), Vector3::zeros()), |t| {
-                    velocity_at(&self.line.stream, t + s.1)
+                    velocity_at(&self.line.stream, self.line.shifted(t, &s.1))
                 });
                 (x.rot.inverse() * w, w.cross(&x.t) + v)
             })
@@ -192,13 +218,30 @@ impl<M: Model + 'static> Model for Timed<M> {
                     .sum::<f64>()
             })
             .collect();
+        // The drift's column: the shift's times the time from the reference.
+        let drift: Vec<f64> = if self.line.drift {
+            (self.residual_slot.iter().zip(&column))
+                .map(|(&slot, c)| {
+                    self.slots[slot as usize]
+                        .1
+                        .map_or(0.0, |t| c * (t - self.line.t_ref))
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         data.extend(column);
-        *j = DMatrix::from_vec(n, p + 1, data);
+        data.extend(drift);
+        *j = DMatrix::from_vec(n, p + extra, data);
     }
 
     fn step(&self, s: &Self::Specimen, dx: &[f64]) -> Self::Specimen {
         let k = self.base.n_specimen_params();
-        (self.base.step(&s.0, &dx[..k]), s.1 + dx[k])
+        let drift = if self.line.drift { dx[k + 1] } else { 0.0 };
+        (
+            self.base.step(&s.0, &dx[..k]),
+            [s.1[0] + dx[k], s.1[1] + drift],
+        )
     }
 
     fn centre(&self, s: &Self::Specimen) -> Option<Point3<f64>> {
@@ -208,7 +251,7 @@ impl<M: Model + 'static> Model for Timed<M> {
     /// The weights from the residuals where the profiles are now placed; the model keeps the
     /// poses as recorded.
     fn reweighted(&self, x: &Transform, s: &Self::Specimen) -> Option<(Self, SlantNoise)> {
-        let (placed, poses) = self.placed(s.1);
+        let (placed, poses) = self.placed(&s.1);
         let (weighted, noise) = placed.reweighted(x, &s.0)?;
         let back: FxHashMap<PoseKey, Isometry3<f64>> = poses
             .iter()
@@ -234,12 +277,12 @@ impl<M: Model + 'static> Model for Timed<M> {
             .iter()
             .filter_map(|(f, t)| t.map(|t| (to(f), t)))
             .collect::<Vec<_>>();
-        let line = Timeline::new(self.line.stream.clone(), placed);
+        let line = Timeline::new(self.line.stream.clone(), placed, self.line.drift);
         Timed::build(self.base.map_poses(to), Arc::new(line))
     }
 
-    fn clock_shift(&self, s: &Self::Specimen) -> Option<f64> {
-        Some(s.1)
+    fn clock_shift(&self, s: &Self::Specimen) -> Option<(f64, Option<f64>)> {
+        Some((s.1[0], self.line.drift.then_some(s.1[1])))
     }
 
     fn timed_problem(
@@ -268,22 +311,34 @@ pub struct ClockFit {
     /// translation's scale: next to the flange's speed, near 0 where the motion moves the points
     /// along the specimen only (a plane scanned along itself).
     pub visible_speed: f64,
+    /// The profiler's clock's drift against the controller's (s per s, and its sd) about the
+    /// profiles' mean time, where it was estimated: the shift holds at that time.
+    pub drift: Option<(f64, f64)>,
 }
 
-/// The fit's clock figures: the shift is parameter `index` (the last) of the fit whose sums and
-/// normal matrix are given.
+/// The fit's clock figures: the shift is parameter `index` (then the drift, when estimated) of
+/// the fit whose sums and normal matrix are given.
 pub(super) fn clock_fit(
-    shift_s: f64,
+    (shift_s, drift): (f64, Option<f64>),
     index: usize,
     sums: &super::Sums,
     normal: &super::Normal,
 ) -> ClockFit {
-    let unknown = ClockFit {
+    let (sd_s, separation, visible_speed) = parameter_figures(index, sums, normal);
+    ClockFit {
         shift_s,
-        sd_s: f64::INFINITY,
-        separation: 0.0,
-        visible_speed: 0.0,
-    };
+        sd_s,
+        separation,
+        visible_speed,
+        drift: drift.map(|d| (d, parameter_figures(index + 1, sums, normal).0)),
+    }
+}
+
+/// Parameter `index`'s sd (the larger of the residual-level and the pose-clustered sandwich),
+/// the share of its column no other takes, and that share's size on the translation's scale
+/// (infinite sd and zeros where the fit does not use it).
+fn parameter_figures(index: usize, sums: &super::Sums, normal: &super::Normal) -> (f64, f64, f64) {
+    let unknown = (f64::INFINITY, 0.0, 0.0);
     let (used, n) = (&normal.used, sums.n);
     let (Some(k), Some(inv)) = (used.iter().position(|&c| c == index), normal.inverse()) else {
         return unknown;
@@ -306,12 +361,11 @@ pub(super) fn clock_fit(
         0.0
     };
     let translation = (3..6).map(|c| sums.ata[(c, c)]).sum::<f64>() / 3.0;
-    ClockFit {
-        shift_s,
-        sd_s: residual.max(clustered).max(0.0).sqrt(),
-        separation: (1.0 / (inv[(k, k)] * sums.ata[(index, index)]))
+    (
+        residual.max(clustered).max(0.0).sqrt(),
+        (1.0 / (inv[(k, k)] * sums.ata[(index, index)]))
             .clamp(0.0, 1.0)
             .sqrt(),
-        visible_speed: (1.0 / (inv[(k, k)] * translation)).max(0.0).sqrt(),
-    }
+        (1.0 / (inv[(k, k)] * translation)).max(0.0).sqrt(),
+    )
 }
