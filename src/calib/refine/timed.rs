@@ -14,7 +14,7 @@ use super::{Model, Transform, slant::SlantNoise};
 use crate::math::{pose_at, velocity_at};
 use nalgebra::{DMatrix, DVector, Isometry3, Point3, Vector3};
 use rustc_hash::FxHashMap;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 /// The controller's pose log and the time on it (stated offset applied) of every flange pose the
 /// profiles were placed at.
@@ -90,7 +90,7 @@ impl Timeline {
 }
 
 /// A model whose profiles' clock shift d (s) is its last specimen parameter.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct Timed<M: Model> {
     base: M,
     line: Arc<Timeline>,
@@ -100,6 +100,22 @@ pub struct Timed<M: Model> {
     slot_of: FxHashMap<PoseKey, u32>,
     /// Each residual's slot.
     residual_slot: Vec<u32>,
+    /// The base model placed for the last clock evaluated: Levenberg-Marquardt evaluates the
+    /// Jacobian where it just evaluated an accepted step, and placing is a copy of every point.
+    last: Mutex<Option<([u64; 2], Arc<M>)>>,
+}
+
+impl<M: Model> Clone for Timed<M> {
+    fn clone(&self) -> Timed<M> {
+        Timed {
+            base: self.base.clone(),
+            line: self.line.clone(),
+            slots: self.slots.clone(),
+            slot_of: self.slot_of.clone(),
+            residual_slot: self.residual_slot.clone(),
+            last: Mutex::new(None),
+        }
+    }
 }
 
 impl<M: Model> Timed<M> {
@@ -128,6 +144,21 @@ impl<M: Model> Timed<M> {
             slots,
             slot_of,
             residual_slot,
+            last: Mutex::new(None),
+        }
+    }
+
+    /// `placed`'s model, kept for the next call with the same clock.
+    fn placed_model(&self, clock: &[f64; 2]) -> Arc<M> {
+        let bits = clock.map(f64::to_bits);
+        let mut last = self.last.lock().unwrap_or_else(|e| e.into_inner());
+        match last.as_ref() {
+            Some((b, m)) if *b == bits => m.clone(),
+            _ => {
+                let m = Arc::new(self.placed(clock).0);
+                *last = Some((bits, m.clone()));
+                m
+            }
         }
     }
 
@@ -186,7 +217,7 @@ impl<M: Model + 'static> Model for Timed<M> {
         r: &mut DVector<f64>,
         j: Option<&mut DMatrix<f64>>,
     ) {
-        let (model, _) = self.placed(&s.1);
+        let model = self.placed_model(&s.1);
         let Some(j) = j else {
             model.eval(x, &s.0, labels, r, None);
             return;
