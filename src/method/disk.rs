@@ -93,6 +93,20 @@ impl Method for Disk {
                 "must be within +-1000 ms (a profiler's latency is milliseconds)",
             ));
         }
+        if !(d.scan_accel_mm_s2 >= 0.0 && d.scan_accel_mm_s2 <= 1e6) {
+            return Err(v.bad(
+                "disk.scan_accel_mm_s2",
+                d.scan_accel_mm_s2,
+                "must be in [0, 1e6] mm/s^2 (0: at the scan speed throughout)",
+            ));
+        }
+        if !(d.pose_log_hz == 0.0 || (d.pose_log_hz >= 1.0 && d.pose_log_hz <= 10_000.0)) {
+            return Err(v.bad(
+                "disk.pose_log_hz",
+                d.pose_log_hz,
+                "must be 0 (the moves' start and end only) or in [1, 10000] Hz",
+            ));
+        }
         if d.clock_offset_ms != 0.0 && d.poses.is_some() {
             return Err(v.bad(
                 "disk.clock_offset_ms",
@@ -203,6 +217,8 @@ impl Method for Disk {
             speed: d.scan_speed_mm_s * 1e-3,
             clock_offset: d.clock_offset_ms * 1e-3,
             estimate_clock_offset: d.estimate_clock_offset,
+            accel: d.scan_accel_mm_s2 * 1e-3,
+            pose_log_hz: d.pose_log_hz,
             radius_tolerance: sc.specimen.radius_tolerance_mm.unwrap_or(0.0) * 1e-3,
             form: sc.specimen.form(),
             scene: common.scene.clone(),
@@ -291,6 +307,10 @@ pub struct DiskPlan {
     pub clock_offset: f64,
     /// Whether the estimators estimate the clock offset (`captures::Timing::estimate_offset`).
     pub estimate_clock_offset: bool,
+    /// Each move's acceleration (m/s^2; 0: at `speed` throughout) and the pose log's rate (Hz;
+    /// 0: each move's start and end only).
+    pub accel: f64,
+    pub pose_log_hz: f64,
     /// Standard deviation of the true radius (metres).
     pub radius_tolerance: f64,
     pub form: FormTolerance,
@@ -357,11 +377,20 @@ impl Plan for DiskPlan {
                 role: Role::Scan,
                 sign: crate::sim::disk::scan_sign(rig, p),
             });
-            // The recorded pose leads the one the profile was taken at by `lead` along the move.
-            let back = Translation3::from(
-                -(p.t_end - p.t_start).try_normalize(0.0).unwrap_or_default() * self.lead,
-            );
-            let mut actual = |f: &Isometry3<f64>| actual(&(back * f));
+            // The recorded pose leads the one the profile was taken at by `lead` along the move
+            // (at a steady speed), or by where the move was `clock_offset` earlier.
+            let back = |f: &Isometry3<f64>| -> Translation3<f64> {
+                let d = (p.t_end - p.t_start).try_normalize(0.0).unwrap_or_default();
+                match self.scan_move(p) {
+                    Some(m) => {
+                        let s = (f.translation.vector - p.t_start).dot(&d);
+                        let taken = m.position(m.time_at(s) - self.clock_offset);
+                        Translation3::from(d * (taken - s))
+                    }
+                    None => Translation3::from(-d * self.lead),
+                }
+            };
+            let mut actual = |f: &Isometry3<f64>| actual(&(back(f) * f));
             if self.raycast {
                 for j in 0..p.m {
                     let f = flange_pose(&p.r_tcp, &p.tcp(j));
@@ -440,10 +469,16 @@ impl Plan for DiskPlan {
     }
 }
 
-/// The controller's pose log rate of a simulated moving scan (Hz): ABB EGM's and its peers'.
-const POSE_STREAM_HZ: f64 = 250.0;
-
 impl DiskPlan {
+    /// Scan `p`'s move from rest to rest, when an acceleration is set.
+    fn scan_move(&self, p: &DiskScanPlan) -> Option<ScanMove> {
+        (self.accel > 0.0 && self.speed > 0.0).then(|| ScanMove {
+            length: (p.t_end - p.t_start).norm(),
+            speed: self.speed,
+            accel: self.accel,
+        })
+    }
+
     /// Scanning on the move: the controller's log of each scan (its straight move at `speed`,
     /// scans a second apart, logged at `POSE_STREAM_HZ` from before the first profile to after
     /// the last) and each profile's stamp, the time the log shows its recorded pose (the profile
@@ -460,20 +495,37 @@ impl DiskPlan {
                 (p.t_end - p.t_start).normalize(),
                 (p.t_end - p.t_start).norm(),
             );
-            starts.push((t0, p.t_start, d));
-            let samples = ((length / self.speed + 2.0 * margin) * POSE_STREAM_HZ).ceil() as usize;
+            let scan = self.scan_move(p);
+            starts.push((t0, p.t_start, d, scan));
+            let duration = scan.map_or(length / self.speed, |m| m.duration());
+            // Where the flange is at t: at the speed throughout, or from rest to rest.
+            let at = |t: f64| {
+                let s = scan.map_or(self.speed * (t - t0), |m| m.position(t - t0));
+                p.t_start + d * s
+            };
+            let span = duration + 2.0 * margin;
+            // At the log's rate from before the first profile to after the last, or the move's
+            // two ends only.
+            let (samples, step) = if self.pose_log_hz > 0.0 {
+                (
+                    (span * self.pose_log_hz).ceil() as usize,
+                    1.0 / self.pose_log_hz,
+                )
+            } else {
+                (1, span)
+            };
             for k in 0..=samples {
-                let t = t0 - margin + k as f64 / POSE_STREAM_HZ;
-                let at = p.t_start + d * (self.speed * (t - t0));
-                stream.push((t, flange_pose(&p.r_tcp, &at)));
+                let t = t0 - margin + k as f64 * step;
+                stream.push((t, flange_pose(&p.r_tcp, &at(t))));
             }
-            t0 += length / self.speed + 2.0 * margin + 1.0;
+            t0 += span + 1.0;
         }
         let stamps = profiles
             .iter()
             .map(|c| {
-                let (t0, start, d) = starts[c.group];
-                t0 + (c.base_to_flange.translation.vector - start).dot(&d) / self.speed
+                let (t0, start, d, scan) = starts[c.group];
+                let s = (c.base_to_flange.translation.vector - start).dot(&d);
+                t0 + scan.map_or(s / self.speed, |m| m.time_at(s))
             })
             .collect();
         Some(crate::captures::Timing {
@@ -862,4 +914,96 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         missed,
         groups: reports,
     })
+}
+
+/// A straight move of `length` (m) from rest to rest, at most `speed` (m/s), speeding up and
+/// braking at `accel` (m/s^2): a trapezoid of speed, a triangle when too short to reach it. At
+/// rest at its start before time 0 and at its end after `duration`.
+#[derive(Debug, Clone, Copy)]
+struct ScanMove {
+    length: f64,
+    speed: f64,
+    accel: f64,
+}
+
+impl ScanMove {
+    /// The highest speed reached and the time to reach it.
+    fn ramp(&self) -> (f64, f64) {
+        let top = self.speed.min((self.accel * self.length).sqrt());
+        (top, top / self.accel)
+    }
+
+    fn duration(&self) -> f64 {
+        let (top, ramp) = self.ramp();
+        2.0 * ramp + (self.length - top * ramp) / top
+    }
+
+    /// Distance from the start at time `t`.
+    fn position(&self, t: f64) -> f64 {
+        let (top, ramp) = self.ramp();
+        let end = self.duration();
+        let t = t.clamp(0.0, end);
+        if t < ramp {
+            0.5 * self.accel * t * t
+        } else if t <= end - ramp {
+            0.5 * top * ramp + top * (t - ramp)
+        } else {
+            let left = end - t;
+            self.length - 0.5 * self.accel * left * left
+        }
+    }
+
+    /// The time the move is `s` from its start (the first such time).
+    fn time_at(&self, s: f64) -> f64 {
+        let (top, ramp) = self.ramp();
+        let s = s.clamp(0.0, self.length);
+        let ramped = 0.5 * top * ramp;
+        if s <= ramped {
+            (2.0 * s / self.accel).sqrt()
+        } else if s <= self.length - ramped {
+            ramp + (s - ramped) / top
+        } else {
+            self.duration() - (2.0 * (self.length - s) / self.accel).sqrt()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ScanMove;
+
+    #[test]
+    fn a_move_from_rest_to_rest_reaches_each_point_once_at_its_time() {
+        // A trapezoid (reaches 0.1 m/s) and a triangle (too short to).
+        for m in [
+            ScanMove {
+                length: 0.12,
+                speed: 0.1,
+                accel: 0.5,
+            },
+            ScanMove {
+                length: 0.01,
+                speed: 0.1,
+                accel: 0.5,
+            },
+        ] {
+            let end = m.duration();
+            assert_eq!(m.position(-1.0), 0.0);
+            assert!((m.position(end + 1.0) - m.length).abs() < 1e-15);
+            for k in 0..=100 {
+                let s = m.length * k as f64 / 100.0;
+                let t = m.time_at(s);
+                assert!((0.0..=end + 1e-12).contains(&t));
+                assert!((m.position(t) - s).abs() < 1e-12, "{m:?} at {s}");
+            }
+            // Never faster than the speed, never accelerating harder than the limit.
+            let h = 1e-4;
+            let v = |t: f64| (m.position(t + h) - m.position(t)) / h;
+            for k in 0..200 {
+                let t = end * k as f64 / 200.0;
+                assert!(v(t) <= m.speed * (1.0 + 1e-9));
+                assert!((v(t + h) - v(t)).abs() / h <= m.accel * 1.01);
+            }
+        }
+    }
 }

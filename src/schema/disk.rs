@@ -56,6 +56,20 @@ pub struct Section {
     /// the clock offset with the transform (true) or take the stamps as they are (false).
     #[serde(default = "yes")]
     pub estimate_clock_offset: bool,
+    /// Scanning on the move: each scan's move starts and ends at rest, speeding up and braking
+    /// at this acceleration, mm/s^2 (0: at the scan speed throughout, from before the first
+    /// profile to after the last).
+    #[serde(default)]
+    pub scan_accel_mm_s2: f64,
+    /// The rate the controller logs poses at, Hz (0: only each move's start and end, as a
+    /// controller that reports waypoints; the profiles are then placed on a straight line in
+    /// time between them).
+    #[serde(default = "pose_log_hz")]
+    pub pose_log_hz: f64,
+}
+
+fn pose_log_hz() -> f64 {
+    250.0
 }
 
 fn yes() -> bool {
