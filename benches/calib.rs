@@ -183,15 +183,21 @@ fn any_pose(c: &mut Criterion) {
     });
 }
 
-/// Scanning on the move (the ray-cast disk paper rig at 100 mm/s, the stamps 10 ms late): each
-/// estimator with the clock offset held as stated and estimated with the transform.
+/// Scanning on the move (the ray-cast disk paper rig at 100 mm/s, the stamps 10 ms late, or on
+/// time): each estimator with the clock offset held as stated and estimated with the transform.
 fn on_the_move(c: &mut Criterion) {
+    for late_ms in [10.0, 0.0] {
+        on_the_move_at(c, late_ms);
+    }
+}
+
+fn on_the_move_at(c: &mut Criterion, late_ms: f64) {
     let dir = env!("CARGO_MANIFEST_DIR");
     let text = std::fs::read_to_string(format!("{dir}/scenarios/chen2018-disk-raycast.toml"))
         .unwrap()
         .replace(
             "[disk]\n",
-            "[disk]\nscan_speed_mm_s = 100.0\nclock_offset_ms = 10.0\n",
+            &format!("[disk]\nscan_speed_mm_s = 100.0\nclock_offset_ms = {late_ms}\n"),
         );
     let sf = ScenarioFile::parse(&text, "moving.toml").unwrap();
     let setup = sf.scenario.build(&sf.file).unwrap();
@@ -205,7 +211,7 @@ fn on_the_move(c: &mut Criterion) {
     for m in ["disk-refined", "disk-full", "disk-any-pose"] {
         let id: lasercal::method::MethodId = m.parse().unwrap();
         for (what, caps) in [("held", &held), ("estimated", &estimated)] {
-            g.bench_function(format!("{m}/{what}"), |b| {
+            g.bench_function(format!("{m}/{late_ms}ms/{what}"), |b| {
                 b.iter(|| {
                     black_box(lasercal::method::estimate(
                         id,
