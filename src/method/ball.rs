@@ -161,6 +161,10 @@ impl Method for Ball {
             radius_tolerance: section.radius_tolerance_mm.unwrap_or(0.0) * 1e-3,
             form: section.form(),
             free,
+            passing: match &b.poses {
+                Some(ps) => ps.passing("ball.poses", v)?,
+                None => None,
+            },
         }))
     }
 
@@ -234,6 +238,8 @@ pub struct BallPlanned {
     pub form: FormTolerance,
     /// Free poses (`[ball.poses]`) instead of the protocol: flange poses, one group each.
     pub free: Vec<Isometry3<f64>>,
+    /// Scanning on the move through the free poses (`[ball.poses] scan_speed_mm_s`).
+    pub passing: Option<crate::sim::poses::Passing>,
 }
 
 impl Plan for BallPlanned {
@@ -351,7 +357,7 @@ impl Plan for BallPlanned {
                 });
             }
         }
-        Ok(Captures {
+        let mut caps = Captures {
             orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
             feature_sigma: (!self.raycast).then_some(self.sigma),
             judging: crate::captures::Judging::default(),
@@ -364,7 +370,11 @@ impl Plan for BallPlanned {
             groups,
             profiles,
             timing: None,
-        })
+        };
+        if let Some(m) = self.passing.as_ref().filter(|_| !self.free.is_empty()) {
+            m.apply(&mut caps);
+        }
+        Ok(caps)
     }
 }
 

@@ -219,6 +219,10 @@ impl Method for Disk {
             estimate_clock_offset: d.estimate_clock_offset,
             accel: d.scan_accel_mm_s2 * 1e-3,
             pose_log_hz: d.pose_log_hz,
+            passing: match &d.poses {
+                Some(ps) => ps.passing("disk.poses", v)?,
+                None => None,
+            },
             radius_tolerance: sc.specimen.radius_tolerance_mm.unwrap_or(0.0) * 1e-3,
             form: sc.specimen.form(),
             scene: common.scene.clone(),
@@ -311,6 +315,8 @@ pub struct DiskPlan {
     /// 0: each move's start and end only).
     pub accel: f64,
     pub pose_log_hz: f64,
+    /// Scanning on the move through the free poses (`[disk.poses] scan_speed_mm_s`).
+    pub passing: Option<crate::sim::poses::Passing>,
     /// Standard deviation of the true radius (metres).
     pub radius_tolerance: f64,
     pub form: FormTolerance,
@@ -452,7 +458,7 @@ impl Plan for DiskPlan {
             }
         }
         let timing = self.timing(&profiles);
-        Ok(Captures {
+        let mut caps = Captures {
             timing,
             orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
             feature_sigma: (!self.raycast).then_some(self.sigma),
@@ -465,7 +471,11 @@ impl Plan for DiskPlan {
             truth: Some(rig.flange_to_sensor),
             groups,
             profiles,
-        })
+        };
+        if let Some(m) = self.passing.as_ref().filter(|_| !self.free.is_empty()) {
+            m.apply(&mut caps);
+        }
+        Ok(caps)
     }
 }
 

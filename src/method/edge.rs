@@ -158,6 +158,10 @@ impl Method for Edge {
             target,
             plans,
             free,
+            passing: match &e.poses {
+                Some(ps) => ps.passing("edge.poses", v)?,
+                None => None,
+            },
             scene,
             raycast: e.source == Source::Raycast,
             sigma: e.sigma_mm * 1e-3,
@@ -248,6 +252,8 @@ pub struct EdgePlan {
     /// The paper's protocol, or (when not empty) `free` flange poses, one profile each.
     pub plans: Vec<EdgeGroupPlan>,
     pub free: Vec<Isometry3<f64>>,
+    /// Scanning on the move through the free poses (`[edge.poses] scan_speed_mm_s`).
+    pub passing: Option<crate::sim::poses::Passing>,
     pub scene: Scene,
     pub raycast: bool,
     /// Noise on the edge point's x and z (analytic), metres.
@@ -346,7 +352,7 @@ impl Plan for EdgePlan {
                 });
             }
         }
-        Ok(Captures {
+        let mut caps = Captures {
             orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
             feature_sigma: (!self.raycast).then_some(self.sigma),
             judging: crate::captures::Judging::default(),
@@ -359,7 +365,11 @@ impl Plan for EdgePlan {
             groups,
             profiles,
             timing: None,
-        })
+        };
+        if let Some(m) = self.passing.as_ref().filter(|_| !self.free.is_empty()) {
+            m.apply(&mut caps);
+        }
+        Ok(caps)
     }
 }
 

@@ -71,6 +71,7 @@ impl Method for PlaneMethod {
             poses,
             scene: Scene::new(Some(table)),
             height: table.height_m,
+            passing: p.poses.passing("plane.poses", v)?,
         }))
     }
 
@@ -131,6 +132,8 @@ pub struct PlanePlan {
     pub scene: Scene,
     /// The table face's height (base z, m).
     pub height: f64,
+    /// Scanning on the move through the poses (`[plane.poses] scan_speed_mm_s`).
+    pub passing: Option<crate::sim::poses::Passing>,
 }
 
 impl Plan for PlanePlan {
@@ -168,7 +171,7 @@ impl Plan for PlanePlan {
                 )),
             });
         }
-        Ok(Captures {
+        let mut caps = Captures {
             orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
             feature_sigma: None,
             judging: crate::captures::Judging::default(),
@@ -181,7 +184,11 @@ impl Plan for PlanePlan {
             groups,
             profiles,
             timing: None,
-        })
+        };
+        if let Some(m) = &self.passing {
+            m.apply(&mut caps);
+        }
+        Ok(caps)
     }
 }
 

@@ -40,6 +40,22 @@ pub struct PoseSet {
     /// Or list the joint angles (deg) of each pose.
     #[serde(default)]
     pub joints_deg: Vec<[f64; 6]>,
+    /// Scanning on the move: the arm passes each pose in turn at this speed, mm/s, toward the
+    /// next, the profile taken as it passes (0: stop and go, each profile at rest).
+    #[serde(default)]
+    pub scan_speed_mm_s: f64,
+    /// How late the profiler's time stamps are against the controller's clock, ms (negative:
+    /// early); with scan_speed_mm_s.
+    #[serde(default)]
+    pub clock_offset_ms: f64,
+    /// Whether the refined, full-profile and any-pose estimators estimate the clock offset with
+    /// the transform (true) or take the stamps as they are (false).
+    #[serde(default = "yes")]
+    pub estimate_clock_offset: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 /// How generated poses turn about the specimen's normal.
@@ -84,6 +100,43 @@ fn d_spread() -> f64 {
 }
 
 impl PoseSet {
+    /// Scanning on the move through the poses, when a speed is given (`key`: the section's key).
+    pub fn passing(
+        &self,
+        key: &str,
+        v: &Validator,
+    ) -> Result<Option<crate::sim::poses::Passing>, ScenarioError> {
+        if !(self.scan_speed_mm_s >= 0.0 && self.scan_speed_mm_s <= 10_000.0) {
+            return Err(v.bad(
+                &format!("{key}.scan_speed_mm_s"),
+                self.scan_speed_mm_s,
+                "must be in [0, 10000] mm/s (0: stop and go)",
+            ));
+        }
+        if !(self.clock_offset_ms.abs() <= 1000.0) {
+            return Err(v.bad(
+                &format!("{key}.clock_offset_ms"),
+                self.clock_offset_ms,
+                "must be within +-1000 ms (a profiler's latency is milliseconds)",
+            ));
+        }
+        if self.scan_speed_mm_s == 0.0 {
+            if self.clock_offset_ms != 0.0 {
+                return Err(v.bad(
+                    &format!("{key}.clock_offset_ms"),
+                    self.clock_offset_ms,
+                    "a clock offset acts on poses passed on the move: give scan_speed_mm_s too",
+                ));
+            }
+            return Ok(None);
+        }
+        Ok(Some(crate::sim::poses::Passing {
+            speed: self.scan_speed_mm_s * 1e-3,
+            clock_offset: self.clock_offset_ms * 1e-3,
+            estimate: self.estimate_clock_offset,
+        }))
+    }
+
     /// Exactly one way, its values in range; `key` is the section's key (e.g. `plane.poses`) and
     /// `min` the fewest poses the method takes.
     pub fn source(

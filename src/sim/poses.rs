@@ -162,3 +162,72 @@ fn draw(
         Isometry3::from_parts(Translation3::from(aim.point.coords - rot * target), rot);
     base_to_sensor * rig.flange_to_sensor.inverse()
 }
+
+/// Scanning on the move through a free pose set: the arm passes each pose in turn without
+/// stopping, the profile taken as it passes, and the controller logs its poses while the
+/// profiler time-stamps the profiles `clock_offset` (s) late.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Passing {
+    /// The flange's speed (m/s) through each pose, toward the next (away from the one before
+    /// for the last); the turn to the next pose spread over the same move.
+    pub speed: f64,
+    pub clock_offset: f64,
+    /// Whether the estimators estimate the offset (`captures::Timing::estimate_offset`).
+    pub estimate: bool,
+}
+
+/// The controller's log rate while passing (Hz).
+const PASS_LOG_HZ: f64 = 250.0;
+
+impl Passing {
+    /// Captures taken at their profiles' poses as they pass (each at its pose's time) made as a
+    /// moving cell records them: each profile at the log's pose at its stamp, the log and the
+    /// stamps kept. Through each pose the flange moves at a steady velocity and turn rate (a
+    /// straight line and a turn about one axis, which the log's interpolation reproduces
+    /// exactly), logged from `0.05 s + |offset|` before it to as long after.
+    pub fn apply(&self, caps: &mut crate::captures::Captures) {
+        let poses: Vec<Isometry3<f64>> = caps.profiles.iter().map(|p| p.base_to_flange).collect();
+        let n = poses.len();
+        if n < 2 || !(self.speed > 0.0) {
+            return;
+        }
+        let half = 0.05 + self.clock_offset.abs();
+        let (mut stream, mut times) = (Vec::new(), Vec::with_capacity(n));
+        let mut t = half;
+        for i in 0..n {
+            let (from, to) = if i + 1 < n { (i, i + 1) } else { (i - 1, i) };
+            let step = poses[to].translation.vector - poses[from].translation.vector;
+            let duration = (step.norm() / self.speed).max(1e-3);
+            let velocity = step / duration;
+            let turn =
+                (poses[from].rotation.inverse() * poses[to].rotation).scaled_axis() / duration;
+            let at = |u: f64| {
+                Isometry3::from_parts(
+                    Translation3::from(poses[i].translation.vector + velocity * u),
+                    poses[i].rotation * UnitQuaternion::from_scaled_axis(turn * u),
+                )
+            };
+            let samples = (2.0 * half * PASS_LOG_HZ).ceil() as usize;
+            for k in 0..=samples {
+                let u = -half + k as f64 / PASS_LOG_HZ;
+                stream.push((t + u, at(u)));
+            }
+            times.push(t);
+            // The next pass's log starts after this one's ends.
+            t += (samples as f64 / PASS_LOG_HZ + 0.01).max(duration);
+        }
+        let stamps: Vec<f64> = times.iter().map(|t| t + self.clock_offset).collect();
+        for (p, s) in caps.profiles.iter_mut().zip(&stamps) {
+            if let Some(f) = crate::math::pose_at(&stream, *s) {
+                p.base_to_flange = f;
+            }
+        }
+        caps.timing = Some(crate::captures::Timing {
+            stream,
+            stamps,
+            offset_s: 0.0,
+            estimate_offset: self.estimate,
+            estimate_drift: false,
+        });
+    }
+}

@@ -342,3 +342,53 @@ fn accelerating_moves_and_waypoint_logs() {
     // Noise-free, the bound alone says it (imprecise); with noise the residuals do (suspect).
     assert_ne!(v, lasercal::method::verdict::Verdict::Ok);
 }
+
+/// Free pose sets passed on the move (`[X.poses] scan_speed_mm_s`, `clock_offset_ms`): the arm
+/// passes each pose toward the next without stopping (the plane's 48 poses on a circle, the
+/// ball's, the bar's and the disk's generated sets), the stamps 10 ms late. Each any-pose
+/// estimator finds the offset within its stated uncertainty and ends nearer the truth than with
+/// the stamps taken as they are.
+#[test]
+fn free_poses_passed_on_the_move() {
+    for (name, section, id) in [
+        ("plane-48-circle", "[plane.poses]", "plane-any-pose"),
+        ("ball-free", "[ball.poses]", "ball-any-pose"),
+        ("edge-8-poses", "[edge.poses]", "edge-any-pose"),
+        ("disk-free", "[disk.poses]", "disk-any-pose"),
+    ] {
+        let path = format!("{}/scenarios/{name}.toml", env!("CARGO_MANIFEST_DIR"));
+        let text = std::fs::read_to_string(path).unwrap().replace(
+            &format!("{section}\n"),
+            &format!("{section}\nscan_speed_mm_s = 100.0\nclock_offset_ms = 10.0\n"),
+        );
+        assert!(text.contains("clock_offset_ms = 10.0"), "{name}");
+        let setup = ScenarioFile::parse(&text, "moving.toml")
+            .unwrap()
+            .scenario
+            .build("moving.toml")
+            .unwrap();
+        let id: MethodId = id.parse().unwrap();
+        let mut caps = trial_captures(&setup, id.kind, 1, 0).0.unwrap();
+        assert!(caps.timing.is_some(), "{name}: placed by time");
+        let truth = setup.rig.flange_to_sensor;
+        let (cal, r) = lasercal::method::estimate(id, &caps, &setup.rig.sensor).unwrap();
+        let c = r.unwrap().clock.unwrap();
+        let estimated = lasercal::calib::PoseError::between(&cal.flange_to_sensor, &truth);
+        caps.timing.as_mut().unwrap().estimate_offset = false;
+        let (held, _) = lasercal::method::estimate(id, &caps, &setup.rig.sensor).unwrap();
+        let held = lasercal::calib::PoseError::between(&held.flange_to_sensor, &truth);
+        eprintln!(
+            "{name}: offset {:.3} ms sd {:.3}; error {:.4} mm estimated, {:.4} mm held",
+            c.shift_s * 1e3,
+            c.sd_s * 1e3,
+            estimated.translation_error_mm,
+            held.translation_error_mm
+        );
+        assert!((c.shift_s + 0.010).abs() < 4.0 * c.sd_s, "{name}: {c:?}");
+        assert!(
+            estimated.translation_error_mm < held.translation_error_mm
+                && estimated.rotation_error_deg < held.rotation_error_deg,
+            "{name}: {estimated:?} against {held:?}"
+        );
+    }
+}
