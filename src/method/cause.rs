@@ -231,6 +231,43 @@ pub fn likely_cause(caps: &Captures, sensor: &SensorModel, a: &Assessed) -> Opti
     Some(t.explain(caps, a.method, before, after))
 }
 
+/// A held clock offset the data contradict (scanning on the move, the offset taken as stated):
+/// the variant (a closed form's refined one) re-run estimating the offset; when it then finds an
+/// offset clearly off the stated one (beyond three of its sd) and is no longer suspect, that
+/// names the cause. A reason, or None.
+pub fn held_clock(caps: &Captures, sensor: &SensorModel, a: &Assessed) -> Option<String> {
+    caps.timing.as_ref().filter(|t| !t.estimate_offset)?;
+    let mut c = caps.clone();
+    c.timing.as_mut()?.estimate_offset = true;
+    let id = match a.method.estimator {
+        super::Estimator::ClosedForm => {
+            super::MethodId::new(a.method.kind, super::Estimator::Refined)
+        }
+        _ => a.method,
+    };
+    let b = assess(id, &c, sensor).ok()?;
+    let clock = b.refined.as_ref()?.clock?;
+    let stated = caps.timing.as_ref()?.offset_s;
+    if b.judged.verdict == Verdict::Suspect
+        || !clock.sd_s.is_finite()
+        || clock.shift_s.abs() <= 3.0 * clock.sd_s
+    {
+        return None;
+    }
+    Some(format!(
+        "likely cause: the profiles' clock offset: {id} estimating it finds {:+.3} ms (sd {:.3} \
+         ms), {:+.3} ms from the stated {:+.3} ms, and is then judged {}; let lasercal estimate \
+         it (leave out --hold-clock-offset, or set estimate_clock_offset) or state \
+         profile_clock_offset_s = {:.6}",
+        (stated + clock.shift_s) * 1e3,
+        clock.sd_s * 1e3,
+        clock.shift_s * 1e3,
+        stated * 1e3,
+        b.judged.verdict,
+        stated + clock.shift_s
+    ))
+}
+
 /// Labels that fit the profiles mirrored in x: the any-pose estimators infer the ball's side and
 /// the scan's direction from the data, so profiles mirrored in x give them a transform turned
 /// 180 deg about the sensor's z that maps every point correctly, and exit ok. The file's labels

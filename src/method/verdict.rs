@@ -986,6 +986,12 @@ pub fn decide(
     if misfit && let Some(c) = super::cause::likely_cause(caps, sensor, a) {
         judged.reasons.insert(0, c);
     }
+    // A held clock offset: one more refit, only for a suspect result placed by time stamps.
+    if judged.verdict == Verdict::Suspect
+        && let Some(c) = super::cause::held_clock(caps, sensor, a)
+    {
+        judged.reasons.insert(0, c);
+    }
     Ok(Decision {
         results,
         chosen,

@@ -392,3 +392,32 @@ fn free_poses_passed_on_the_move() {
         );
     }
 }
+
+/// A held offset the data contradict is named as the likely cause: with the stamps 10 ms late and
+/// the offset taken as stated, `disk-refined` is suspect (its scans disagree), and estimating the
+/// offset finds it and passes.
+#[test]
+fn a_held_wrong_offset_is_named_as_the_likely_cause() {
+    let setup = noisy_moving(100.0, 10.0);
+    let id: MethodId = "disk-refined".parse().unwrap();
+    let mut caps = trial_captures(&setup, Kind::Disk, 2030, 0).0.unwrap();
+    caps.timing.as_mut().unwrap().estimate_offset = false;
+    let d = lasercal::method::verdict::decide(&caps, &setup.rig.sensor, Some(id)).unwrap();
+    assert_eq!(
+        d.judged.verdict,
+        lasercal::method::verdict::Verdict::Suspect
+    );
+    let first = &d.judged.reasons[0];
+    assert!(
+        first.contains("likely cause: the profiles' clock offset") && first.contains("-9.9"),
+        "{first}"
+    );
+    caps.timing.as_mut().unwrap().estimate_offset = true;
+    let d = lasercal::method::verdict::decide(&caps, &setup.rig.sensor, Some(id)).unwrap();
+    assert_eq!(
+        d.judged.verdict,
+        lasercal::method::verdict::Verdict::Ok,
+        "{:?}",
+        d.judged.reasons
+    );
+}
