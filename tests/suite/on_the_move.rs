@@ -7,28 +7,30 @@ use lasercal::scenario::ScenarioFile;
 use lasercal::trial::trial_captures;
 use nalgebra::Vector3;
 
-/// chen2018-disk without noise, its scans moving at `speed` mm/s with the clock `offset` ms late.
-fn moving(speed: f64, offset: f64) -> lasercal::scenario::Setup {
-    let path = format!(
-        "{}/scenarios/chen2018-disk.toml",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let text = std::fs::read_to_string(path)
-        .unwrap()
-        .replace("sigma_mm = 0.1", "sigma_mm = 0.0")
-        .replace(
-            "[disk]\n",
-            &format!("[disk]\nscan_speed_mm_s = {speed}\nclock_offset_ms = {offset}\n"),
-        );
-    assert!(
-        text.contains("clock_offset_ms"),
-        "the scenario's [disk] moved"
-    );
+/// The scenario `name` (in scenarios/) with `edit` applied to its text, built.
+fn scenario_with(name: &str, edit: impl Fn(String) -> String) -> lasercal::scenario::Setup {
+    let path = format!("{}/scenarios/{name}.toml", env!("CARGO_MANIFEST_DIR"));
+    let text = edit(std::fs::read_to_string(path).unwrap());
     ScenarioFile::parse(&text, "moving.toml")
         .unwrap()
         .scenario
         .build("moving.toml")
         .unwrap()
+}
+
+/// chen2018-disk without noise, its scans moving at `speed` mm/s with the clock `offset` ms late.
+fn moving(speed: f64, offset: f64) -> lasercal::scenario::Setup {
+    scenario_with("chen2018-disk", |text| {
+        let text = text.replace("sigma_mm = 0.1", "sigma_mm = 0.0").replace(
+            "[disk]\n",
+            &format!("[disk]\nscan_speed_mm_s = {speed}\nclock_offset_ms = {offset}\n"),
+        );
+        assert!(
+            text.contains("clock_offset_ms"),
+            "the scenario's [disk] moved"
+        );
+        text
+    })
 }
 
 /// The closed form's translation error (flange frame, m) from the scenario's first trial.
@@ -204,25 +206,16 @@ fn disk_refined_estimates_the_offset_exactly_without_noise() {
 /// The paper's four scans at z noise 0.05 mm, moving at `speed` mm/s with the stamps `offset` ms
 /// late.
 fn noisy_moving(speed: f64, offset: f64) -> lasercal::scenario::Setup {
-    let path = format!(
-        "{}/scenarios/disk-on-the-move.toml",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let text = std::fs::read_to_string(path)
-        .unwrap()
-        .replace(
+    scenario_with("disk-on-the-move", |text| {
+        text.replace(
             "scan_speed_mm_s = 100.0",
             &format!("scan_speed_mm_s = {speed}"),
         )
         .replace(
             "clock_offset_ms = 0.0",
             &format!("clock_offset_ms = {offset}"),
-        );
-    ScenarioFile::parse(&text, "moving.toml")
-        .unwrap()
-        .scenario
-        .build("moving.toml")
-        .unwrap()
+        )
+    })
 }
 
 /// Monte Carlo of the estimated offset (issue 30's acceptance): at 50-200 mm/s with the stamps
@@ -303,22 +296,12 @@ fn offset_monte_carlo() {
 fn accelerating_moves_and_waypoint_logs() {
     let id: MethodId = "disk-refined".parse().unwrap();
     let run = |keys: &str| {
-        let path = format!(
-            "{}/scenarios/disk-on-the-move.toml",
-            env!("CARGO_MANIFEST_DIR")
-        );
-        let text = std::fs::read_to_string(path)
-            .unwrap()
-            .replace("sigma_mm = 0.05", "sigma_mm = 0.0")
-            .replace(
+        let setup = scenario_with("disk-on-the-move", |text| {
+            text.replace("sigma_mm = 0.05", "sigma_mm = 0.0").replace(
                 "clock_offset_ms = 0.0",
                 &format!("clock_offset_ms = 10.0\n{keys}"),
-            );
-        let setup = ScenarioFile::parse(&text, "moving.toml")
-            .unwrap()
-            .scenario
-            .build("moving.toml")
-            .unwrap();
+            )
+        });
         let caps = trial_captures(&setup, Kind::Disk, 1, 0).0.unwrap();
         let (cal, r) = lasercal::method::estimate(id, &caps, &setup.rig.sensor).unwrap();
         let e =
@@ -356,17 +339,14 @@ fn free_poses_passed_on_the_move() {
         ("edge-8-poses", "[edge.poses]", "edge-any-pose"),
         ("disk-free", "[disk.poses]", "disk-any-pose"),
     ] {
-        let path = format!("{}/scenarios/{name}.toml", env!("CARGO_MANIFEST_DIR"));
-        let text = std::fs::read_to_string(path).unwrap().replace(
-            &format!("{section}\n"),
-            &format!("{section}\nscan_speed_mm_s = 100.0\nclock_offset_ms = 10.0\n"),
-        );
-        assert!(text.contains("clock_offset_ms = 10.0"), "{name}");
-        let setup = ScenarioFile::parse(&text, "moving.toml")
-            .unwrap()
-            .scenario
-            .build("moving.toml")
-            .unwrap();
+        let setup = scenario_with(name, |text| {
+            let text = text.replace(
+                &format!("{section}\n"),
+                &format!("{section}\nscan_speed_mm_s = 100.0\nclock_offset_ms = 10.0\n"),
+            );
+            assert!(text.contains("clock_offset_ms = 10.0"), "{name}");
+            text
+        });
         let id: MethodId = id.parse().unwrap();
         let mut caps = trial_captures(&setup, id.kind, 1, 0).0.unwrap();
         assert!(caps.timing.is_some(), "{name}: placed by time");
