@@ -976,6 +976,12 @@ fn with_clock(
             v.norm() + 0.1 * w.norm()
         })
         .fold(0.0, f64::max);
+    // A flange standing still at every profile (slower than a micrometre per second: a second of
+    // offset would move nothing measurable; the log's identical samples give rounding-level
+    // speeds): no offset to estimate.
+    if !(fastest > 1e-6) {
+        return undetermined(0.0);
+    }
     let fit = match timed.refine(start, &refine_options(id.estimator)) {
         Ok(fit) => fit,
         // The shift takes a direction of the transform: the motion cannot tell them apart.

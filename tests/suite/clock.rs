@@ -221,3 +221,22 @@ fn a_drifting_clock_is_estimated_exactly_without_noise() {
         );
     }
 }
+
+/// A pose log of an arm standing still at every profile: no offset moves anything, so none is
+/// estimated (and the transform is the one without time).
+#[test]
+fn a_flange_standing_still_estimates_no_offset() {
+    let still = |_: &mut Rng, _: &Isometry3<f64>| (Vector3::zeros(), Vector3::zeros());
+    let s = on_the_move(
+        random_plane_setup(2003, 14, false, 0.0),
+        3,
+        0.01,
+        0.0,
+        &still,
+    );
+    let (cal, r) = lasercal::method::estimate(PLANE, &s.caps, &s.sensor).unwrap();
+    let c = r.unwrap().clock.unwrap();
+    assert!(c.sd_s.is_infinite() && c.shift_s == 0.0, "{c:?}");
+    let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
+    assert!(e.translation_error_mm < 1e-9, "{e:?}");
+}
