@@ -953,13 +953,25 @@ fn with_clock(
     start: &Isometry3<f64>,
 ) -> Option<Result<Refined, crate::calib::refine::timed::ClockFit>> {
     use crate::calib::refine::timed::{ClockFit, Timeline};
-    let t = caps.timing.as_ref().filter(|t| {
-        t.estimate_offset && t.stamps.len() == caps.profiles.len() && t.stream.len() >= 2
-    })?;
+    let t = caps
+        .timing
+        .as_ref()
+        .filter(|t| t.stamps.len() == caps.profiles.len() && t.stream.len() >= 2)?;
     let placed =
         (caps.profiles.iter().zip(&t.stamps)).map(|(p, s)| (p.base_to_flange, s + t.offset_s));
     let line = Arc::new(Timeline::new(t.stream.clone(), placed, t.estimate_drift));
     let timed = cal.problem(id.estimator).and_then(|p| p.timed(line))?;
+    if !t.estimate_offset {
+        // Held as stated: the bias an error in it would leave.
+        return Some(Err(ClockFit {
+            shift_s: 0.0,
+            sd_s: f64::INFINITY,
+            separation: 0.0,
+            visible_speed: 0.0,
+            drift: None,
+            bias_per_s: crate::calib::refine::timed::bias_per_second(&*timed, start),
+        }));
+    }
     let undetermined = |separation: f64| {
         Some(Err(ClockFit {
             shift_s: 0.0,
@@ -967,6 +979,7 @@ fn with_clock(
             separation,
             visible_speed: 0.0,
             drift: None,
+            bias_per_s: crate::calib::refine::timed::bias_per_second(&*timed, start),
         }))
     };
     // The flange's fastest speed at a profile (rotation as the speed it gives 0.1 m away).

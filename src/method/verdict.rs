@@ -118,9 +118,9 @@ pub struct Quality {
     pub judging: Judging,
     /// How far the result lies from the nominal mounting, when the captures state one.
     pub from_nominal: Option<FromNominal>,
-    /// Scanning on the move: the clock shift the fit estimated (or could not), and the offset the
-    /// captures stated (s).
-    pub clock: Option<(crate::calib::refine::timed::ClockFit, f64)>,
+    /// Scanning on the move: the clock shift the fit estimated (or could not, or held), the
+    /// offset the captures stated (s), and whether it was held as stated.
+    pub clock: Option<(crate::calib::refine::timed::ClockFit, f64, bool)>,
 }
 
 impl Quality {
@@ -281,16 +281,17 @@ pub fn quality(
             .judging
             .nominal
             .map(|n| FromNominal::between(&cal.flange_to_sensor, &n)),
-        clock: figures
-            .and_then(|f| f.clock)
-            .zip(caps.timing.as_ref().map(|t| t.offset_s)),
+        clock: figures.and_then(|f| f.clock).and_then(|c| {
+            let t = caps.timing.as_ref()?;
+            Some((c, t.offset_s, !t.estimate_offset))
+        }),
     }
 }
 
 /// Scanning on the move: the clock offset the fit estimated, or (where it was held or the motion
 /// cannot determine it) the bias an error in it leaves.
 fn clock_note(q: &Quality) -> Option<String> {
-    if let Some((c, stated_s)) = q.clock
+    if let Some((c, stated_s, _)) = q.clock
         && c.sd_s.is_finite()
     {
         let drift = c.drift.map_or(String::new(), |(d, sd)| {
@@ -319,7 +320,17 @@ fn clock_note(q: &Quality) -> Option<String> {
          move\")",
         v * 1e3
     );
-    if q.clock.is_some() {
+    if let Some(b) = q.clock.and_then(|(c, _, _)| c.bias_per_s) {
+        let rot = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2])
+            .sqrt()
+            .to_degrees()
+            * 1e-3;
+        let tr = (b[3] * b[3] + b[4] * b[4] + b[5] * b[5]).sqrt();
+        note.push_str(&format!(
+            "; on this data each millisecond of it moves the result {rot:.4} deg / {tr:.4} mm"
+        ));
+    }
+    if q.clock.is_some_and(|(_, _, held)| !held) {
         note.push_str(
             "; the motion cannot determine the offset: every profile moved with one velocity \
              relative to the flange or to the specimen, so a lag looks like a moved mounting or \

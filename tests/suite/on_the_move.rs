@@ -190,7 +190,6 @@ fn disk_refined_estimates_the_offset_exactly_without_noise() {
         );
         caps.timing.as_mut().unwrap().estimate_offset = false;
         let (held, r) = lasercal::method::estimate(id, &caps, &setup.rig.sensor).unwrap();
-        assert!(r.unwrap().clock.is_none());
         let bias = lasercal::calib::PoseError::between(
             &held.flange_to_sensor,
             &setup.rig.flange_to_sensor,
@@ -199,6 +198,17 @@ fn disk_refined_estimates_the_offset_exactly_without_noise() {
         assert!(
             lead_mm == 0.0 || bias.translation_error_mm > 0.2 * lead_mm,
             "{speed} mm/s, {offset} ms held: {bias:?}"
+        );
+        // Held, the clock figure predicts the bias from the data (per second of offset error):
+        // within 10 % of the one the held fit shows.
+        let c = r.unwrap().clock.expect("a held clock figure");
+        assert!(c.sd_s.is_infinite());
+        let b = c.bias_per_s.expect("a predicted bias");
+        let predicted_mm = Vector3::new(b[3], b[4], b[5]).norm() * offset.abs();
+        assert!(
+            (predicted_mm - bias.translation_error_mm).abs()
+                <= 0.1 * bias.translation_error_mm + 1e-9,
+            "{speed} mm/s, {offset} ms: predicted {predicted_mm} mm, held fit {bias:?}"
         );
     }
 }

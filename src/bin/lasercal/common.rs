@@ -334,7 +334,12 @@ pub fn verdict_text(
         "profiles": q.profiles,
         "rejected_profiles": q.rejected,
         // Scanning on the move: the clock offset estimated (null sd: the motion cannot tell it).
-        "clock_offset": q.clock.map(|(c, stated)| serde_json::json!({
+        "clock_offset": q.clock.map(|(c, stated, held)| serde_json::json!({
+            "held": held,
+            "bias_per_ms_deg_mm": c.bias_per_s.map(|b| [
+                (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt().to_degrees() * 1e-3,
+                (b[3] * b[3] + b[4] * b[4] + b[5] * b[5]).sqrt(),
+            ]),
             "stated_ms": stated * 1e3,
             "estimated_ms": c.sd_s.is_finite().then_some((stated + c.shift_s) * 1e3),
             "sd_ms": c.sd_s.is_finite().then_some(c.sd_s * 1e3),

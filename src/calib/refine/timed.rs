@@ -345,6 +345,25 @@ pub struct ClockFit {
     /// The profiler's clock's drift against the controller's (s per s, and its sd) about the
     /// profiles' mean time, where it was estimated: the shift holds at that time.
     pub drift: Option<(f64, f64)>,
+    /// Where the shift was not estimated (held as stated, or undetermined): how far the fit's
+    /// transform moves per second of shift its data hold (rotation rad, translation m): the
+    /// bias an offset error leaves, which no bound includes.
+    pub bias_per_s: Option<[f64; 6]>,
+}
+
+/// How the least-squares transform moves per second of clock shift the data hold while the fit
+/// holds it at none: the transform part of A_oo^-1 A_od (A = J^T J of the timed `problem` at
+/// `x`, o its other parameters, d the shift, its last). None where A_oo is singular.
+pub fn bias_per_second(problem: &dyn super::Refinable, x: &Isometry3<f64>) -> Option<[f64; 6]> {
+    let a = problem.sums(x).ata;
+    let k = a.nrows().checked_sub(1)?;
+    let others: Vec<usize> = (0..k).filter(|&c| c < 6 || a[(c, c)] != 0.0).collect();
+    let aoo = a.select_rows(&others).select_columns(&others);
+    let aod = DVector::from_fn(others.len(), |i, _| a[(others[i], k)]);
+    let s = aoo.cholesky()?.solve(&aod);
+    s.iter()
+        .all(|v| v.is_finite())
+        .then(|| std::array::from_fn(|i| s[i]))
 }
 
 /// The fit's clock figures: the shift is parameter `index` (then the drift, when estimated) of
@@ -362,6 +381,7 @@ pub(super) fn clock_fit(
         separation,
         visible_speed,
         drift: drift.map(|d| (d, parameter_figures(index + 1, sums, normal).0)),
+        bias_per_s: None,
     }
 }
 
