@@ -593,6 +593,9 @@ pub fn disagreements(
         .filter(|(i, _)| *i != chosen)
         .filter_map(|(_, (_, r))| r.as_ref().ok())
         .filter(|o| o.judged.verdict != Verdict::Suspect)
+        // Scanning on the move: a variant that estimated the profiles' clock offset and one that
+        // took the stamps as stated (a closed form) differ by the offset's bias by design.
+        .filter(|o| estimated_clock(o) == estimated_clock(c))
         .filter_map(|o| {
             let e = crate::calib::PoseError::between(
                 &c.calibration.flange_to_sensor,
@@ -612,6 +615,14 @@ pub fn disagreements(
             })
         })
         .collect()
+}
+
+/// Whether the variant estimated the profiles' clock offset with its transform.
+fn estimated_clock(a: &Assessed) -> bool {
+    a.refined
+        .as_ref()
+        .and_then(|r| r.clock)
+        .is_some_and(|c| c.sd_s.is_finite())
 }
 
 /// How much one group moves the result: the variant re-run without each group in turn, each
