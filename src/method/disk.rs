@@ -383,20 +383,7 @@ impl Plan for DiskPlan {
                 role: Role::Scan,
                 sign: crate::sim::disk::scan_sign(rig, p),
             });
-            // The recorded pose leads the one the profile was taken at by `lead` along the move
-            // (at a steady speed), or by where the move was `clock_offset` earlier.
-            let back = |f: &Isometry3<f64>| -> Translation3<f64> {
-                let d = (p.t_end - p.t_start).try_normalize(0.0).unwrap_or_default();
-                match self.scan_move(p) {
-                    Some(m) => {
-                        let s = (f.translation.vector - p.t_start).dot(&d);
-                        let taken = m.position(m.time_at(s) - self.clock_offset);
-                        Translation3::from(d * (taken - s))
-                    }
-                    None => Translation3::from(-d * self.lead),
-                }
-            };
-            let mut actual = |f: &Isometry3<f64>| actual(&(back(f) * f));
+            let mut actual = |f: &Isometry3<f64>| actual(&(self.taken_back(p, f) * f));
             if self.raycast {
                 for j in 0..p.m {
                     let f = flange_pose(&p.r_tcp, &p.tcp(j));
@@ -480,6 +467,20 @@ impl Plan for DiskPlan {
 }
 
 impl DiskPlan {
+    /// From the pose scan `p` recorded a profile at (`f`) back to where it was taken: `lead`
+    /// back along the move at a steady speed, or to where the move was `clock_offset` earlier.
+    fn taken_back(&self, p: &DiskScanPlan, f: &Isometry3<f64>) -> Translation3<f64> {
+        let d = (p.t_end - p.t_start).try_normalize(0.0).unwrap_or_default();
+        match self.scan_move(p) {
+            Some(m) => {
+                let s = (f.translation.vector - p.t_start).dot(&d);
+                let taken = m.position(m.time_at(s) - self.clock_offset);
+                Translation3::from(d * (taken - s))
+            }
+            None => Translation3::from(-d * self.lead),
+        }
+    }
+
     /// Scan `p`'s move from rest to rest, when an acceleration is set.
     fn scan_move(&self, p: &DiskScanPlan) -> Option<ScanMove> {
         (self.accel > 0.0 && self.speed > 0.0).then(|| ScanMove {

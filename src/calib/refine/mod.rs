@@ -917,9 +917,7 @@ pub fn refine<M: Model>(
     let cov = covariance_from(&normal, &sums);
     let honest = honest::Honest::of(normal.inverse(), &sums, &normal.used, &cov);
     let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
-    let clock = model
-        .clock_shift(&s)
-        .map(|c| timed::clock_fit(c, p - 1 - c.1.is_some() as usize, &sums, &normal));
+    let clock = (model.clock_shift(&s)).map(|c| timed::clock_fit(c, p, &sums, &normal));
     Ok((
         Refined {
             flange_to_sensor: x.to_isometry(),

@@ -366,14 +366,15 @@ pub fn bias_per_second(problem: &dyn super::Refinable, x: &Isometry3<f64>) -> Op
         .then(|| std::array::from_fn(|i| s[i]))
 }
 
-/// The fit's clock figures: the shift is parameter `index` (then the drift, when estimated) of
-/// the fit whose sums and normal matrix are given.
+/// The figures of a fit of `n_params` parameters whose last are the clock's (the shift, then
+/// the drift when estimated), from its sums and normal matrix.
 pub(super) fn clock_fit(
     (shift_s, drift): (f64, Option<f64>),
-    index: usize,
+    n_params: usize,
     sums: &super::Sums,
     normal: &super::Normal,
 ) -> ClockFit {
+    let index = n_params - 1 - drift.is_some() as usize;
     let (sd_s, separation, visible_speed) = parameter_figures(index, sums, normal);
     ClockFit {
         shift_s,
