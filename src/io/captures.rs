@@ -911,7 +911,28 @@ impl Clock {
                 format!("{offset_s} is not a number of seconds"),
             ));
         }
+        if f.estimate_clock_drift == Some(true) && f.estimate_clock_offset == Some(false) {
+            return Err(err(
+                file,
+                "estimate_clock_drift",
+                "true with estimate_clock_offset false: a drift is estimated with the offset; \
+                 set estimate_clock_offset true or leave the drift out",
+            ));
+        }
         let Some(samples) = &f.pose_stream else {
+            let given = [
+                ("estimate_clock_offset", f.estimate_clock_offset.is_some()),
+                ("estimate_clock_drift", f.estimate_clock_drift.is_some()),
+            ];
+            if let Some((field, _)) = given.iter().find(|(_, g)| *g) {
+                return Err(err(
+                    file,
+                    field,
+                    "given without a pose_stream: the profiles' clock is estimated only for \
+                     profiles placed by their time stamps (t_s) on a pose_stream; add the pose \
+                     log or leave the field out",
+                ));
+            }
             return Ok(Clock {
                 stream: Vec::new(),
                 offset_s,

@@ -226,6 +226,26 @@ fn bad_time_stamps_are_refused_with_the_field_and_the_fix() {
             }),
             &["pose_stream[1].tcp_quaternion_wxyz", "unit quaternion"],
         ),
+        (
+            "a drift with the offset held",
+            Box::new(|d: &mut Value| {
+                d["estimate_clock_drift"] = json!(true);
+                d["estimate_clock_offset"] = json!(false);
+            }),
+            &["estimate_clock_drift", "set estimate_clock_offset true"],
+        ),
+        (
+            "clock estimation asked of a file without a log",
+            Box::new(|d: &mut Value| {
+                d.as_object_mut().unwrap().remove("pose_stream");
+                d["estimate_clock_offset"] = json!(false);
+            }),
+            &[
+                "estimate_clock_offset",
+                "without a pose_stream",
+                "leave the field out",
+            ],
+        ),
     ];
     for (what, change, want) in cases {
         let mut d = good.clone();
