@@ -960,7 +960,9 @@ fn with_clock(
     let placed =
         (caps.profiles.iter().zip(&t.stamps)).map(|(p, s)| (p.base_to_flange, s + t.offset_s));
     let line = Arc::new(Timeline::new(t.stream.clone(), placed, t.estimate_drift));
-    let timed = cal.problem(id.estimator).and_then(|p| p.timed(line))?;
+    let timed = cal
+        .problem(id.estimator)
+        .and_then(|p| p.timed(line.clone()))?;
     if !t.estimate_offset {
         // Held as stated: the bias an error in it would leave.
         return Some(Err(ClockFit {
@@ -1003,7 +1005,12 @@ fn with_clock(
     let (separation, visible) = fit
         .clock
         .map_or((0.0, 0.0), |c| (c.separation, c.visible_speed));
+    // An estimate that moves a profile off the pose log has no pose to put it at.
+    let on_log = fit
+        .clock
+        .is_some_and(|c| line.covers(&[c.shift_s, c.drift.map_or(0.0, |d| d.0)]));
     if !(separation >= MIN_CLOCK_SEPARATION && visible >= MIN_CLOCK_VISIBILITY * fastest)
+        || !on_log
         || !matches!(fit.status, Status::Converged { .. })
     {
         return undetermined(separation);

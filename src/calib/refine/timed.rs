@@ -75,17 +75,13 @@ impl Timeline {
         pose_at(&self.stream, t.clamp(first.0, last.0)).unwrap_or(first.1)
     }
 
-    /// Seconds of the log before the first and after the last placed profile, at the stated
-    /// offset: how far the estimate may move before a profile leaves the log.
-    pub fn margins(&self) -> (f64, f64) {
-        let (lo, hi) = self
-            .times
-            .values()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), t| {
-                (a.min(*t), b.max(*t))
-            });
+    /// Whether every placed profile stays within the log under `clock` (shift s, drift s per
+    /// s): beyond it a profile is held at the log's first or last pose, not placed.
+    pub fn covers(&self, clock: &[f64; 2]) -> bool {
         let (first, last) = (self.stream[0].0, self.stream[self.stream.len() - 1].0);
-        (lo - first, last - hi)
+        self.times
+            .values()
+            .all(|t| (first..=last).contains(&self.shifted(*t, clock)))
     }
 }
 
