@@ -161,6 +161,33 @@ impl Model for DiskModel {
         }
     }
 
+    fn map_poses_into(
+        &self,
+        to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>,
+        into: &mut DiskModel,
+    ) {
+        let same = into.ends.len() == self.ends.len()
+            && into.face.len() == self.face.len()
+            && into.rims.len() == self.rims.len()
+            && into.walls.len() == self.walls.len();
+        if !same {
+            *into = self.map_poses(to);
+            return;
+        }
+        for (o, (f, _)) in into.ends.iter_mut().zip(&self.ends) {
+            o.0 = to(f);
+        }
+        for (o, (f, _)) in into.face.iter_mut().zip(&self.face) {
+            o.0 = to(f);
+        }
+        for (o, (f, _, _)) in into.rims.iter_mut().zip(&self.rims) {
+            o.0 = to(f);
+        }
+        for (o, (f, _, _)) in into.walls.iter_mut().zip(&self.walls) {
+            o.0 = to(f);
+        }
+    }
+
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> DiskModel {
         let kept_ends: Vec<usize> = (0..self.ends.len())
             .filter(|&i| !drop(&self.ends[i].0))

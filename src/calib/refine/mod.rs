@@ -210,6 +210,17 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
     /// a profile clock offset puts the profiles at). Features keep their order.
     fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> Self;
 
+    /// `map_poses` into `into`, a model mapped from this one before (its features in the same
+    /// order): a model of many points overwrites the poses in place rather than allocating
+    /// its points again at every clock the fit tries.
+    fn map_poses_into(
+        &self,
+        to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>,
+        into: &mut Self,
+    ) {
+        *into = self.map_poses(to);
+    }
+
     /// The estimated shift of the profiles' clock (s) when the model estimates it (`timed`).
     /// With the clock's drift (s per s) where that is estimated too.
     fn clock_shift(&self, _s: &Self::Specimen) -> Option<(f64, Option<f64>)> {

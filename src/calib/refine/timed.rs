@@ -85,6 +85,9 @@ impl Timeline {
     }
 }
 
+/// A pose `Timed` does not place (not on the log): it stays where it was recorded.
+const NOT_PLACED: u32 = u32::MAX;
+
 /// A model whose profiles' clock shift d (s) is its last specimen parameter.
 #[derive(Debug)]
 pub struct Timed<M: Model> {
@@ -96,6 +99,8 @@ pub struct Timed<M: Model> {
     slot_of: FxHashMap<PoseKey, u32>,
     /// Each residual's slot.
     residual_slot: Vec<u32>,
+    /// The slot of each pose in the order `Model::map_poses` visits them (`NOT_PLACED`: none).
+    visits: Vec<u32>,
     /// The base model placed for the last clock evaluated: Levenberg-Marquardt evaluates the
     /// Jacobian where it just evaluated an accepted step, and placing is a copy of every point.
     last: Mutex<Option<([u64; 2], Arc<M>)>>,
@@ -109,6 +114,7 @@ impl<M: Model> Clone for Timed<M> {
             slots: self.slots.clone(),
             slot_of: self.slot_of.clone(),
             residual_slot: self.residual_slot.clone(),
+            visits: self.visits.clone(),
             last: Mutex::new(None),
         }
     }
@@ -134,49 +140,79 @@ impl<M: Model> Timed<M> {
             });
             residual_slot.push(slot);
         }
+        // Runs of points share a pose: the last one looked up is remembered.
+        let (mut visits, mut last) = (Vec::new(), None);
+        let _ = base.map_poses(&mut |f| {
+            let slot = match last {
+                Some((from, s)) if from == *f => s,
+                _ => slot_of.get(&key(f)).copied().unwrap_or(NOT_PLACED),
+            };
+            last = Some((*f, slot));
+            visits.push(slot);
+            *f
+        });
         Timed {
             base,
             line,
             slots,
             slot_of,
             residual_slot,
+            visits,
             last: Mutex::new(None),
         }
     }
 
-    /// `placed`'s model, kept for the next call with the same clock.
+    /// `placed`'s model, kept for the next call with the same clock; placed again in place
+    /// when no evaluation holds it (`Model::map_poses_into`).
     fn placed_model(&self, clock: &[f64; 2]) -> Arc<M> {
         let bits = clock.map(f64::to_bits);
         let mut last = self.last.lock().unwrap_or_else(|e| e.into_inner());
-        match last.as_ref() {
-            Some((b, m)) if *b == bits => m.clone(),
-            _ => {
-                let m = Arc::new(self.placed(clock).0);
-                *last = Some((bits, m.clone()));
-                m
+        if let Some((b, m)) = last.as_mut() {
+            if *b == bits {
+                return m.clone();
             }
+            if let Some(inner) = Arc::get_mut(m) {
+                let poses = self.slot_poses(clock);
+                self.base.map_poses_into(&mut self.mapper(&poses), inner);
+                *b = bits;
+                return m.clone();
+            }
+        }
+        let m = Arc::new(self.placed(clock).0);
+        *last = Some((bits, m.clone()));
+        m
+    }
+
+    /// Each slot's pose at the times `clock` gives.
+    fn slot_poses(&self, clock: &[f64; 2]) -> Vec<Isometry3<f64>> {
+        self.slots
+            .iter()
+            .map(|(f, t)| t.map_or(*f, |t| self.line.pose(self.line.shifted(t, clock))))
+            .collect()
+    }
+
+    /// A recorded pose to its slot's pose in `poses`, read off `visits` in the order the base
+    /// model visits its poses (looked up should a model ever visit more).
+    fn mapper<'a>(
+        &'a self,
+        poses: &'a [Isometry3<f64>],
+    ) -> impl FnMut(&Isometry3<f64>) -> Isometry3<f64> + 'a {
+        let mut k = 0;
+        move |f| {
+            let slot = self
+                .visits
+                .get(k)
+                .copied()
+                .unwrap_or_else(|| self.slot_of.get(&key(f)).copied().unwrap_or(NOT_PLACED));
+            k += 1;
+            poses.get(slot as usize).copied().unwrap_or(*f)
         }
     }
 
     /// The base model with its poses placed at the times `clock` gives, and each slot's pose.
     fn placed(&self, clock: &[f64; 2]) -> (M, Vec<Isometry3<f64>>) {
-        let poses: Vec<Isometry3<f64>> = self
-            .slots
-            .iter()
-            .map(|(f, t)| t.map_or(*f, |t| self.line.pose(self.line.shifted(t, clock))))
-            .collect();
-        // Runs of points share a pose: remember the last one looked up.
-        let mut last: Option<(Isometry3<f64>, Isometry3<f64>)> = None;
-        let model = self.base.map_poses(&mut |f| {
-            if let Some((from, to)) = last
-                && from == *f
-            {
-                return to;
-            }
-            let to = self.slot_of.get(&key(f)).map_or(*f, |&s| poses[s as usize]);
-            last = Some((*f, to));
-            to
-        });
+        let poses = self.slot_poses(clock);
+        let model = self.base.map_poses(&mut self.mapper(&poses));
         (model, poses)
     }
 }
@@ -237,28 +273,26 @@ impl<M: Model + 'static> Model for Timed<M> {
             })
             .collect();
         let mut data: Vec<f64> = inner.data.into();
-        let column: Vec<f64> = (self.residual_slot.iter().enumerate())
-            .map(|(k, &slot)| {
-                let (a, b) = twists[slot as usize];
-                (0..3)
-                    .map(|c| data[c * n + k] * a[c] + data[(3 + c) * n + k] * b[c])
-                    .sum::<f64>()
-            })
-            .collect();
+        // Written after the base columns in the same storage (its capacity is already there).
+        for k in 0..n {
+            let (a, b) = twists[self.residual_slot[k] as usize];
+            let v = (0..3)
+                .map(|c| data[c * n + k] * a[c] + data[(3 + c) * n + k] * b[c])
+                .sum::<f64>();
+            data.push(v);
+        }
         // The drift's column: the shift's times the time from the reference.
-        let drift: Vec<f64> = if self.line.drift {
-            (self.residual_slot.iter().zip(&column))
-                .map(|(&slot, c)| {
-                    self.slots[slot as usize]
+        if self.line.drift {
+            for k in 0..n {
+                let slot = self.residual_slot[k] as usize;
+                let c = data[p * n + k];
+                data.push(
+                    self.slots[slot]
                         .1
-                        .map_or(0.0, |t| c * (t - self.line.t_ref))
-                })
-                .collect()
-        } else {
-            Vec::new()
-        };
-        data.extend(column);
-        data.extend(drift);
+                        .map_or(0.0, |t| c * (t - self.line.t_ref)),
+                );
+            }
+        }
         *j = DMatrix::from_vec(n, p + extra, data);
     }
 
