@@ -972,9 +972,10 @@ fn with_clock(
             visible_speed: 0.0,
             drift: None,
             bias_per_s: crate::calib::refine::timed::bias_per_second(&*timed, start),
+            off_log: None,
         }));
     }
-    let undetermined = |separation: f64| {
+    let held = |separation: f64, off_log: Option<f64>| {
         Some(Err(ClockFit {
             shift_s: 0.0,
             sd_s: f64::INFINITY,
@@ -982,8 +983,10 @@ fn with_clock(
             visible_speed: 0.0,
             drift: None,
             bias_per_s: crate::calib::refine::timed::bias_per_second(&*timed, start),
+            off_log,
         }))
     };
+    let undetermined = |separation: f64| held(separation, None);
     // The flange's fastest speed at a profile (rotation as the speed it gives 0.1 m away).
     let fastest = (t.stamps.iter())
         .map(|s| {
@@ -1005,15 +1008,16 @@ fn with_clock(
     let (separation, visible) = fit
         .clock
         .map_or((0.0, 0.0), |c| (c.separation, c.visible_speed));
-    // An estimate that moves a profile off the pose log has no pose to put it at.
-    let on_log = fit
-        .clock
-        .is_some_and(|c| line.covers(&[c.shift_s, c.drift.map_or(0.0, |d| d.0)]));
     if !(separation >= MIN_CLOCK_SEPARATION && visible >= MIN_CLOCK_VISIBILITY * fastest)
-        || !on_log
         || !matches!(fit.status, Status::Converged { .. })
     {
         return undetermined(separation);
+    }
+    // An estimate that moves a profile off the pose log has no pose to put it at.
+    if let Some(c) = fit.clock
+        && !line.covers(&[c.shift_s, c.drift.map_or(0.0, |d| d.0)])
+    {
+        return held(separation, Some(c.shift_s));
     }
     cal.flange_to_sensor = fit.flange_to_sensor;
     cal.status = fit.status;

@@ -330,7 +330,14 @@ fn clock_note(q: &Quality) -> Option<String> {
             "; on this data each millisecond of it moves the result {rot:.4} deg / {tr:.4} mm"
         ));
     }
-    if q.clock.is_some_and(|(_, _, held)| !held) {
+    if let Some(shift) = q.clock.and_then(|(c, _, _)| c.off_log) {
+        note.push_str(&format!(
+            "; the offset was held as stated: its estimate ({:+.3} ms from the stated) would put \
+             profiles outside the pose log's span, where no logged pose places them. Log poses \
+             from before the first profile to after the last, by more than the offset",
+            shift * 1e3
+        ));
+    } else if q.clock.is_some_and(|(_, _, held)| !held) {
         note.push_str(
             "; the motion cannot determine the offset: every profile moved with one velocity \
              relative to the flange or to the specimen, so a lag looks like a moved mounting or \

@@ -240,3 +240,40 @@ fn a_flange_standing_still_estimates_no_offset() {
     let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
     assert!(e.translation_error_mm < 1e-9, "{e:?}");
 }
+
+/// A pose log that starts at the first profile's stamp and ends at the last's: the estimate
+/// (the stamps 10 ms late) would put the first profile before the log, where no pose places it.
+/// The offset is held, the verdict says why and gives the estimate.
+#[test]
+fn an_estimate_beyond_the_pose_log_is_held_and_said_so() {
+    let mut s = on_the_move(random_setup(7500, 12, 0, 0.0), 4, 0.01, 0.0, &scanning);
+    let t = s.caps.timing.as_mut().unwrap();
+    let (first, last) = t
+        .stamps
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &u| (a.min(u), b.max(u)));
+    let kept: Vec<_> = t
+        .stream
+        .iter()
+        .filter(|(u, _)| *u > first && *u < last)
+        .copied()
+        .collect();
+    // The log's ends exactly at the first and last stamp (as the reader interpolates them).
+    t.stream = std::iter::once((first, pose_at(&t.stream, first).unwrap()))
+        .chain(kept)
+        .chain(std::iter::once((last, pose_at(&t.stream, last).unwrap())))
+        .collect();
+    // As a capture file's reader sets it from the log.
+    s.caps.judging.scan_speed = Some(0.2);
+    let (_, r) = lasercal::method::estimate(BALL, &s.caps, &s.sensor).unwrap();
+    let clock = r.unwrap().clock.unwrap();
+    let off = clock.off_log.expect("held for the log's span");
+    assert!(
+        clock.sd_s.is_infinite() && (off + 0.01).abs() < 1e-3,
+        "{clock:?}"
+    );
+    let d = lasercal::method::verdict::decide(&s.caps, &s.sensor, Some(BALL)).unwrap();
+    let text = d.judged.lines().cloned().collect::<Vec<_>>().join("\n");
+    assert!(text.contains("outside the pose log's span"), "{text}");
+    assert!(!text.contains("cannot determine the offset"), "{text}");
+}

@@ -346,6 +346,8 @@ pub fn verdict_text(
             "separation": c.separation,
             "drift_ppm": c.drift.map(|(d, _)| d * 1e6),
             "drift_sd_ppm": c.drift.map(|(_, sd)| sd * 1e6),
+            // Held because the estimate would put profiles beyond the pose log.
+            "off_log_estimate_ms": c.off_log.map(|s| (stated + s) * 1e3),
         })),
         "leave_one_out": loo.map(|l| serde_json::json!({
             "runs": l.runs, "failed": l.failed, "rotation_deg": l.rotation_deg,

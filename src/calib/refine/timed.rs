@@ -379,6 +379,9 @@ pub struct ClockFit {
     /// transform moves per second of shift its data hold (rotation rad, translation m): the
     /// bias an offset error leaves, which no bound includes.
     pub bias_per_s: Option<[f64; 6]>,
+    /// Where the offset was held because its estimate (this shift, s) would place a profile
+    /// beyond the pose log's span, with no logged pose to put it at.
+    pub off_log: Option<f64>,
 }
 
 /// How the least-squares transform moves per second of clock shift the data hold while the fit
@@ -413,6 +416,7 @@ pub(super) fn clock_fit(
         visible_speed,
         drift: drift.map(|d| (d, parameter_figures(index + 1, sums, normal).0)),
         bias_per_s: None,
+        off_log: None,
     }
 }
 
