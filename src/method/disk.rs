@@ -79,42 +79,7 @@ impl Method for Disk {
         }
         v.open_interval("disk.span_fraction", d.span_fraction, 0.0, 1.0)?;
         v.non_negative("disk.sigma_mm", d.sigma_mm)?;
-        if !(d.scan_speed_mm_s >= 0.0 && d.scan_speed_mm_s <= 10_000.0) {
-            return Err(v.bad(
-                "disk.scan_speed_mm_s",
-                d.scan_speed_mm_s,
-                "must be in [0, 10000] mm/s (0: stop and go)",
-            ));
-        }
-        if !(d.clock_offset_ms.abs() <= 1000.0) {
-            return Err(v.bad(
-                "disk.clock_offset_ms",
-                d.clock_offset_ms,
-                "must be within +-1000 ms (a profiler's latency is milliseconds)",
-            ));
-        }
-        if !(d.scan_accel_mm_s2 >= 0.0 && d.scan_accel_mm_s2 <= 1e6) {
-            return Err(v.bad(
-                "disk.scan_accel_mm_s2",
-                d.scan_accel_mm_s2,
-                "must be in [0, 1e6] mm/s^2 (0: at the scan speed throughout)",
-            ));
-        }
-        if !(d.pose_log_hz == 0.0 || (d.pose_log_hz >= 1.0 && d.pose_log_hz <= 10_000.0)) {
-            return Err(v.bad(
-                "disk.pose_log_hz",
-                d.pose_log_hz,
-                "must be 0 (the moves' start and end only) or in [1, 10000] Hz",
-            ));
-        }
-        if d.clock_offset_ms != 0.0 && d.poses.is_some() {
-            return Err(v.bad(
-                "disk.clock_offset_ms",
-                d.clock_offset_ms,
-                "free poses are taken at rest (no move for a clock offset to act on): leave it \
-                 out with [disk.poses]",
-            ));
-        }
+        validate_motion(d, v)?;
         if !(d.min_angle_deg >= 0.0 && d.min_angle_deg < 45.0) {
             return Err(v.bad("disk.min_angle_deg", d.min_angle_deg, "must be in [0, 45)"));
         }
@@ -212,11 +177,15 @@ impl Method for Disk {
             free,
             raycast: d.source == Source::Raycast,
             sigma: d.sigma_mm * 1e-3,
-            // Speed (m/s) times offset (s): how far ahead along its move a profile is recorded.
-            lead: d.scan_speed_mm_s * 1e-3 * d.clock_offset_ms * 1e-3,
             speed: d.scan_speed_mm_s * 1e-3,
-            clock_offset: d.clock_offset_ms * 1e-3,
+            clock: StampClock {
+                offset: d.clock_offset_ms * 1e-3,
+                drift: d.clock_drift_ppm * 1e-6,
+                jitter: d.clock_jitter_ms * 1e-3,
+                exposure: d.exposure_ms * 1e-3,
+            },
             estimate_clock_offset: d.estimate_clock_offset,
+            estimate_clock_drift: d.estimate_clock_drift,
             accel: d.scan_accel_mm_s2 * 1e-3,
             pose_log_hz: d.pose_log_hz,
             passing: match &d.poses {
@@ -293,6 +262,86 @@ impl Method for Disk {
     }
 }
 
+/// `[disk]`'s scanning on the move: the speed, the move and the log, the profiler's clock.
+fn validate_motion(d: &crate::schema::disk::Section, v: &Validator) -> Result<(), ScenarioError> {
+    if !(d.scan_speed_mm_s >= 0.0 && d.scan_speed_mm_s <= 10_000.0) {
+        return Err(v.bad(
+            "disk.scan_speed_mm_s",
+            d.scan_speed_mm_s,
+            "must be in [0, 10000] mm/s (0: stop and go)",
+        ));
+    }
+    if !(d.clock_offset_ms.abs() <= 1000.0) {
+        return Err(v.bad(
+            "disk.clock_offset_ms",
+            d.clock_offset_ms,
+            "must be within +-1000 ms (a profiler's latency is milliseconds)",
+        ));
+    }
+    if !(d.scan_accel_mm_s2 >= 0.0 && d.scan_accel_mm_s2 <= 1e6) {
+        return Err(v.bad(
+            "disk.scan_accel_mm_s2",
+            d.scan_accel_mm_s2,
+            "must be in [0, 1e6] mm/s^2 (0: at the scan speed throughout)",
+        ));
+    }
+    if !(d.pose_log_hz == 0.0 || (d.pose_log_hz >= 1.0 && d.pose_log_hz <= 10_000.0)) {
+        return Err(v.bad(
+            "disk.pose_log_hz",
+            d.pose_log_hz,
+            "must be 0 (the moves' start and end only) or in [1, 10000] Hz",
+        ));
+    }
+    if !(d.clock_drift_ppm.abs() <= 10_000.0) {
+        return Err(v.bad(
+            "disk.clock_drift_ppm",
+            d.clock_drift_ppm,
+            "must be within +-10000 ppm (a crystal drifts by tens to hundreds)",
+        ));
+    }
+    if !(d.clock_jitter_ms >= 0.0 && d.clock_jitter_ms <= 100.0) {
+        return Err(v.bad(
+            "disk.clock_jitter_ms",
+            d.clock_jitter_ms,
+            "must be in [0, 100] ms (a standard deviation)",
+        ));
+    }
+    if !(d.exposure_ms >= 0.0 && d.exposure_ms <= 1000.0) {
+        return Err(v.bad("disk.exposure_ms", d.exposure_ms, "must be in [0, 1000] ms"));
+    }
+    if d.estimate_clock_drift && !(d.scan_speed_mm_s > 0.0 && d.estimate_clock_offset) {
+        return Err(v.bad(
+            "disk.estimate_clock_drift",
+            true,
+            "a drift is estimated with the offset, on profiles taken on the move: give \
+             scan_speed_mm_s and leave estimate_clock_offset true",
+        ));
+    }
+    for (key, value) in [
+        ("disk.clock_drift_ppm", d.clock_drift_ppm),
+        ("disk.clock_jitter_ms", d.clock_jitter_ms),
+        ("disk.exposure_ms", d.exposure_ms),
+    ] {
+        if value != 0.0 && d.poses.is_some() {
+            return Err(v.bad(
+                key,
+                value,
+                "acts on the paper's scans on the move, not on free poses: leave it out \
+                 with [disk.poses]",
+            ));
+        }
+    }
+    if d.clock_offset_ms != 0.0 && d.poses.is_some() {
+        return Err(v.bad(
+            "disk.clock_offset_ms",
+            d.clock_offset_ms,
+            "free poses are taken at rest (no move for a clock offset to act on): leave it \
+             out with [disk.poses]",
+        ));
+    }
+    Ok(())
+}
+
 /// The disk method's plan on one rig.
 #[derive(Debug)]
 pub struct DiskPlan {
@@ -303,14 +352,13 @@ pub struct DiskPlan {
     pub raycast: bool,
     /// Eq. 52 sigma, metres.
     pub sigma: f64,
-    /// How far ahead along its scan's move each profile's recorded pose lies of where it was
-    /// taken (metres): the scan speed times the profiler's clock offset.
-    pub lead: f64,
-    /// The scans' speed (m/s; 0: stop and go) and how late the profiler's stamps are (s).
+    /// The scans' speed (m/s; 0: stop and go) and the profiler's stamps against the truth.
     pub speed: f64,
-    pub clock_offset: f64,
-    /// Whether the estimators estimate the clock offset (`captures::Timing::estimate_offset`).
+    pub clock: StampClock,
+    /// Whether the estimators estimate the clock offset and its drift
+    /// (`captures::Timing::estimate_offset`, `estimate_drift`).
     pub estimate_clock_offset: bool,
+    pub estimate_clock_drift: bool,
     /// Each move's acceleration (m/s^2; 0: at `speed` throughout) and the pose log's rate (Hz;
     /// 0: each move's start and end only).
     pub accel: f64,
@@ -377,13 +425,23 @@ impl Plan for DiskPlan {
                 data: ProfileData::Raw(prof),
             });
         }
+        // Each stamp's jitter from its own stream (drawn only when there is jitter, so that a
+        // scenario without it keeps its noise draws).
+        let mut jitter = (self.clock.jitter > 0.0).then(|| {
+            use rand::{RngExt, SeedableRng};
+            crate::rng::Rng::seed_from_u64(rng.random::<u64>())
+        });
+        let starts = self.scan_starts();
         for (i, p) in self.plans.iter().enumerate() {
             groups.push(Group {
                 id: i,
                 role: Role::Scan,
                 sign: crate::sim::disk::scan_sign(rig, p),
             });
-            let mut actual = |f: &Isometry3<f64>| actual(&(self.taken_back(p, f) * f));
+            let mut actual = |f: &Isometry3<f64>| {
+                let z = jitter.as_mut().map_or(0.0, crate::rng::gauss);
+                actual(&(self.taken_back(p, starts[i], f, z) * f))
+            };
             if self.raycast {
                 for j in 0..p.m {
                     let f = flange_pose(&p.r_tcp, &p.tcp(j));
@@ -408,32 +466,7 @@ impl Plan for DiskPlan {
                     rng,
                     &mut |f, _| actual(f),
                 );
-                // The analytic source, as the paper's simulation, does not clip chords to the
-                // sensor's view (the paper's own poses reach up to 17 mm beyond the modelled
-                // Gocator 2340's far range); a scan mostly out of view is refused, not calibrated.
-                let seen = |v: &nalgebra::Vector2<f64>| rig.sensor.sees(v.x, v.y);
-                let visible = scan
-                    .chords
-                    .iter()
-                    .filter(|c| seen(&c.a) && seen(&c.b))
-                    .count();
-                if 2 * visible < p.m.max(1) {
-                    let (z0, z1) = rig.sensor.z_range();
-                    return Err(crate::sim::PlanError::BadScan {
-                        scan: i,
-                        reason: format!(
-                            "only {} of {} chords lie within the sensor's view (z {:.1} to {:.1} \
-                             mm, fan +-{:.1} deg): the disk is out of range; check the mounting \
-                             (mount_position_mm) and the scan poses",
-                            visible,
-                            p.m,
-                            z0 * 1e3,
-                            z1 * 1e3,
-                            rig.sensor.tan_half_fov.atan().to_degrees()
-                        ),
-                    }
-                    .into());
-                }
+                mostly_in_view(rig, &scan, i, p)?;
                 for ch in scan.chords {
                     let f = flange_pose(&p.r_tcp, &(p.t_start + (p.t_end - p.t_start) * ch.u));
                     profiles.push(CaptureProfile {
@@ -467,18 +500,66 @@ impl Plan for DiskPlan {
 }
 
 impl DiskPlan {
-    /// From the pose scan `p` recorded a profile at (`f`) back to where it was taken: `lead`
-    /// back along the move at a steady speed, or to where the move was `clock_offset` earlier.
-    fn taken_back(&self, p: &DiskScanPlan, f: &Isometry3<f64>) -> Translation3<f64> {
+    /// From the pose scan `p` (its move starting at `t0` on the controller's clock) recorded a
+    /// profile at (`f`) back to where it was taken: `clock.back` earlier along the move, with
+    /// this stamp's jitter draw `z`.
+    fn taken_back(
+        &self,
+        p: &DiskScanPlan,
+        t0: f64,
+        f: &Isometry3<f64>,
+        z: f64,
+    ) -> Translation3<f64> {
+        if !(self.speed > 0.0) {
+            return Translation3::identity();
+        }
         let d = (p.t_end - p.t_start).try_normalize(0.0).unwrap_or_default();
+        let s = (f.translation.vector - p.t_start).dot(&d);
         match self.scan_move(p) {
             Some(m) => {
-                let s = (f.translation.vector - p.t_start).dot(&d);
-                let taken = m.position(m.time_at(s) - self.clock_offset);
+                let local = m.time_at(s);
+                let taken = m.position(local - self.clock.back(t0 + local, z));
                 Translation3::from(d * (taken - s))
             }
-            None => Translation3::from(-d * self.lead),
+            None => {
+                let back = self.clock.back(t0 + s / self.speed, z);
+                Translation3::from(-d * (self.speed * back))
+            }
         }
+    }
+
+    /// How long the log runs before each move's start and after its end (s): past the
+    /// profiles, by more than their clock can put them off their stamps.
+    fn log_margin(&self) -> f64 {
+        let c = &self.clock;
+        let span: f64 = (self.plans.iter())
+            .map(|p| self.scan_duration(p) + 2.0)
+            .sum();
+        0.1 + c.offset.abs() + 0.5 * c.exposure + 5.0 * c.jitter + c.drift.abs() * span
+    }
+
+    /// Scan `p`'s move's duration (s; the speed is above 0).
+    fn scan_duration(&self, p: &DiskScanPlan) -> f64 {
+        let length = (p.t_end - p.t_start).norm();
+        self.scan_move(p)
+            .map_or(length / self.speed, |m| m.duration())
+    }
+
+    /// Each scan's move's start on the controller's clock: the log runs `log_margin` either
+    /// side of each move, the moves a second apart.
+    fn scan_starts(&self) -> Vec<f64> {
+        if !(self.speed > 0.0) {
+            return vec![0.0; self.plans.len()];
+        }
+        let margin = self.log_margin();
+        let mut t0 = margin;
+        (self.plans.iter())
+            .map(|p| {
+                let start = t0;
+                t0 += self.scan_duration(p) + 2.0 * margin + 1.0;
+                start
+            })
+            .collect()
     }
 
     /// Scan `p`'s move from rest to rest, when an acceleration is set.
@@ -498,23 +579,20 @@ impl DiskPlan {
         if !(self.speed > 0.0) || self.plans.is_empty() || !self.free.is_empty() {
             return None;
         }
-        let margin = 0.1 + self.clock_offset.abs();
-        let (mut stream, mut starts) = (Vec::new(), Vec::new());
-        let mut t0 = margin;
-        for p in &self.plans {
-            let (d, length) = (
-                (p.t_end - p.t_start).normalize(),
-                (p.t_end - p.t_start).norm(),
-            );
+        let margin = self.log_margin();
+        let starts = self.scan_starts();
+        let mut stream = Vec::new();
+        let mut moves = Vec::new();
+        for (p, &t0) in self.plans.iter().zip(&starts) {
+            let d = (p.t_end - p.t_start).normalize();
             let scan = self.scan_move(p);
-            starts.push((t0, p.t_start, d, scan));
-            let duration = scan.map_or(length / self.speed, |m| m.duration());
+            moves.push((t0, p.t_start, d, scan));
             // Where the flange is at t: at the speed throughout, or from rest to rest.
             let at = |t: f64| {
                 let s = scan.map_or(self.speed * (t - t0), |m| m.position(t - t0));
                 p.t_start + d * s
             };
-            let span = duration + 2.0 * margin;
+            let span = self.scan_duration(p) + 2.0 * margin;
             // At the log's rate from before the first profile to after the last, or the move's
             // two ends only.
             let (samples, step) = if self.pose_log_hz > 0.0 {
@@ -529,12 +607,11 @@ impl DiskPlan {
                 let t = t0 - margin + k as f64 * step;
                 stream.push((t, flange_pose(&p.r_tcp, &at(t))));
             }
-            t0 += span + 1.0;
         }
         let stamps = profiles
             .iter()
             .map(|c| {
-                let (t0, start, d, scan) = starts[c.group];
+                let (t0, start, d, scan) = moves[c.group];
                 let s = (c.base_to_flange.translation.vector - start).dot(&d);
                 t0 + scan.map_or(s / self.speed, |m| m.time_at(s))
             })
@@ -544,9 +621,59 @@ impl DiskPlan {
             stamps,
             offset_s: 0.0,
             estimate_offset: self.estimate_clock_offset,
-            estimate_drift: false,
+            estimate_drift: self.estimate_clock_drift,
         })
     }
+}
+
+/// The profiler's time stamps against the controller's clock (s): a profile stamped u (on the
+/// controller's clock, from the capture's start) was taken `back(u, z)` before u.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StampClock {
+    /// How late the stamps are (s), how fast the profiler's clock runs (s per s), each stamp's
+    /// own error's standard deviation (s) and the exposure (s), whose start the stamp marks.
+    pub offset: f64,
+    pub drift: f64,
+    pub jitter: f64,
+    pub exposure: f64,
+}
+
+impl StampClock {
+    /// How long before its stamp `u` a profile was taken, with its jitter draw `z` (standard
+    /// normal): the profile is the image at the exposure's middle.
+    fn back(&self, u: f64, z: f64) -> f64 {
+        self.offset + self.drift * u + self.jitter * z - 0.5 * self.exposure
+    }
+}
+
+/// Scan `i` (`p`) from the analytic source, which (as the paper's simulation) does not clip
+/// chords to the sensor's view: the paper's own poses reach up to 17 mm beyond the modelled
+/// Gocator 2340's far range. A scan mostly out of view is refused, not calibrated.
+fn mostly_in_view(rig: &Rig, scan: &DiskScan, i: usize, p: &DiskScanPlan) -> Result<(), Error> {
+    let seen = |v: &nalgebra::Vector2<f64>| rig.sensor.sees(v.x, v.y);
+    let visible = scan
+        .chords
+        .iter()
+        .filter(|c| seen(&c.a) && seen(&c.b))
+        .count();
+    if 2 * visible < p.m.max(1) {
+        let (z0, z1) = rig.sensor.z_range();
+        return Err(crate::sim::PlanError::BadScan {
+            scan: i,
+            reason: format!(
+                "only {} of {} chords lie within the sensor's view (z {:.1} to {:.1} \
+                 mm, fan +-{:.1} deg): the disk is out of range; check the mounting \
+                 (mount_position_mm) and the scan poses",
+                visible,
+                p.m,
+                z0 * 1e3,
+                z1 * 1e3,
+                rig.sensor.tan_half_fov.atan().to_degrees()
+            ),
+        }
+        .into());
+    }
+    Ok(())
 }
 
 /// Unit normal of the plane through the chord ends, seen through `flange_to_sensor`.

@@ -840,7 +840,10 @@ pub fn estimate(
     };
     let shift = r.clock.map_or(0.0, |c| c.shift_s);
     match r2.clock.as_mut() {
-        Some(c) if c.sd_s.is_finite() => c.shift_s += shift,
+        Some(c) if c.sd_s.is_finite() => {
+            c.shift_s += shift;
+            c.replaced_at = Some(shift);
+        }
         // Estimated once, not the second time: the first stands.
         _ => return Ok((cal, Some(r))),
     }
@@ -973,6 +976,7 @@ fn with_clock(
             drift: None,
             bias_per_s: crate::calib::refine::timed::bias_per_second(&*timed, start),
             off_log: None,
+            replaced_at: None,
         }));
     }
     let held = |separation: f64, off_log: Option<f64>| {
@@ -984,6 +988,7 @@ fn with_clock(
             drift: None,
             bias_per_s: crate::calib::refine::timed::bias_per_second(&*timed, start),
             off_log,
+            replaced_at: None,
         }))
     };
     let undetermined = |separation: f64| held(separation, None);

@@ -121,6 +121,8 @@ pub struct Quality {
     /// Scanning on the move: the clock shift the fit estimated (or could not, or held), the
     /// offset the captures stated (s), and whether it was held as stated.
     pub clock: Option<(crate::calib::refine::timed::ClockFit, f64, bool)>,
+    /// Scanning on the move: the time from the first profile's stamp to the last's (s).
+    pub capture_span_s: Option<f64>,
 }
 
 impl Quality {
@@ -285,8 +287,18 @@ pub fn quality(
             let t = caps.timing.as_ref()?;
             Some((c, t.offset_s, !t.estimate_offset))
         }),
+        capture_span_s: caps.timing.as_ref().map(|t| {
+            let (a, b) = (t.stamps.iter())
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &u| {
+                    (a.min(u), b.max(u))
+                });
+            (b - a).max(0.0)
+        }),
     }
 }
+
+/// A profiler crystal's drift against the controller's, for the note on a drift left out (ppm).
+const DRIFT_NOTE_PPM: f64 = 100.0;
 
 /// Scanning on the move: the clock offset the fit estimated, or (where it was held or the motion
 /// cannot determine it) the bias an error in it leaves.
@@ -301,10 +313,22 @@ fn clock_note(q: &Quality) -> Option<String> {
                 Z_975 * sd * 1e6
             )
         });
+        // Not estimated, a drift over a long capture is a bias the offset does not take.
+        let unmodelled = match (c.drift, q.judging.scan_speed, q.capture_span_s) {
+            (None, Some(v), Some(span)) if v > 0.0 && span > 0.0 => format!(
+                "; a clock drift of {DRIFT_NOTE_PPM:.0} ppm over the capture's {span:.1} s would \
+                 move the last profiles {:.2} ms ({:.3} mm at {:.0} mm/s) against the first, a \
+                 bias this fit does not take: `calibrate --estimate-clock-drift` estimates it",
+                DRIFT_NOTE_PPM * 1e-6 * span * 1e3,
+                DRIFT_NOTE_PPM * 1e-6 * span * v * 1e3,
+                v * 1e3
+            ),
+            _ => String::new(),
+        };
         return Some(format!(
             "the profiles' clock offset was estimated with the transform: {:+.3} ms +- {:.3} ms \
              (95 %; {:+.3} ms from the stated {:+.3} ms){drift}; the bounds include its \
-             uncertainty",
+             uncertainty{unmodelled}",
             (stated_s + c.shift_s) * 1e3,
             Z_975 * c.sd_s * 1e3,
             c.shift_s * 1e3,
@@ -348,6 +372,25 @@ fn clock_note(q: &Quality) -> Option<String> {
     Some(note)
 }
 
+/// Scanning on the move: the stamps' jitter that would explain residuals `rms` above the stated
+/// `noise` (mm), as a clause of the residual reason (empty when the flange did not move).
+fn jitter_clause(q: &Quality, rms: f64, noise: f64) -> String {
+    // m/s is mm per ms.
+    let Some(v) = q.judging.scan_speed.filter(|v| *v > 0.0) else {
+        return String::new();
+    };
+    let excess = (rms * rms - noise * noise).max(0.0).sqrt();
+    format!(
+        "; on the move at up to {:.0} mm/s, the profiles' time stamps scattered by {:.2} ms \
+         or more (the profiler's or the network's jitter; the residuals see only part of a \
+         profile's move along the motion) would explain it: state it as the robot's accuracy \
+         ({:.3} mm) if so",
+        v * 1e3,
+        excess / v,
+        excess
+    )
+}
+
 /// Judge a result from its quality figures.
 pub fn judge(q: Quality) -> Judged {
     let mut reasons = Vec::new();
@@ -366,7 +409,8 @@ pub fn judge(q: Quality) -> Judged {
                  {robot:.3} mm explain (at most {bound:.1} times passes); check the specimen's \
                  size and kind, the group signs or edge sense, the pairing of poses and profiles, \
                  the units and rotation convention of the poses, or state the robot's accuracy \
-                 (robot_accuracy_mm)"
+                 (robot_accuracy_mm){}",
+                jitter_clause(&q, rms, noise)
             ));
         } else if ratio > NOISE_FACTOR * 1.5 {
             notes.push(format!(
@@ -757,19 +801,39 @@ fn without_group(
         std::collections::HashSet::new(),
         std::collections::HashSet::new(),
     );
-    for p in &caps.profiles {
+    // The problem's poses: the file's, or where the features were found again at an estimated
+    // clock shift, the log's at each stamp plus the stated offset plus it.
+    let replaced_at = a.refined.as_ref().and_then(|r| r.clock?.replaced_at);
+    let timing = caps.timing.as_ref();
+    for (i, p) in caps.profiles.iter().enumerate() {
         let set = if p.group == group {
             &mut dropped
         } else {
             &mut kept
         };
-        set.insert(key(&p.base_to_flange));
+        let pose = replaced_at
+            .zip(timing)
+            .and_then(|(shift, t)| {
+                // Summed as `replaced` sums them: the same bits.
+                crate::math::pose_at(&t.stream, t.stamps.get(i)? + (t.offset_s + shift))
+            })
+            .unwrap_or(p.base_to_flange);
+        set.insert(key(&pose));
     }
     let (Some(problem), true) = (problem, dropped.is_disjoint(&kept)) else {
         return super::estimate(a.method, reduced, sensor);
     };
+    let hits = std::cell::Cell::new(0usize);
     let problem: std::sync::Arc<dyn crate::calib::refine::Refinable> =
-        std::sync::Arc::from(problem.without_poses(&|f| dropped.contains(&key(f))));
+        std::sync::Arc::from(problem.without_poses(&|f| {
+            let drop = dropped.contains(&key(f));
+            hits.set(hits.get() + drop as usize);
+            drop
+        }));
+    // No pose of the problem's is the group's: dropping would test nothing; run it again.
+    if hits.get() == 0 {
+        return super::estimate(a.method, reduced, sensor);
+    }
     let r = problem.refine(
         &cal.flange_to_sensor,
         &super::refine_options(a.method.estimator),

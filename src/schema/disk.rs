@@ -52,10 +52,27 @@ pub struct Section {
     /// moves its recorded pose lies speed x offset ahead along the move of where it was taken.
     #[serde(default)]
     pub clock_offset_ms: f64,
+    /// Scanning on the move: how fast the profiler's clock runs against the controller's, ppm
+    /// (crystal drift: a profile stamped u s into the capture was taken clock_offset_ms plus
+    /// u x this x 1e-6 s before u).
+    #[serde(default)]
+    pub clock_drift_ppm: f64,
+    /// Scanning on the move: the standard deviation of each stamp's own error, ms (the
+    /// profiler's and the network's jitter; drawn per profile from the trial's seed).
+    #[serde(default)]
+    pub clock_jitter_ms: f64,
+    /// Scanning on the move: the profiler's exposure, ms. A stamp marks the exposure's start and
+    /// the profile is the image over the exposure: on a steady move, the profile at its middle,
+    /// half the exposure after the stamp.
+    #[serde(default)]
+    pub exposure_ms: f64,
     /// Scanning on the move: whether the refined, full-profile and any-pose estimators estimate
     /// the clock offset with the transform (true) or take the stamps as they are (false).
     #[serde(default = "yes")]
     pub estimate_clock_offset: bool,
+    /// Scanning on the move: whether they also estimate the clock's drift (with the offset).
+    #[serde(default)]
+    pub estimate_clock_drift: bool,
     /// Scanning on the move: each scan's move starts and ends at rest, speeding up and braking
     /// at this acceleration, mm/s^2 (0: at the scan speed throughout, from before the first
     /// profile to after the last).

@@ -382,6 +382,9 @@ pub struct ClockFit {
     /// Where the offset was held because its estimate (this shift, s) would place a profile
     /// beyond the pose log's span, with no logged pose to put it at.
     pub off_log: Option<f64>,
+    /// Where the features were found again at the poses an estimated shift gives (this shift,
+    /// s): the problem's poses are then the log's at each stamp plus the stated offset plus it.
+    pub replaced_at: Option<f64>,
 }
 
 /// How the least-squares transform moves per second of clock shift the data hold while the fit
@@ -417,6 +420,7 @@ pub(super) fn clock_fit(
         drift: drift.map(|d| (d, parameter_figures(index + 1, sums, normal).0)),
         bias_per_s: None,
         off_log: None,
+        replaced_at: None,
     }
 }
 
