@@ -272,19 +272,35 @@ impl Scene {
     /// Every part is convex (a cylinder, a ball, a convex polyhedron, a flat sheet), so a path
     /// leaving a part on the side its normal faces never meets that part again: only the other
     /// parts and the table are cast against, which halves a profile's ray casts.
+    /// Whether a ray from `origin` along `d` (any length) cannot meet the table: there is none,
+    /// the ray runs along it, or it heads away from the table's plane (the time of impact
+    /// `cast_ray_skipping` would find is negative).
+    fn table_behind(&self, origin: &Point3<f64>, d: &Vector3<f64>) -> bool {
+        let Some(t) = self.table else {
+            return true;
+        };
+        let to_plane = t.height_m - origin.z;
+        d.z == 0.0 || (to_plane < 0.0 && d.z > 0.0) || (to_plane > 0.0 && d.z < 0.0)
+    }
+
     pub fn seen_from(&self, hit: &Hit, camera: &Point3<f64>) -> bool {
         if hit.normal_in_base.dot(&(camera - hit.p_in_base)) <= 0.0 {
             return false;
         }
         let start = hit.nominal_in_base + hit.normal_in_base * 1e-9;
         let d = camera - start;
+        // Leaving the own part holds on the side its normal faces (a form error's displaced
+        // point can face the camera where the nominal start does not: cast against all then).
+        let skip = hit.part.filter(|_| hit.normal_in_base.dot(&d) > 0.0);
+        // No other part, and the table behind the ray or along it: nothing the cast could meet
+        // (its answer, without its square root and divisions).
+        if self.placed.len() == skip.is_some() as usize && self.table_behind(&start, &d) {
+            return true;
+        }
         let len = d.norm();
         if len == 0.0 {
             return true;
         }
-        // Leaving the own part holds on the side its normal faces (a form error's displaced
-        // point can face the camera where the nominal start does not: cast against all then).
-        let skip = hit.part.filter(|_| hit.normal_in_base.dot(&d) > 0.0);
         self.cast_ray_skipping(&start, &(d / len), len, skip)
             .is_none()
     }

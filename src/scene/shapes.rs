@@ -66,15 +66,15 @@ impl RayCast for CylinderZ {
             if ca > cb {
                 std::mem::swap(&mut ca, &mut cb);
             }
+            // The wall's normal is formed below, only for the end returned (its divisions
+            // are a good part of a ray's cost).
             if ca > t0 {
                 t0 = ca;
-                let p = o + d * ca;
-                n0 = Vector3::new(p.x, p.y, 0.0) / self.radius;
+                n0 = WALL;
             }
             if cb < t1 {
                 t1 = cb;
-                let p = o + d * cb;
-                n1 = Vector3::new(p.x, p.y, 0.0) / self.radius;
+                n1 = WALL;
             }
         } else if o.x * o.x + o.y * o.y > r2 {
             return None;
@@ -82,15 +82,27 @@ impl RayCast for CylinderZ {
         if t0 > t1 {
             return None;
         }
+        let normal = |t: f64, n: Vector3<f64>| {
+            if n == WALL {
+                let p = o + d * t;
+                Vector3::new(p.x, p.y, 0.0) / self.radius
+            } else {
+                n
+            }
+        };
         if t0 >= 0.0 {
-            (t0 <= max_toi).then(|| RayIntersection::new(t0, n0, FeatureId::Unknown))
+            (t0 <= max_toi).then(|| RayIntersection::new(t0, normal(t0, n0), FeatureId::Unknown))
         } else if t1 >= 0.0 && !solid {
-            (t1 <= max_toi).then(|| RayIntersection::new(t1, -n1, FeatureId::Unknown))
+            (t1 <= max_toi).then(|| RayIntersection::new(t1, -normal(t1, n1), FeatureId::Unknown))
         } else {
             None
         }
     }
 }
+
+/// `CylinderZ`'s mark for an end on its wall, whose normal is formed when returned (a face's
+/// normal is never this: it is a unit z).
+const WALL: Vector3<f64> = Vector3::new(f64::INFINITY, 0.0, 0.0);
 
 /// A convex solid bounded by planes `n . p <= offset` (unit outward normals), e.g. a cuboid bar,
 /// a thin scale, or a knife blade with a bevelled edge. Ray test by slab clipping (Cyrus-Beck).

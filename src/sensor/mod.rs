@@ -186,6 +186,9 @@ pub struct SensorModel {
     pub noise: NoiseModel,
     /// Slope x/depth of each ray.
     tans: Vec<f64>,
+    /// Each ray's unit direction (`column_dir`) formed once, with the `dir_z` it was formed for
+    /// (a model whose `dir_z` was changed since forms them again).
+    dirs: (f64, Vec<Vector3<f64>>),
     /// Resampled output: the grid and its lowest slot's m (`columns` slots from there).
     resample: Option<(Resample, i64)>,
     /// Known only by its points (`SensorModel::points_only`): its slots are the points' x grid,
@@ -307,8 +310,12 @@ impl SensorModel {
                     }
                 }
             })
+            .collect::<Vec<f64>>();
+        let dirs = (tans.iter())
+            .map(|t| Vector3::new(*t, 0.0, g.dir_z).normalize())
             .collect();
         SensorModel {
+            dirs: (g.dir_z, dirs),
             name: g.name,
             frame: g.frame,
             apex_z: g.apex_z,
@@ -446,7 +453,10 @@ impl SensorModel {
 
     /// Unit direction of ray k in the sensor frame.
     pub fn column_dir(&self, k: usize) -> Vector3<f64> {
-        Vector3::new(self.column_tan(k), 0.0, self.dir_z).normalize()
+        match self.dirs.1.get(k) {
+            Some(d) if self.dirs.0 == self.dir_z => *d,
+            _ => Vector3::new(self.column_tan(k), 0.0, self.dir_z).normalize(),
+        }
     }
 
     /// Depth of a sensor-frame point along the fan axis, from the apex.
