@@ -87,28 +87,37 @@ pub fn solve(views: &[ArcView], radius: f64) -> Result<AnyPose, CalibError> {
         let stride = super::stride_for(v.points.len(), keep);
         model.add(&v.base_to_flange, v.points.iter().step_by(stride).copied());
     }
-    let mut best: Option<AnyPose> = None;
     // The best few distinct starts: a wrong one that fits (1) nearly as well is refined too, and
     // the joint refinement's cost decides.
-    let mut tried: Vec<Matrix3<f64>> = Vec::new();
+    let mut tried: Vec<&Candidate> = Vec::new();
     for s in &starts {
         if tried.len() == 3 {
             break;
         }
-        if tried.iter().any(|r| angle_between(r, &s.r) < 0.35) {
-            continue;
+        if !tried.iter().any(|t| angle_between(&t.r, &s.r) < 0.35) {
+            tried.push(s);
         }
-        tried.push(s.r);
-        let cand = linear(views, &h, &normal, *s);
-        let x = Isometry3::from_parts(
-            Translation3::from(cand.t),
-            UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(cand.r)),
-        );
-        let problem = Problem {
-            model: model.clone(),
-            specimen: cand.c,
-        };
-        let refined = problem.refine(&x, &Options::default())?;
+    }
+    // Refined side by side (independent; read back in order, the same on any number of threads).
+    use rayon::prelude::*;
+    let refined: Vec<_> = tried
+        .par_iter()
+        .map(|s| {
+            let cand = linear(views, &h, &normal, **s);
+            let x = Isometry3::from_parts(
+                Translation3::from(cand.t),
+                UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(cand.r)),
+            );
+            let problem = Problem {
+                model: model.clone(),
+                specimen: cand.c,
+            };
+            problem.refine(&x, &Options::default()).map(|r| (cand, r))
+        })
+        .collect();
+    let mut best: Option<AnyPose> = None;
+    for r in refined {
+        let (cand, refined) = r?;
         // Another start must end clearly lower to win: starts that reach one minimum end equal to
         // rounding, and the first (the best fit of (1)) is kept, so the result does not flip
         // with the last digits of the data.

@@ -249,24 +249,34 @@ pub fn starts(
     normals.sort_by(|a, b| a.0.total_cmp(&b.0));
     let keep = points_per_view(views, 64);
     let screen = model_of(views, &|v| super::stride_for(v.points.len(), keep));
-    let mut out = Vec::new();
-    let mut first_err = None;
+    // The `count` best normals at least 10 deg apart, then each refined: side by side (the
+    // starts are independent; read back in order, the same result on any number of threads).
     let mut tried: Vec<Vector3<f64>> = Vec::new();
     for (_, n) in &normals {
         if tried.len() == count {
             break;
         }
-        if tried
+        if !tried
             .iter()
             .any(|m| m.dot(n).abs() > 10f64.to_radians().cos())
         {
-            continue;
+            tried.push(*n);
         }
-        tried.push(*n);
-        let (x, plane) = start_from(views, n, apex);
+    }
+    use rayon::prelude::*;
+    let refined: Vec<_> = tried
+        .par_iter()
+        .map(|n| {
+            let (x, plane) = start_from(views, n, apex);
+            refine(&screen, &x, &plane, &Options::default())
+        })
+        .collect();
+    let mut out = Vec::new();
+    let mut first_err = None;
+    for r in refined {
         // A start can sit where the pose set looks degenerate though the truth is not (a
         // rank-deficient Jacobian at a wild start): skipped, unless every start is.
-        let (refined, plane) = match refine(&screen, &x, &plane, &Options::default()) {
+        let (refined, plane) = match r {
             Ok(r) => r,
             Err(e) => {
                 first_err.get_or_insert(with_plane_advice(e));
