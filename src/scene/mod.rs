@@ -121,6 +121,14 @@ pub struct Hit {
     part: Option<usize>,
 }
 
+/// A fan's origin with what its rays need of each placed part (`Scene::rays_from`): the vector
+/// to the part's bounding centre, its squared length, and the origin in the part's frame.
+#[derive(Debug, Clone)]
+pub struct RaysFrom {
+    origin: Point3<f64>,
+    parts: Vec<(Vector3<f64>, f64, Point3<f64>)>,
+}
+
 /// The table: the plane z = `height_m` in the base frame, seen from above.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Table {
@@ -182,10 +190,46 @@ impl Scene {
         self.cast_ray_skipping(origin, dir, max_toi, None)
     }
 
+    /// What every ray from `origin` needs of the scene, formed once for a fan of rays from it
+    /// (`cast_ray_from`): the same values each ray would form, so the same hits bit for bit.
+    pub fn rays_from(&self, origin: &Point3<f64>) -> RaysFrom {
+        RaysFrom {
+            origin: *origin,
+            parts: (self.placed.iter())
+                .map(|pl| {
+                    let oc = pl.bound_centre - origin;
+                    (
+                        oc,
+                        oc.norm_squared(),
+                        pl.base_to_part.inverse_transform_point(origin),
+                    )
+                })
+                .collect(),
+        }
+    }
+
+    /// `cast_ray` from the origin `from` was formed for.
+    pub fn cast_ray_from(&self, from: &RaysFrom, dir: &Vector3<f64>, max_toi: f64) -> Option<Hit> {
+        self.cast(&from.origin, Some(&from.parts), dir, max_toi, None)
+    }
+
     /// `cast_ray` past the placed part `skip`.
     fn cast_ray_skipping(
         &self,
         origin: &Point3<f64>,
+        dir: &Vector3<f64>,
+        max_toi: f64,
+        skip: Option<usize>,
+    ) -> Option<Hit> {
+        self.cast(origin, None, dir, max_toi, skip)
+    }
+
+    /// The first hit from `origin` along `dir`, with each part's values from `parts` (`RaysFrom`)
+    /// or formed here.
+    fn cast(
+        &self,
+        origin: &Point3<f64>,
+        parts: Option<&[(Vector3<f64>, f64, Point3<f64>)]>,
         dir: &Vector3<f64>,
         max_toi: f64,
         skip: Option<usize>,
@@ -220,17 +264,32 @@ impl Scene {
                 continue;
             }
             // Cull: distance from the bounding centre to the ray, and whether it lies ahead.
-            let oc = pl.bound_centre - origin;
+            let (oc, oc2) = match parts {
+                Some(p) => (p[index].0, p[index].1),
+                None => {
+                    let oc = pl.bound_centre - origin;
+                    (oc, oc.norm_squared())
+                }
+            };
             let along = oc.dot(dir);
             let r = pl.part.bound_radius;
-            if along < -r || along - r > limit || oc.norm_squared() - along * along > r * r {
+            if along < -r || along - r > limit || oc2 - along * along > r * r {
                 continue;
             }
-            let ray = Ray::new(*origin, *dir);
-            if let Some(hit) =
-                pl.part
-                    .shape
-                    .cast_ray_and_get_normal(&pl.base_to_part, &ray, limit, true)
+            // parry's `cast_ray_and_get_normal`, the ray's origin in the part's frame formed once
+            // per fan.
+            let local = Ray::new(
+                parts.map_or_else(
+                    || pl.base_to_part.inverse_transform_point(origin),
+                    |p| p[index].2,
+                ),
+                pl.base_to_part.inverse_transform_vector(dir),
+            );
+            if let Some(hit) = pl
+                .part
+                .shape
+                .cast_local_ray_and_get_normal(&local, limit, true)
+                .map(|i| i.transform_by(&pl.base_to_part))
             {
                 let mut toi = hit.time_of_impact;
                 let nominal = origin + dir * toi;
@@ -267,11 +326,6 @@ impl Scene {
         best
     }
 
-    /// Whether the camera at `camera` sees the point `hit` lit: the surface faces it and nothing
-    /// lies between. The path starts on the nominal surface, a nanometre out along the normal.
-    /// Every part is convex (a cylinder, a ball, a convex polyhedron, a flat sheet), so a path
-    /// leaving a part on the side its normal faces never meets that part again: only the other
-    /// parts and the table are cast against, which halves a profile's ray casts.
     /// Whether a ray from `origin` along `d` (any length) cannot meet the table: there is none,
     /// the ray runs along it, or it heads away from the table's plane (the time of impact
     /// `cast_ray_skipping` would find is negative).
@@ -283,6 +337,11 @@ impl Scene {
         d.z == 0.0 || (to_plane < 0.0 && d.z > 0.0) || (to_plane > 0.0 && d.z < 0.0)
     }
 
+    /// Whether the camera at `camera` sees the point `hit` lit: the surface faces it and nothing
+    /// lies between. The path starts on the nominal surface, a nanometre out along the normal.
+    /// Every part is convex (a cylinder, a ball, a convex polyhedron, a flat sheet), so a path
+    /// leaving a part on the side its normal faces never meets that part again: only the other
+    /// parts and the table are cast against, which halves a profile's ray casts.
     pub fn seen_from(&self, hit: &Hit, camera: &Point3<f64>) -> bool {
         if hit.normal_in_base.dot(&(camera - hit.p_in_base)) <= 0.0 {
             return false;

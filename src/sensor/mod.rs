@@ -537,9 +537,10 @@ impl SensorModel {
             * (1.0 + self.tan_half_fov * self.tan_half_fov).sqrt()
             + 1e-9;
         let mut points = Vec::with_capacity(self.tans.len());
+        let from = scene.rays_from(&apex);
         for k in 0..self.tans.len() {
             let dir = base_to_sensor.rotation * self.column_dir(k);
-            let p = scene.cast_ray(&apex, &dir, max_toi).and_then(|hit| {
+            let p = scene.cast_ray_from(&from, &dir, max_toi).and_then(|hit| {
                 let p_in_sensor = base_to_sensor.inverse_transform_point(&hit.p_in_base);
                 let depth = self.depth(&p_in_sensor);
                 if depth < self.depth_near || depth > self.depth_far {
