@@ -264,51 +264,50 @@ impl Method for Disk {
 
 /// `[disk]`'s scanning on the move: the speed, the move and the log, the profiler's clock.
 fn validate_motion(d: &crate::schema::disk::Section, v: &Validator) -> Result<(), ScenarioError> {
-    if !(d.scan_speed_mm_s >= 0.0 && d.scan_speed_mm_s <= 10_000.0) {
-        return Err(v.bad(
-            "disk.scan_speed_mm_s",
-            d.scan_speed_mm_s,
-            "must be in [0, 10000] mm/s (0: stop and go)",
-        ));
-    }
-    if !(d.clock_offset_ms.abs() <= 1000.0) {
-        return Err(v.bad(
-            "disk.clock_offset_ms",
-            d.clock_offset_ms,
-            "must be within +-1000 ms (a profiler's latency is milliseconds)",
-        ));
-    }
-    if !(d.scan_accel_mm_s2 >= 0.0 && d.scan_accel_mm_s2 <= 1e6) {
-        return Err(v.bad(
-            "disk.scan_accel_mm_s2",
-            d.scan_accel_mm_s2,
-            "must be in [0, 1e6] mm/s^2 (0: at the scan speed throughout)",
-        ));
-    }
-    if !(d.pose_log_hz == 0.0 || (d.pose_log_hz >= 1.0 && d.pose_log_hz <= 10_000.0)) {
-        return Err(v.bad(
+    v.within(
+        "disk.scan_speed_mm_s",
+        d.scan_speed_mm_s,
+        (0.0, 10_000.0),
+        "must be in [0, 10000] mm/s (0: stop and go)",
+    )?;
+    v.within(
+        "disk.clock_offset_ms",
+        d.clock_offset_ms,
+        (-1000.0, 1000.0),
+        "must be within +-1000 ms (a profiler's latency is milliseconds)",
+    )?;
+    v.within(
+        "disk.scan_accel_mm_s2",
+        d.scan_accel_mm_s2,
+        (0.0, 1e6),
+        "must be in [0, 1e6] mm/s^2 (0: at the scan speed throughout)",
+    )?;
+    if d.pose_log_hz != 0.0 {
+        v.within(
             "disk.pose_log_hz",
             d.pose_log_hz,
+            (1.0, 10_000.0),
             "must be 0 (the moves' start and end only) or in [1, 10000] Hz",
-        ));
+        )?;
     }
-    if !(d.clock_drift_ppm.abs() <= 10_000.0) {
-        return Err(v.bad(
-            "disk.clock_drift_ppm",
-            d.clock_drift_ppm,
-            "must be within +-10000 ppm (a crystal drifts by tens to hundreds)",
-        ));
-    }
-    if !(d.clock_jitter_ms >= 0.0 && d.clock_jitter_ms <= 100.0) {
-        return Err(v.bad(
-            "disk.clock_jitter_ms",
-            d.clock_jitter_ms,
-            "must be in [0, 100] ms (a standard deviation)",
-        ));
-    }
-    if !(d.exposure_ms >= 0.0 && d.exposure_ms <= 1000.0) {
-        return Err(v.bad("disk.exposure_ms", d.exposure_ms, "must be in [0, 1000] ms"));
-    }
+    v.within(
+        "disk.clock_drift_ppm",
+        d.clock_drift_ppm,
+        (-10_000.0, 10_000.0),
+        "must be within +-10000 ppm (a crystal drifts by tens to hundreds)",
+    )?;
+    v.within(
+        "disk.clock_jitter_ms",
+        d.clock_jitter_ms,
+        (0.0, 100.0),
+        "must be in [0, 100] ms (a standard deviation)",
+    )?;
+    v.within(
+        "disk.exposure_ms",
+        d.exposure_ms,
+        (0.0, 1000.0),
+        "must be in [0, 1000] ms",
+    )?;
     if d.estimate_clock_drift && !(d.scan_speed_mm_s > 0.0 && d.estimate_clock_offset) {
         return Err(v.bad(
             "disk.estimate_clock_drift",

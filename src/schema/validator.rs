@@ -77,6 +77,21 @@ impl Validator<'_> {
         }
     }
 
+    /// A value in the closed interval [lo, hi] (not NaN), else `reason`.
+    pub fn within(
+        &self,
+        key: &str,
+        v: f64,
+        (lo, hi): (f64, f64),
+        reason: &str,
+    ) -> Result<(), ScenarioError> {
+        if (lo..=hi).contains(&v) {
+            Ok(())
+        } else {
+            Err(self.bad(key, v, reason))
+        }
+    }
+
     /// A value in the open interval (lo, hi).
     pub fn open_interval(&self, key: &str, v: f64, lo: f64, hi: f64) -> Result<(), ScenarioError> {
         if v > lo && v < hi {
