@@ -102,7 +102,7 @@ pub struct Timed<M: Model> {
     /// The slot of each pose in the order `Model::map_poses` visits them (`NOT_PLACED`: none).
     visits: Vec<u32>,
     /// The base model placed for the last clock evaluated: Levenberg-Marquardt evaluates the
-    /// Jacobian where it just evaluated an accepted step, and placing is a copy of every point.
+    /// Jacobian where it just evaluated an accepted step, and placing moves every point's pose.
     last: Mutex<Option<([u64; 2], Arc<M>)>>,
 }
 
