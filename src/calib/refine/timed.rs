@@ -99,8 +99,9 @@ pub struct Timed<M: Model> {
     slot_of: FxHashMap<PoseKey, u32>,
     /// Each residual's slot.
     residual_slot: Vec<u32>,
-    /// The slot of each pose in the order `Model::map_poses` visits them (`NOT_PLACED`: none).
-    visits: Vec<u32>,
+    /// The slot of each pose in the order `Model::map_poses` visits them (`NOT_PLACED`: none),
+    /// learnt at the first placement.
+    visits: std::sync::OnceLock<Vec<u32>>,
     /// The base model placed for the last clock evaluated: Levenberg-Marquardt evaluates the
     /// Jacobian where it just evaluated an accepted step, and placing moves every point's pose.
     last: Mutex<Option<([u64; 2], Arc<M>)>>,
@@ -140,24 +141,13 @@ impl<M: Model> Timed<M> {
             });
             residual_slot.push(slot);
         }
-        // Runs of points share a pose: the last one looked up is remembered.
-        let (mut visits, mut last) = (Vec::new(), None);
-        let _ = base.map_poses(&mut |f| {
-            let slot = match last {
-                Some((from, s)) if from == *f => s,
-                _ => slot_of.get(&key(f)).copied().unwrap_or(NOT_PLACED),
-            };
-            last = Some((*f, slot));
-            visits.push(slot);
-            *f
-        });
         Timed {
             base,
             line,
             slots,
             slot_of,
             residual_slot,
-            visits,
+            visits: std::sync::OnceLock::new(),
             last: Mutex::new(None),
         }
     }
@@ -191,28 +181,50 @@ impl<M: Model> Timed<M> {
             .collect()
     }
 
-    /// A recorded pose to its slot's pose in `poses`, read off `visits` in the order the base
-    /// model visits its poses (looked up should a model ever visit more).
+    /// A recorded pose's slot: read off `visits` in the order the base model visits its poses
+    /// once they are known, else looked up (runs of points share a pose: the last one is
+    /// remembered).
+    fn slotter(&self) -> impl FnMut(&Isometry3<f64>) -> u32 + '_ {
+        let known = self.visits.get();
+        let (mut k, mut last) = (0, None::<(Isometry3<f64>, u32)>);
+        move |f| {
+            let slot = match known.and_then(|v| v.get(k)) {
+                Some(&s) => s,
+                None => match last {
+                    Some((from, s)) if from == *f => s,
+                    _ => self.slot_of.get(&key(f)).copied().unwrap_or(NOT_PLACED),
+                },
+            };
+            (k, last) = (k + 1, Some((*f, slot)));
+            slot
+        }
+    }
+
+    /// A recorded pose to its slot's pose in `poses`.
     fn mapper<'a>(
         &'a self,
         poses: &'a [Isometry3<f64>],
     ) -> impl FnMut(&Isometry3<f64>) -> Isometry3<f64> + 'a {
-        let mut k = 0;
-        move |f| {
-            let slot = self
-                .visits
-                .get(k)
-                .copied()
-                .unwrap_or_else(|| self.slot_of.get(&key(f)).copied().unwrap_or(NOT_PLACED));
-            k += 1;
-            poses.get(slot as usize).copied().unwrap_or(*f)
-        }
+        let mut slot = self.slotter();
+        move |f| poses.get(slot(f) as usize).copied().unwrap_or(*f)
     }
 
-    /// The base model with its poses placed at the times `clock` gives, and each slot's pose.
+    /// The base model with its poses placed at the times `clock` gives, and each slot's pose;
+    /// the first placement learns the order the model visits its poses in (`visits`).
     fn placed(&self, clock: &[f64; 2]) -> (M, Vec<Isometry3<f64>>) {
         let poses = self.slot_poses(clock);
-        let model = self.base.map_poses(&mut self.mapper(&poses));
+        let learn = self.visits.get().is_none();
+        let (mut slot, mut visits) = (self.slotter(), Vec::new());
+        let model = self.base.map_poses(&mut |f| {
+            let s = slot(f);
+            if learn {
+                visits.push(s);
+            }
+            poses.get(s as usize).copied().unwrap_or(*f)
+        });
+        if learn {
+            let _ = self.visits.set(visits);
+        }
         (model, poses)
     }
 }
