@@ -9,6 +9,10 @@ use crate::sensor::Profile;
 use nalgebra::{Isometry3, Vector2};
 use thiserror::Error;
 
+/// Points (sensor x, z) shared by the captures and the models fitted to them: a model holds
+/// them without a copy.
+pub type SharedPoints = std::sync::Arc<[Vector2<f64>]>;
+
 /// What one profile record holds: the raw profile, or a feature already extracted from it.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ProfileData {
@@ -19,7 +23,7 @@ pub enum ProfileData {
     },
     Circle(Circle),
     /// The points of a ball arc (sensor x, z), its circle found by the calibration.
-    Arc(Vec<Vector2<f64>>),
+    Arc(SharedPoints),
     EdgePoint(Vector2<f64>),
 }
 

@@ -33,7 +33,7 @@ pub struct ArcView {
     pub base_to_flange: Isometry3<f64>,
     pub circle_centre: Vector2<f64>,
     pub circle_radius: f64,
-    pub points: Vec<Vector2<f64>>,
+    pub points: crate::captures::SharedPoints,
 }
 
 #[derive(Debug, Clone)]
@@ -85,7 +85,11 @@ pub fn solve(views: &[ArcView], radius: f64) -> Result<AnyPose, CalibError> {
     let keep = super::points_per_profile(total, views.len(), usize::MAX);
     for v in views {
         let stride = super::stride_for(v.points.len(), keep);
-        model.add(&v.base_to_flange, v.points.iter().step_by(stride).copied());
+        if stride == 1 {
+            model.add_shared(&v.base_to_flange, v.points.clone());
+        } else {
+            model.add(&v.base_to_flange, v.points.iter().step_by(stride).copied());
+        }
     }
     // The best few distinct starts: a wrong one that fits (1) nearly as well is refined too, and
     // the joint refinement's cost decides.

@@ -190,7 +190,7 @@ impl Method for Ball {
             let circle = circle_of(g, p, c.specimen_radius?, &cfg).ok()?;
             let surface = match &p.data {
                 ProfileData::Raw(prof) => features::arc_points(prof, &circle),
-                ProfileData::Arc(a) => a.clone(),
+                ProfileData::Arc(a) => a.to_vec(),
                 // A circle given as such: the laser plane's whole section of the sphere.
                 _ => (0..72)
                     .map(|k| {
@@ -339,16 +339,19 @@ impl Plan for BallPlanned {
                             .profile(&scene, &pose, noisy.then_some(&mut **rng)),
                     )
                 } else {
-                    ProfileData::Arc(crate::sim::ball::analytic_arc_formed(
-                        rig,
-                        &target,
-                        Some((frame, &form)),
-                        &pose,
-                        self.x_step,
-                        self.sigma,
-                        0.9,
-                        rng,
-                    ))
+                    ProfileData::Arc(
+                        crate::sim::ball::analytic_arc_formed(
+                            rig,
+                            &target,
+                            Some((frame, &form)),
+                            &pose,
+                            self.x_step,
+                            self.sigma,
+                            0.9,
+                            rng,
+                        )
+                        .into(),
+                    )
                 };
                 profiles.push(CaptureProfile {
                     group: id,
@@ -428,7 +431,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         for p in c.group_profiles(g.id) {
             let circle = circle_of(g, p, radius, &cfg)?;
             match (&p.data, &mut arc_points) {
-                (ProfileData::Arc(a), Some(all)) => all.add(&p.base_to_flange, a.iter().copied()),
+                (ProfileData::Arc(a), Some(all)) => all.add_shared(&p.base_to_flange, a.clone()),
                 (ProfileData::Raw(prof), Some(all)) => {
                     all.add(&p.base_to_flange, features::arc_points(prof, &circle))
                 }
@@ -560,7 +563,7 @@ fn any_pose(
             let view = circle_of(g, p, radius, &cfg).and_then(|circle| {
                 let points = match &p.data {
                     ProfileData::Arc(a) => a.clone(),
-                    ProfileData::Raw(prof) => features::arc_points(prof, &circle),
+                    ProfileData::Raw(prof) => features::arc_points(prof, &circle).into(),
                     _ => {
                         return Err(CaptureError::NoRawFeatures { method: Kind::Ball });
                     }

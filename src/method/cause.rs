@@ -146,8 +146,15 @@ fn mirror(d: &mut ProfileData) {
         }
         ProfileData::Circle(c) => flip(&mut c.centre),
         ProfileData::Arc(ps) => {
-            ps.reverse();
-            ps.iter_mut().for_each(flip);
+            *ps = ps
+                .iter()
+                .rev()
+                .map(|q| {
+                    let mut q = *q;
+                    flip(&mut q);
+                    q
+                })
+                .collect();
         }
         ProfileData::EdgePoint(v) => flip(v),
     }

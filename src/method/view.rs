@@ -255,7 +255,7 @@ fn laser_plane_points(data: &ProfileData) -> Vec<Vector2<f64>> {
                 c.centre + c.radius * Vector2::new(t.cos(), t.sin())
             })
             .collect(),
-        ProfileData::Arc(a) => a.clone(),
+        ProfileData::Arc(a) => a.to_vec(),
         ProfileData::EdgePoint(q) => vec![*q],
     }
 }

@@ -459,7 +459,7 @@ fn exact_features(caps: &Captures, s: &Setup, sigma: f64, seed: u64) -> Captures
                 let arc = lasercal::sim::ball::analytic_arc(
                     &s.rig, &ball, &pose, 0.15e-3, sigma, 0.9, &mut r2,
                 );
-                Some(ProfileData::Arc(arc))
+                Some(ProfileData::Arc(arc.into()))
             }
             Kind::Edge => {
                 let e = plan
@@ -539,7 +539,7 @@ fn oracle_features(
             return false;
         }
         if noisy.method == Kind::Ball {
-            p.data = ProfileData::Arc(pts);
+            p.data = ProfileData::Arc(pts.into());
             return true;
         }
         let line = Line2::fit(&pts).unwrap();

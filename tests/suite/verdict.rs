@@ -479,7 +479,12 @@ mod mistake {
                     (a.y, b.y) = (b.y, a.y);
                 }
                 ProfileData::Circle(k) => k.centre.x = -k.centre.x,
-                ProfileData::Arc(ps) => ps.iter_mut().for_each(|q| q.x = -q.x),
+                ProfileData::Arc(ps) => {
+                    *ps = ps
+                        .iter()
+                        .map(|q| nalgebra::Vector2::new(-q.x, q.y))
+                        .collect();
+                }
                 ProfileData::EdgePoint(q) => q.x = -q.x,
             }
         }

@@ -8,6 +8,7 @@
 //! stalled at their iteration limit (issue 14). The normal residual needs no label.
 
 use super::{Model, Transform, skew};
+use crate::captures::SharedPoints;
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Point3, Vector2, Vector3};
 
 /// The least |n_z| a point's residual is divided by (about 73 deg from the sensor's z).
@@ -18,9 +19,13 @@ pub struct BallModel {
     pub radius: f64,
     /// The flange poses the arcs were seen from.
     poses: Vec<Isometry3<f64>>,
-    /// Arc points (sensor x, z) with the index of their pose: a pose per point was three
-    /// times the size, and a Fig. 17 trial holds hundreds of thousands of points.
-    points: Vec<(u32, Vector2<f64>)>,
+    /// The arcs (sensor x, z) with the index of their pose, shared with the captures they came
+    /// from: a Fig. 17 trial holds hundreds of thousands of points, and a copy per point (with
+    /// its pose index) was 24 bytes each on top of the captures' 16.
+    arcs: Vec<(u32, SharedPoints)>,
+    /// Points before each arc: where a part of the rows starts.
+    starts: Vec<usize>,
+    n: usize,
 }
 
 impl Model for BallModel {
@@ -33,34 +38,47 @@ impl Model for BallModel {
         3
     }
     fn n_features(&self) -> usize {
-        self.points.len()
+        self.n
     }
     fn residuals_per_feature(&self) -> usize {
         1
     }
 
     fn residual_flanges(&self) -> Vec<&Isometry3<f64>> {
-        self.points
+        self.arcs
+            .iter()
+            .flat_map(|(k, a)| std::iter::repeat_n(&self.poses[*k as usize], a.len()))
+            .collect()
+    }
+
+    /// Numbered per arc, not per point: neither a pose per point nor a table sized by them.
+    fn clusters(&self) -> Vec<u32> {
+        let per_arc: Vec<&Isometry3<f64>> = self
+            .arcs
             .iter()
             .map(|(k, _)| &self.poses[*k as usize])
-            .collect()
+            .collect();
+        let ids = super::honest::clusters(&per_arc, per_arc.len());
+        let mut out = Vec::with_capacity(self.n);
+        for ((_, a), id) in self.arcs.iter().zip(ids) {
+            out.extend(std::iter::repeat_n(id, a.len()));
+        }
+        out
     }
 
     fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> BallModel {
         BallModel {
-            radius: self.radius,
             poses: self.poses.iter().map(|f| to(f)).collect(),
-            points: self.points.clone(),
+            ..self.clone()
         }
     }
 
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> BallModel {
         let mut kept = BallModel::new(self.radius);
-        for (k, f) in self.poses.iter().enumerate() {
+        for (k, a) in &self.arcs {
+            let f = &self.poses[*k as usize];
             if !drop(f) {
-                let k = k as u32;
-                let points = self.points.iter().filter(|(i, _)| *i == k).map(|(_, p)| *p);
-                kept.add(f, points);
+                kept.add_shared(f, a.clone());
             }
         }
         kept
@@ -74,7 +92,7 @@ impl Model for BallModel {
         r: &mut DVector<f64>,
         j: Option<&mut DMatrix<f64>>,
     ) {
-        self.rows(x, c, &self.points, r, j);
+        self.rows(x, c, 0..self.n, r, j);
     }
 
     fn eval_part(
@@ -86,7 +104,7 @@ impl Model for BallModel {
         r: &mut DVector<f64>,
         j: &mut DMatrix<f64>,
     ) -> bool {
-        self.rows(x, c, &self.points[part], r, Some(j));
+        self.rows(x, c, part, r, Some(j));
         true
     }
 
@@ -104,17 +122,28 @@ impl BallModel {
         BallModel {
             radius,
             poses: Vec::new(),
-            points: Vec::new(),
+            arcs: Vec::new(),
+            starts: Vec::new(),
+            n: 0,
         }
     }
 
     /// Adds arc points seen from the flange pose `f`.
     pub fn add(&mut self, f: &Isometry3<f64>, points: impl IntoIterator<Item = Vector2<f64>>) {
+        self.add_shared(f, points.into_iter().collect());
+    }
+
+    /// Adds an arc seen from the flange pose `f`, shared (not copied).
+    pub fn add_shared(&mut self, f: &Isometry3<f64>, points: SharedPoints) {
+        if points.is_empty() {
+            return;
+        }
         if self.poses.last() != Some(f) {
             self.poses.push(*f);
         }
-        let k = (self.poses.len() - 1) as u32;
-        self.points.extend(points.into_iter().map(|p| (k, p)));
+        self.arcs.push(((self.poses.len() - 1) as u32, points));
+        self.starts.push(self.n);
+        self.n += self.arcs[self.arcs.len() - 1].1.len();
     }
 
     /// The centre in the sensor frame: s = R^T (F_R^T (c - F_t) - t).
@@ -124,58 +153,79 @@ impl BallModel {
         x.rot.matrix().transpose() * (g - x.t)
     }
 
-    /// Rows 0.. of `r` (and `j`) for `points`.
+    /// Rows 0.. of `r` (and `j`) for the points `part` (in the order added).
     fn rows(
         &self,
         x: &Transform,
         c: &Vector3<f64>,
-        points: &[(u32, Vector2<f64>)],
+        part: std::ops::Range<usize>,
         r: &mut DVector<f64>,
         mut j: Option<&mut DMatrix<f64>>,
     ) {
         let rmat = *x.rot.matrix();
-        // An arc's points share their flange pose: its rotation matrix and the centre in the
-        // sensor frame are computed once per run of one pose (the same values, the same bits).
-        let mut last: Option<(u32, Matrix3<f64>, Vector3<f64>)> = None;
-        for (i, (k, p)) in points.iter().enumerate() {
-            let (fr, s) = match last {
-                Some((l, fr, s)) if l == *k => (fr, s),
-                _ => {
-                    let f = &self.poses[*k as usize];
-                    let fr = *f.rotation.to_rotation_matrix().matrix();
-                    let s = Self::centre_in_sensor(x, f, c);
-                    last = Some((*k, fr, s));
-                    (fr, s)
-                }
+        let first = self
+            .starts
+            .partition_point(|&s| s <= part.start)
+            .saturating_sub(1);
+        let mut i = 0;
+        for ((k, arc), &start) in self.arcs[first..].iter().zip(&self.starts[first..]) {
+            if start >= part.end {
+                break;
+            }
+            let from = part.start.saturating_sub(start);
+            let to = (part.end - start).min(arc.len());
+            if from >= to {
+                continue;
+            }
+            // An arc's points share their flange pose: its rotation matrix and the centre in
+            // the sensor frame are computed once per arc.
+            let f = &self.poses[*k as usize];
+            let fr = *f.rotation.to_rotation_matrix().matrix();
+            let s = Self::centre_in_sensor(x, f, c);
+            for p in &arc[from..to] {
+                self.row(i, p, (&rmat, &fr, &s), r, j.as_deref_mut());
+                i += 1;
+            }
+        }
+    }
+
+    /// Row `i`: the point `p` seen from the pose of rotation `fr` with the centre at `s` in the
+    /// sensor frame, the transform's rotation `rmat`.
+    fn row(
+        &self,
+        i: usize,
+        p: &Vector2<f64>,
+        (rmat, fr, s): (&Matrix3<f64>, &Matrix3<f64>, &Vector3<f64>),
+        r: &mut DVector<f64>,
+        j: Option<&mut DMatrix<f64>>,
+    ) {
+        let v = Vector3::new(p.x, 0.0, p.y) - s;
+        let dist = v.norm().max(1e-12);
+        let g = dist - self.radius;
+        // The noise is in z: a distance g along the normal is a z offset g / |n_z|, so divide
+        // by |n_z| (the z residual's weight, to first order) but no more than 1 / NZ_MIN, which
+        // keeps an arc's ends from dominating.
+        let nz = v.z.abs() / dist;
+        let w = nz.max(NZ_MIN);
+        r[i] = g / w;
+        if let Some(j) = j {
+            // d g / d v = v / |v|; d w / d v = sign(v_z) (e_z / |v| - v_z v / |v|^3) above
+            // the floor; v = p - s, so d r / d s = -(d g / d v / w - g d w / d v / w^2).
+            let dg = v / dist;
+            let dw = if nz > NZ_MIN {
+                (Vector3::z() / dist - v * (v.z / dist.powi(3))) * v.z.signum()
+            } else {
+                Vector3::zeros()
             };
-            let v = Vector3::new(p.x, 0.0, p.y) - s;
-            let dist = v.norm().max(1e-12);
-            let g = dist - self.radius;
-            // The noise is in z: a distance g along the normal is a z offset g / |n_z|, so divide
-            // by |n_z| (the z residual's weight, to first order) but no more than 1 / NZ_MIN, which
-            // keeps an arc's ends from dominating.
-            let nz = v.z.abs() / dist;
-            let w = nz.max(NZ_MIN);
-            r[i] = g / w;
-            if let Some(j) = j.as_deref_mut() {
-                // d g / d v = v / |v|; d w / d v = sign(v_z) (e_z / |v| - v_z v / |v|^3) above
-                // the floor; v = p - s, so d r / d s = -(d g / d v / w - g d w / d v / w^2).
-                let dg = v / dist;
-                let dw = if nz > NZ_MIN {
-                    (Vector3::z() / dist - v * (v.z / dist.powi(3))) * v.z.signum()
-                } else {
-                    Vector3::zeros()
-                };
-                let dr_ds = -(dg / w - dw * (g / (w * w)));
-                let dw = dr_ds.transpose() * skew(&s);
-                let u = dr_ds.transpose() * rmat.transpose();
-                let dt = -u;
-                let dc = u * fr.transpose();
-                for k in 0..3 {
-                    j[(i, k)] = dw[k];
-                    j[(i, 3 + k)] = dt[k];
-                    j[(i, 6 + k)] = dc[k];
-                }
+            let dr_ds = -(dg / w - dw * (g / (w * w)));
+            let dw = dr_ds.transpose() * skew(s);
+            let u = dr_ds.transpose() * rmat.transpose();
+            let dt = -u;
+            let dc = u * fr.transpose();
+            for k in 0..3 {
+                j[(i, k)] = dw[k];
+                j[(i, 3 + k)] = dt[k];
+                j[(i, 6 + k)] = dc[k];
             }
         }
     }

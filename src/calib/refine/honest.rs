@@ -330,9 +330,10 @@ pub fn clusters(flanges: &[&Isometry3<f64>], n_residuals: usize) -> Vec<u32> {
     if flanges.len() != n_residuals {
         return Vec::new();
     }
-    // Room for a pose per four residuals (a disk chord's two ends): rarely a rehash.
+    // Room for a pose per four residuals (a disk chord's two ends) up to a thousand poses; a
+    // table sized by a tall problem's residuals was megabytes for a few hundred poses.
     let mut ids: FxHashMap<[u64; 7], u32> =
-        FxHashMap::with_capacity_and_hasher((n_residuals / 4).min(1 << 16), Default::default());
+        FxHashMap::with_capacity_and_hasher((n_residuals / 4).min(1 << 10), Default::default());
     let mut out = Vec::with_capacity(n_residuals);
     let mut last: Option<(&Isometry3<f64>, u32)> = None;
     for &f in flanges {

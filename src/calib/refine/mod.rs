@@ -202,6 +202,12 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
         Vec::new()
     }
 
+    /// Each residual's cluster (`honest::clusters` of `residual_flanges`); a model that knows
+    /// its poses' runs numbers them without a pose per residual.
+    fn clusters(&self) -> Vec<u32> {
+        honest::clusters(&self.residual_flanges(), self.n_residuals())
+    }
+
     /// The same model without the features seen from the flange poses `drop` picks (the
     /// verdict's leave-one-out runs, warm-started from the full result).
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Self;
@@ -458,7 +464,7 @@ impl<M: Model + 'static> Refinable for Problem<M> {
         6 + self.model.n_specimen_params()
     }
     fn clusters(&self) -> Vec<u32> {
-        honest::clusters(&self.model.residual_flanges(), self.model.n_residuals())
+        self.model.clusters()
     }
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable> {
         Box::new(Problem {
@@ -918,7 +924,7 @@ pub fn refine<M: Model>(
         Some(a) if a.nrows() == j.ncols() => a,
         _ => ata(&j),
     };
-    let clusters = honest::clusters(&model.residual_flanges(), r.len());
+    let clusters = model.clusters();
     let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
     let sums = Sums {
         ata: a,

@@ -338,6 +338,9 @@ impl<M: Model + 'static> Model for Timed<M> {
     fn residual_flanges(&self) -> Vec<&Isometry3<f64>> {
         self.base.residual_flanges()
     }
+    fn clusters(&self) -> Vec<u32> {
+        self.base.clusters()
+    }
 
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Self {
         Timed::build(self.base.without_poses(drop), self.line.clone())
