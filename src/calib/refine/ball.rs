@@ -7,7 +7,7 @@
 //! ill-conditioned near an arc's ends, where the sphere's z changes fast with x: refinements
 //! stalled at their iteration limit (issue 14). The normal residual needs no label.
 
-use super::{Model, Transform, skew};
+use super::{Model, Sums, Transform, skew};
 use crate::captures::SharedPoints;
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Point3, Vector2, Vector3};
 
@@ -108,6 +108,60 @@ impl Model for BallModel {
         true
     }
 
+    /// Per arc, not per row: a point's row is d^T A with d its residual's gradient in the
+    /// sensor-frame centre and A = [skew(s), -R^T, R^T F_R^T] the arc's own 3 x 9, so the rows'
+    /// sums are A^T (sum d d^T) A and A^T (sum d r): three columns per point instead of nine.
+    fn sums(&self, x: &Transform, c: &Vector3<f64>, clusters: &[u32], g: usize) -> Option<Sums> {
+        const P: usize = 9;
+        let clustered = clusters.len() == self.n && self.n > 0;
+        let gram_clusters = clustered && g <= super::honest::MAX_JACKKNIFE;
+        let mut sums = Sums {
+            ata: DMatrix::zeros(P, P),
+            atr: DVector::zeros(P),
+            meat: DMatrix::zeros(P, P),
+            scores: DMatrix::zeros(P, if clustered { g } else { 0 }),
+            grams: DMatrix::zeros(P, if gram_clusters { P * g } else { 0 }),
+            rss: 0.0,
+            n: self.n,
+        };
+        let rmat = *x.rot.matrix();
+        for ((k, arc), &start) in self.arcs.iter().zip(&self.starts) {
+            let f = &self.poses[*k as usize];
+            let fr = *f.rotation.to_rotation_matrix().matrix();
+            let s = Self::centre_in_sensor(x, f, c);
+            let (mut dd, mut rrdd, mut dr) = (Matrix3::zeros(), Matrix3::zeros(), Vector3::zeros());
+            for p in arc.iter() {
+                let (r, d) = self.residual(p, &s);
+                let outer = d * d.transpose();
+                dd += outer;
+                rrdd += outer * (r * r);
+                dr += d * r;
+                sums.rss += r * r;
+            }
+            let mut a = nalgebra::SMatrix::<f64, 3, P>::zeros();
+            a.fixed_view_mut::<3, 3>(0, 0).copy_from(&skew(&s));
+            a.fixed_view_mut::<3, 3>(0, 3)
+                .copy_from(&(-rmat.transpose()));
+            a.fixed_view_mut::<3, 3>(0, 6)
+                .copy_from(&(rmat.transpose() * fr.transpose()));
+            let gram = a.transpose() * dd * a;
+            let score = a.transpose() * dr;
+            sums.ata += &gram;
+            sums.meat += a.transpose() * rrdd * a;
+            sums.atr += &score;
+            if clustered {
+                let cl = clusters[start] as usize;
+                let mut col = sums.scores.column_mut(cl);
+                col += &score;
+                if gram_clusters {
+                    let mut block = sums.grams.columns_mut(P * cl, P);
+                    block += &gram;
+                }
+            }
+        }
+        Some(sums)
+    }
+
     fn step(&self, c: &Vector3<f64>, dx: &[f64]) -> Vector3<f64> {
         c + Vector3::new(dx[0], dx[1], dx[2])
     }
@@ -151,6 +205,28 @@ impl BallModel {
         let fr = *f.rotation.to_rotation_matrix().matrix();
         let g = fr.transpose() * (c - f.translation.vector);
         x.rot.matrix().transpose() * (g - x.t)
+    }
+
+    /// The residual of the point `p` against the sphere centred at `s` (sensor frame), and its
+    /// gradient in `s`.
+    fn residual(&self, p: &Vector2<f64>, s: &Vector3<f64>) -> (f64, Vector3<f64>) {
+        let v = Vector3::new(p.x, 0.0, p.y) - s;
+        let dist = v.norm().max(1e-12);
+        let g = dist - self.radius;
+        // The noise is in z: a distance g along the normal is a z offset g / |n_z|, so divide
+        // by |n_z| (the z residual's weight, to first order) but no more than 1 / NZ_MIN, which
+        // keeps an arc's ends from dominating.
+        let nz = v.z.abs() / dist;
+        let w = nz.max(NZ_MIN);
+        // d g / d v = v / |v|; d w / d v = sign(v_z) (e_z / |v| - v_z v / |v|^3) above the
+        // floor; v = p - s, so d r / d s = -(d g / d v / w - g d w / d v / w^2).
+        let dg = v / dist;
+        let dw = if nz > NZ_MIN {
+            (Vector3::z() / dist - v * (v.z / dist.powi(3))) * v.z.signum()
+        } else {
+            Vector3::zeros()
+        };
+        (g / w, -(dg / w - dw * (g / (w * w))))
     }
 
     /// Rows 0.. of `r` (and `j`) for the points `part` (in the order added).
@@ -199,25 +275,9 @@ impl BallModel {
         r: &mut DVector<f64>,
         j: Option<&mut DMatrix<f64>>,
     ) {
-        let v = Vector3::new(p.x, 0.0, p.y) - s;
-        let dist = v.norm().max(1e-12);
-        let g = dist - self.radius;
-        // The noise is in z: a distance g along the normal is a z offset g / |n_z|, so divide
-        // by |n_z| (the z residual's weight, to first order) but no more than 1 / NZ_MIN, which
-        // keeps an arc's ends from dominating.
-        let nz = v.z.abs() / dist;
-        let w = nz.max(NZ_MIN);
-        r[i] = g / w;
+        let (ri, dr_ds) = self.residual(p, s);
+        r[i] = ri;
         if let Some(j) = j {
-            // d g / d v = v / |v|; d w / d v = sign(v_z) (e_z / |v| - v_z v / |v|^3) above
-            // the floor; v = p - s, so d r / d s = -(d g / d v / w - g d w / d v / w^2).
-            let dg = v / dist;
-            let dw = if nz > NZ_MIN {
-                (Vector3::z() / dist - v * (v.z / dist.powi(3))) * v.z.signum()
-            } else {
-                Vector3::zeros()
-            };
-            let dr_ds = -(dg / w - dw * (g / (w * w)));
             let dw = dr_ds.transpose() * skew(s);
             let u = dr_ds.transpose() * rmat.transpose();
             let dt = -u;
@@ -228,5 +288,70 @@ impl BallModel {
                 j[(i, 6 + k)] = dc[k];
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Arcs seen from five poses, two of them again later (one cluster each), at a transform
+    /// and centre off the points' own (non-zero residuals).
+    fn model() -> (BallModel, Transform, Vector3<f64>) {
+        let x = Transform {
+            rot: nalgebra::Rotation3::from_euler_angles(3.0, -0.1, 2.0),
+            t: Vector3::new(0.006, 0.054, 0.364),
+        };
+        let c = Vector3::new(-0.315, -0.304, 0.150);
+        let mut m = BallModel::new(0.0695);
+        for k in 0..7 {
+            let f = Isometry3::new(
+                Vector3::new(-0.3 + 0.01 * (k % 5) as f64, -0.3, 0.56),
+                Vector3::new(3.08 + 0.02 * (k % 5) as f64, -0.25, -2.6),
+            );
+            let pts = (0..23 + 5 * k).map(|i| {
+                let a = -1.0 + 2.0 * i as f64 / (22 + 5 * k) as f64;
+                Vector2::new(
+                    0.05 * a,
+                    0.2 + 0.04 * (1.0 - a * a).sqrt() + 1e-4 * (i as f64).sin(),
+                )
+            });
+            m.add(&f, pts);
+        }
+        let off = Transform {
+            rot: x.rot * nalgebra::Rotation3::from_euler_angles(1e-3, -2e-3, 5e-4),
+            t: x.t + Vector3::new(1e-4, -2e-4, 3e-4),
+        };
+        (m, off, c + Vector3::new(2e-4, 0.0, -1e-4))
+    }
+
+    #[test]
+    fn per_arc_sums_equal_the_rows_sums() {
+        let (m, x, c) = model();
+        let clusters = m.clusters();
+        let g = clusters.iter().map(|&k| k as usize + 1).max().unwrap();
+        let fast = Model::sums(&m, &x, &c, &clusters, g).unwrap();
+        let (r, j) = super::super::eval(&m, &x, &c, &[], true);
+        let rows = Sums::of(&r, &j, &clusters, g);
+        let close = |a: &DMatrix<f64>, b: &DMatrix<f64>| {
+            assert_eq!(a.shape(), b.shape());
+            let scale = b.amax().max(1e-300);
+            assert!((a - b).amax() <= 1e-12 * scale, "{a} vs {b}");
+        };
+        assert!(g == 5 && fast.grams.ncols() == 9 * g);
+        close(&fast.ata, &rows.ata);
+        close(&fast.meat, &rows.meat);
+        close(&fast.scores, &rows.scores);
+        close(&fast.grams, &rows.grams);
+        close(
+            &DMatrix::from_column_slice(9, 1, fast.atr.as_slice()),
+            &DMatrix::from_column_slice(9, 1, rows.atr.as_slice()),
+        );
+        assert!((fast.rss - rows.rss).abs() <= 1e-12 * rows.rss && rows.rss > 0.0);
+        assert_eq!(fast.n, rows.n);
+        // Without clusters: no scores, no grams.
+        let none = Model::sums(&m, &x, &c, &[], 0).unwrap();
+        assert_eq!((none.scores.ncols(), none.grams.ncols()), (0, 0));
+        close(&none.ata, &rows.ata);
     }
 }

@@ -202,6 +202,18 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
         Vec::new()
     }
 
+    /// The verdict's sums over every residual (`Sums`, clusters `clusters` of `g`) where the
+    /// model's structure gives them without forming each row; None: formed row by row.
+    fn sums(
+        &self,
+        _x: &Transform,
+        _s: &Self::Specimen,
+        _clusters: &[u32],
+        _g: usize,
+    ) -> Option<Sums> {
+        None
+    }
+
     /// Each residual's cluster (`honest::clusters` of `residual_flanges`); a model that knows
     /// its poses' runs numbers them without a pose per residual.
     fn clusters(&self) -> Vec<u32> {
@@ -486,6 +498,9 @@ impl<M: Model + 'static> Refinable for Problem<M> {
         let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
         let x = Transform::from_isometry(x);
         let m = &self.model;
+        if let Some(sums) = m.sums(&x, &self.specimen, &clusters, g) {
+            return sums;
+        }
         let labels = m.labels(&x, &self.specimen);
         let whole = || {
             let (r, j) = eval(m, &x, &self.specimen, &labels, true);
