@@ -18,25 +18,35 @@ pub fn fit_circle(pts: &[Vector2<f64>]) -> Option<Circle> {
     }
     // Centre the data for conditioning.
     let m = pts.iter().sum::<Vector2<f64>>() / pts.len() as f64;
-    let mut ata = Matrix3::zeros();
-    let mut atb = Vector3::zeros();
+    // Rows (d_x, d_y, 1) against |d|^2, summed as scalars (the outer product's bits).
+    let (mut xx, mut xy, mut yy, mut sx, mut sy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    let (mut bx, mut by, mut bb) = (0.0, 0.0, 0.0);
     for p in pts {
         let d = p - m;
-        let row = Vector3::new(d.x, d.y, 1.0);
-        ata += row * row.transpose();
-        atb += row * (d.x * d.x + d.y * d.y);
+        let q = d.x * d.x + d.y * d.y;
+        xx += d.x * d.x;
+        xy += d.x * d.y;
+        yy += d.y * d.y;
+        sx += d.x * 1.0;
+        sy += d.y * 1.0;
+        bx += d.x * q;
+        by += d.y * q;
+        bb += 1.0 * q;
     }
-    let sol = ata.lu().solve(&atb)?;
+    let ata = Matrix3::new(xx, xy, sx, xy, yy, sy, sx, sy, pts.len() as f64);
+    let sol = ata.lu().solve(&Vector3::new(bx, by, bb))?;
     let mut c = Vector2::new(sol.x / 2.0, sol.y / 2.0);
     let r2 = sol.z + c.norm_squared();
     if !r2.is_finite() || r2 <= 0.0 {
         return None;
     }
     let mut r = r2.sqrt();
-    // Gauss-Newton on f_i = |p_i - c| - r.
+    // Gauss-Newton on f_i = |p_i - c| - r, with J_i = (-d_x / n, -d_y / n, -1): J^T J's five
+    // distinct sums and J^T f kept as scalars (the same products and sums as the 3 x 3 outer
+    // product, the same bits, without its nine).
     for _ in 0..50 {
-        let mut jtj = Matrix3::zeros();
-        let mut jtf = Vector3::zeros();
+        let (mut xx, mut xy, mut yy, mut sx, mut sy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        let (mut fx, mut fy, mut ff) = (0.0, 0.0, 0.0);
         for p in pts {
             let d = (p - m) - c;
             let n = d.norm();
@@ -44,10 +54,19 @@ pub fn fit_circle(pts: &[Vector2<f64>]) -> Option<Circle> {
                 return None;
             }
             let f = n - r;
-            let j = Vector3::new(-d.x / n, -d.y / n, -1.0);
-            jtj += j * j.transpose();
-            jtf += j * f;
+            let (jx, jy) = (-d.x / n, -d.y / n);
+            xx += jx * jx;
+            xy += jx * jy;
+            yy += jy * jy;
+            sx += jx * -1.0;
+            sy += jy * -1.0;
+            fx += jx * f;
+            fy += jy * f;
+            ff += -1.0 * f;
         }
+        let k = pts.len() as f64;
+        let jtj = Matrix3::new(xx, xy, sx, xy, yy, sy, sx, sy, k);
+        let jtf = Vector3::new(fx, fy, ff);
         let step = jtj.lu().solve(&(-jtf))?;
         c += Vector2::new(step.x, step.y);
         r += step.z;
