@@ -184,6 +184,18 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
     /// The specimen after a step `dx` of its parameters.
     fn step(&self, s: &Self::Specimen, dx: &[f64]) -> Self::Specimen;
 
+    /// The least-squares fit from (x, s) on a smaller model with the same normal equations
+    /// (`plane`: each pose's points by their moments), for `refine` to finish on this one; None:
+    /// none smaller, or its fit failed.
+    fn reduced_fit(
+        &self,
+        _x: &Isometry3<f64>,
+        _s: &Self::Specimen,
+        _opts: &Options,
+    ) -> Option<(Refined, Self::Specimen)> {
+        None
+    }
+
     /// The specimen's fixed point (disk or ball centre), when it has one.
     fn centre(&self, _s: &Self::Specimen) -> Option<Point3<f64>> {
         None
@@ -853,6 +865,45 @@ fn motion_missing(weakest: &str) -> String {
 /// Refine a closed-form estimate over all raw features. Refuses a pose set that cannot determine
 /// the transform (typed error naming the missing motion); "did not converge" is a status.
 pub fn refine<M: Model>(
+    model: &M,
+    flange_to_sensor: &Isometry3<f64>,
+    specimen: &M::Specimen,
+    opts: &Options,
+) -> Result<(Refined, M::Specimen), CalibError> {
+    // The squared loss's fit depends on the normal equations alone: where a smaller model has
+    // the same, it finds the optimum and this one confirms it (and gives the figures, which need
+    // every residual). A fit the smaller one did not finish is not pursued here either.
+    if opts.loss == Loss::Squared
+        && let Some((reduced, s)) = model.reduced_fit(flange_to_sensor, specimen, opts)
+    {
+        let converged = matches!(reduced.status, Status::Converged { .. });
+        let confirm = Options {
+            max_iterations: if converged { opts.max_iterations } else { 1 },
+            ..*opts
+        };
+        let (refined, s) = refine_rows(model, &reduced.flange_to_sensor, &s, &confirm)?;
+        // The cost at the start from the rows themselves: the smaller model's agrees to about
+        // 1e-10 only (its rows cancel more), and a start at the optimum must not seem raised.
+        let x0 = Transform::from_isometry(flange_to_sensor);
+        let r0 = eval(model, &x0, specimen, &model.labels(&x0, specimen), false).0;
+        return Ok((
+            Refined {
+                initial_cost: cost_of(&r0, Loss::Squared, 1.0),
+                status: if converged {
+                    refined.status
+                } else {
+                    reduced.status
+                },
+                ..refined
+            },
+            s,
+        ));
+    }
+    refine_rows(model, flange_to_sensor, specimen, opts)
+}
+
+/// `refine` over the model's own rows.
+pub(crate) fn refine_rows<M: Model>(
     model: &M,
     flange_to_sensor: &Isometry3<f64>,
     specimen: &M::Specimen,

@@ -4,8 +4,8 @@
 //! offset d along n (1). Residual per point q (base frame): its signed distance n.q - d, which is
 //! along the surface normal.
 
-use super::{Model, Transform, exp, frame_with, transform_columns};
-use nalgebra::{DMatrix, DVector, Isometry3, Rotation3, Vector2, Vector3};
+use super::{Model, Options, Refined, Transform, exp, frame_with, skew, transform_columns};
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Rotation3, SymmetricEigen, Vector2, Vector3};
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlaneModel {
@@ -95,9 +95,231 @@ impl Model for PlaneModel {
     }
 
     fn step(&self, s: &Plane, dx: &[f64]) -> Plane {
-        Plane {
-            frame: s.frame * exp(&Vector3::new(dx[0], dx[1], 0.0)),
-            offset: s.offset + dx[2],
+        s.stepped(dx)
+    }
+
+    fn reduced_fit(
+        &self,
+        x: &Isometry3<f64>,
+        s: &Plane,
+        opts: &Options,
+    ) -> Option<(Refined, Plane)> {
+        let m = self.moments();
+        // Worth it where the poses hold many points each (a profile's hundreds: three rows).
+        if 2 * m.rows.len() >= self.points.len() {
+            return None;
         }
+        super::refine_rows(&m, x, s, opts).ok()
+    }
+}
+
+impl Plane {
+    fn stepped(&self, dx: &[f64]) -> Plane {
+        Plane {
+            frame: self.frame * exp(&Vector3::new(dx[0], dx[1], 0.0)),
+            offset: self.offset + dx[2],
+        }
+    }
+}
+
+impl PlaneModel {
+    /// Each run of points from one pose by its moments (`Moments`).
+    pub fn moments(&self) -> Moments {
+        let mut rows = Vec::new();
+        let mut i = 0;
+        while i < self.points.len() {
+            let f = self.points[i].0;
+            let mut sum = Matrix3::zeros();
+            let mut k = i;
+            while k < self.points.len() && self.points[k].0 == f {
+                let p = self.points[k].1;
+                let u = Vector3::new(p.x, p.y, 1.0);
+                sum += u * u.transpose();
+                k += 1;
+            }
+            let e = SymmetricEigen::new(sum);
+            for c in 0..3 {
+                let l = e.eigenvalues[c];
+                if l > 0.0 {
+                    rows.push((f, e.eigenvectors.column(c) * l.sqrt()));
+                }
+            }
+            i = k;
+        }
+        Moments { rows }
+    }
+}
+
+/// The plane's points grouped by pose. A point's row (residual and Jacobian) is linear in
+/// u = (x, z, 1), so a pose's rows add up to normal equations in the moments S = sum u u^T alone;
+/// three rows v = sqrt(l) e (S's eigenvalues l and eigenvectors e; sum v v^T = S) have the same,
+/// whatever the number of points. A row v = (x, z, c) is the point (x, z) with the pose's and
+/// the plane's constant terms scaled by c. Its least-squares optimum is the points' own; its
+/// residuals' spread and the verdict's sums are not (they need the points).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Moments {
+    rows: Vec<(Isometry3<f64>, Vector3<f64>)>,
+}
+
+impl Model for Moments {
+    type Specimen = Plane;
+
+    fn name(&self) -> &'static str {
+        "plane refinement"
+    }
+    fn n_specimen_params(&self) -> usize {
+        3
+    }
+    fn n_features(&self) -> usize {
+        self.rows.len()
+    }
+    fn residuals_per_feature(&self) -> usize {
+        1
+    }
+
+    fn residual_flanges(&self) -> Vec<&Isometry3<f64>> {
+        self.rows.iter().map(|(f, _)| f).collect()
+    }
+
+    fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> Moments {
+        Moments {
+            rows: self.rows.iter().map(|(f, v)| (to(f), *v)).collect(),
+        }
+    }
+
+    fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Moments {
+        Moments {
+            rows: self
+                .rows
+                .iter()
+                .filter(|(f, _)| !drop(f))
+                .copied()
+                .collect(),
+        }
+    }
+
+    fn eval(
+        &self,
+        x: &Transform,
+        s: &Plane,
+        _labels: &[f64],
+        r: &mut DVector<f64>,
+        mut j: Option<&mut DMatrix<f64>>,
+    ) {
+        let n = s.normal();
+        let (e1, e2) = (s.frame * Vector3::x(), s.frame * Vector3::y());
+        for (i, (f, v)) in self.rows.iter().enumerate() {
+            let (ps, c) = (Vector3::new(v.x, 0.0, v.y), v.z);
+            let fr = *f.rotation.to_rotation_matrix().matrix();
+            let frr = fr * x.rot.matrix();
+            let qb = frr * ps + (fr * x.t + f.translation.vector) * c;
+            r[i] = n.dot(&qb) - s.offset * c;
+            if let Some(j) = j.as_deref_mut() {
+                transform_columns(j, i, &n, &(-frr * skew(&ps)), &(fr * c));
+                j[(i, 6)] = -e2.dot(&qb);
+                j[(i, 7)] = e1.dot(&qb);
+                j[(i, 8)] = -c;
+            }
+        }
+    }
+
+    fn step(&self, s: &Plane, dx: &[f64]) -> Plane {
+        s.stepped(dx)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::refine::{Loss, Status, eval, refine, refine_rows};
+
+    /// Profiles of the plane z = 0.01 from 12 poses, 200 points each, with z noise `noise` (m).
+    fn model(noise: f64) -> (PlaneModel, Isometry3<f64>, Plane) {
+        let x = Isometry3::new(
+            Vector3::new(0.006, 0.054, 0.364),
+            Vector3::new(3.1, -0.02, 0.1),
+        );
+        let plane = Plane::new(&Vector3::z(), 0.01);
+        let t = Transform::from_isometry(&x);
+        let mut points = Vec::new();
+        for k in 0..12 {
+            let a = k as f64;
+            let f = Isometry3::new(
+                Vector3::new(-0.3 + 0.01 * a, -0.3, 0.45),
+                Vector3::new(0.25 * (0.7 * a).sin(), 0.25 * (1.3 * a).cos(), 0.4 * a),
+            );
+            // On the laser plane's line across the plane: z solved from x, then noise.
+            for i in 0..200 {
+                let px = -0.05 + 0.1 * i as f64 / 199.0;
+                let at = |z: f64| t.point_in_base(&f, &Vector2::new(px, z), false).0.z - 0.01;
+                let (a0, a1) = (at(0.0), at(1.0));
+                let z = -a0 / (a1 - a0) + noise * (7.0 * i as f64 + a).sin();
+                points.push((f, Vector2::new(px, z)));
+            }
+        }
+        (PlaneModel { points }, x, plane)
+    }
+
+    #[test]
+    fn a_poses_moments_have_its_points_normal_equations() {
+        let (m, x, plane) = model(1e-4);
+        let reduced = m.moments();
+        assert_eq!(reduced.rows.len(), 36);
+        let off = Transform::from_isometry(
+            &(x * Isometry3::new(
+                Vector3::new(1e-3, -2e-3, 1e-3),
+                Vector3::new(0.01, 0.0, -0.02),
+            )),
+        );
+        let s = plane.stepped(&[0.01, -0.02, 1e-3]);
+        let (r, j) = eval(&m, &off, &s, &[], true);
+        let (rm, jm) = eval(&reduced, &off, &s, &[], true);
+        let (a, am) = (j.transpose() * &j, jm.transpose() * &jm);
+        let (b, bm) = (j.transpose() * &r, jm.transpose() * &rm);
+        assert!((&a - &am).amax() <= 1e-12 * a.amax(), "{a} vs {am}");
+        assert!((&b - &bm).amax() <= 1e-12 * b.amax(), "{b} vs {bm}");
+        let (c, cm) = (r.norm_squared(), rm.norm_squared());
+        // The moments' rows' residuals cancel more (S's eigen-decomposition is exact to its
+        // largest eigenvalue's rounding): the cost agrees to 1e-10, the optimum the same.
+        assert!((c - cm).abs() <= 1e-10 * c, "{c} vs {cm}");
+    }
+
+    #[test]
+    fn refining_over_the_moments_finds_the_points_optimum() {
+        for noise in [0.0, 1e-4] {
+            optimum_with_noise(noise);
+        }
+    }
+
+    fn optimum_with_noise(noise: f64) {
+        let (m, x, plane) = model(noise);
+        let start = x * Isometry3::new(
+            Vector3::new(2e-3, -1e-3, 3e-3),
+            Vector3::new(0.02, -0.01, 0.03),
+        );
+        let opts = Options {
+            loss: Loss::Squared,
+            max_iterations: 100,
+        };
+        let (rows, _) = refine_rows(&m, &start, &plane, &opts).unwrap();
+        let (via, _) = refine(&m, &start, &plane, &opts).unwrap();
+        assert!(matches!(via.status, Status::Converged { .. }));
+        // Both converged: within the refinement's own tolerance of each other, and exact on
+        // exact points.
+        let d = rows.flange_to_sensor.inverse() * via.flange_to_sensor;
+        assert!(
+            d.translation.vector.norm() < 1e-9 && d.rotation.angle() < 1e-9,
+            "{d}"
+        );
+        if noise == 0.0 {
+            let e = x.inverse() * via.flange_to_sensor;
+            assert!(
+                e.translation.vector.norm() < 1e-9 && e.rotation.angle() < 1e-9,
+                "{e}"
+            );
+        }
+        assert!((rows.residual_rms - via.residual_rms).abs() <= 1e-9 * rows.residual_rms + 1e-15);
+        assert_eq!(rows.n_residuals, via.n_residuals);
+        assert!((rows.initial_cost - via.initial_cost).abs() <= 1e-10 * rows.initial_cost);
     }
 }
