@@ -8,7 +8,8 @@
 //! points may carry weights (residual and Jacobian row scaled): their spread differs from the
 //! face points'.
 
-use super::{Model, Transform, exp, frame_with, transform_columns};
+use super::plane::moment_rows;
+use super::{Model, Options, Refined, Transform, exp, frame_with, skew, transform_columns};
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Point3, Rotation3, Vector2, Vector3};
 
 #[derive(Debug, Clone, PartialEq)]
@@ -271,5 +272,268 @@ impl Model for DiskModel {
 
     fn centre(&self, s: &DiskPose) -> Option<Point3<f64>> {
         Some(Point3::from(s.centre))
+    }
+
+    fn reduced_fit(
+        &self,
+        x: &Isometry3<f64>,
+        s: &DiskPose,
+        opts: &Options,
+    ) -> Option<(Refined, DiskPose)> {
+        let face = moment_rows(&self.face);
+        // Worth it where the poses hold many face points each (a full profile's hundreds).
+        if 2 * face.len() >= self.face.len() {
+            return None;
+        }
+        let reduced = DiskReduced {
+            rest: DiskModel {
+                radius: self.radius,
+                ends: self.ends.clone(),
+                face: Vec::new(),
+                rims: self.rims.clone(),
+                end_weights: self.end_weights.clone(),
+                walls: self.walls.clone(),
+            },
+            face,
+        };
+        super::refine_rows(&reduced, x, s, opts).ok()
+    }
+}
+
+/// The full-profile model with its face points by their moments (`plane::moment_rows`: a face
+/// point's distance from the plane is linear in (x, z, 1) as the plane's is), three rows per
+/// pose with the same normal equations; the ends, rims and walls as they are.
+#[derive(Debug, Clone, PartialEq)]
+struct DiskReduced {
+    /// Everything but the face.
+    rest: DiskModel,
+    face: Vec<(Isometry3<f64>, Vector3<f64>)>,
+}
+
+impl Model for DiskReduced {
+    type Specimen = DiskPose;
+
+    fn name(&self) -> &'static str {
+        self.rest.name()
+    }
+    fn n_specimen_params(&self) -> usize {
+        self.rest.n_specimen_params()
+    }
+    fn n_features(&self) -> usize {
+        self.rest.n_features()
+    }
+    fn residuals_per_feature(&self) -> usize {
+        self.rest.residuals_per_feature()
+    }
+    fn n_residuals(&self) -> usize {
+        self.rest.n_residuals() + self.face.len()
+    }
+
+    fn residual_flanges(&self) -> Vec<&Isometry3<f64>> {
+        let mut out = self.rest.residual_flanges();
+        out.extend(self.face.iter().map(|(f, _)| f));
+        out
+    }
+
+    fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> DiskReduced {
+        DiskReduced {
+            rest: self.rest.map_poses(to),
+            face: self.face.iter().map(|(f, v)| (to(f), *v)).collect(),
+        }
+    }
+
+    fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> DiskReduced {
+        DiskReduced {
+            rest: self.rest.without_poses(drop),
+            face: self
+                .face
+                .iter()
+                .filter(|(f, _)| !drop(f))
+                .copied()
+                .collect(),
+        }
+    }
+
+    /// The rest's rows first, then each face row v = (x, z, c): the point (x, z) with the
+    /// constant terms (the pose's translation, the disk's centre) scaled by c.
+    fn eval(
+        &self,
+        x: &Transform,
+        s: &DiskPose,
+        labels: &[f64],
+        r: &mut DVector<f64>,
+        mut j: Option<&mut DMatrix<f64>>,
+    ) {
+        self.rest.eval(x, s, labels, r, j.as_deref_mut());
+        let base = self.rest.n_residuals();
+        let disk = Geometry::of(s);
+        for (i, (f, v)) in self.face.iter().enumerate() {
+            let (ps, c) = (Vector3::new(v.x, 0.0, v.y), v.z);
+            let fr = *f.rotation.to_rotation_matrix().matrix();
+            let frr = fr * x.rot.matrix();
+            let q = frr * ps + (fr * x.t + f.translation.vector) * c;
+            let from_centre = q - disk.centre * c;
+            let k = base + i;
+            r[k] = disk.n.dot(&from_centre);
+            if let Some(j) = j.as_deref_mut() {
+                transform_columns(j, k, &disk.n, &(-frr * skew(&ps)), &(fr * c));
+                for col in 0..3 {
+                    j[(k, 6 + col)] = -disk.n[col] * c;
+                }
+                j[(k, 9)] = from_centre.dot(&disk.dn[0]);
+                j[(k, 10)] = from_centre.dot(&disk.dn[1]);
+            }
+        }
+    }
+
+    fn step(&self, s: &DiskPose, dx: &[f64]) -> DiskPose {
+        self.rest.step(s, dx)
+    }
+
+    fn centre(&self, s: &DiskPose) -> Option<Point3<f64>> {
+        self.rest.centre(s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::refine::{Status, eval, refine, refine_rows};
+
+    /// A 50 mm disk at z = 0.01 seen from 12 poses, 150 face points and two chord ends each,
+    /// with z noise `noise` (m).
+    fn model(noise: f64) -> (DiskModel, Isometry3<f64>, DiskPose) {
+        let x = Isometry3::new(
+            Vector3::new(0.006, 0.054, 0.364),
+            Vector3::new(3.1, -0.02, 0.1),
+        );
+        let disk = DiskPose::new(Point3::new(-0.32, -0.30, 0.01), &Vector3::z());
+        let t = Transform::from_isometry(&x);
+        let mut m = DiskModel {
+            radius: 0.05,
+            ends: Vec::new(),
+            face: Vec::new(),
+            rims: Vec::new(),
+            end_weights: Vec::new(),
+            walls: Vec::new(),
+        };
+        for k in 0..12 {
+            let a = k as f64;
+            // The sensor about 0.3 m from the disk looking down (its z to the base's -z), tilted
+            // and turned about the vertical, its laser plane up to 20 mm off the centre.
+            let rotation = nalgebra::UnitQuaternion::from_euler_angles(0.0, 0.0, 0.5 * a)
+                * nalgebra::UnitQuaternion::from_euler_angles(
+                    std::f64::consts::PI + 0.15 * (0.7 * a).sin(),
+                    0.15 * (1.3 * a).cos(),
+                    0.0,
+                );
+            let aim = rotation * Vector3::new(0.0, 0.02 * (0.9 * a).sin(), 0.3);
+            let sensor = Isometry3::from_parts((disk.centre - aim).into(), rotation);
+            let f = sensor * x.inverse();
+            let on_plane = |px: f64| {
+                let at = |z: f64| t.point_in_base(&f, &Vector2::new(px, z), false).0.z - 0.01;
+                let (a0, a1) = (at(0.0), at(1.0));
+                -a0 / (a1 - a0)
+            };
+            let inside: Vec<f64> = (0..400)
+                .map(|i| -0.08 + 0.16 * i as f64 / 399.0)
+                .filter(|&px| {
+                    let q = t
+                        .point_in_base(&f, &Vector2::new(px, on_plane(px)), false)
+                        .0;
+                    (q - disk.centre).xy().norm() < 0.05
+                })
+                .collect();
+            for (i, px) in inside.iter().enumerate().step_by(2) {
+                let z = on_plane(*px) + noise * (7.0 * i as f64 + a).sin();
+                m.face.push((f, Vector2::new(*px, z)));
+            }
+            // The chord's ends on the rim: bisected between the last column in and the next out.
+            let past_rim = |px: f64| {
+                let q = t
+                    .point_in_base(&f, &Vector2::new(px, on_plane(px)), false)
+                    .0;
+                (q - disk.centre).xy().norm() - 0.05
+            };
+            let step = 0.16 / 399.0;
+            for (mut a, mut b) in [
+                (inside[0], inside[0] - step),
+                (inside[inside.len() - 1], inside[inside.len() - 1] + step),
+            ] {
+                for _ in 0..60 {
+                    let mid = 0.5 * (a + b);
+                    if past_rim(mid) < 0.0 {
+                        a = mid
+                    } else {
+                        b = mid
+                    }
+                }
+                m.ends.push((f, Vector2::new(a, on_plane(a))));
+            }
+        }
+        (m, x, disk)
+    }
+
+    #[test]
+    fn the_face_by_its_moments_keeps_the_normal_equations() {
+        let (m, x, disk) = model(1e-4);
+        let face = moment_rows(&m.face);
+        assert_eq!(face.len(), 36);
+        let reduced = DiskReduced {
+            rest: DiskModel {
+                face: Vec::new(),
+                ..m.clone()
+            },
+            face,
+        };
+        let off = Transform::from_isometry(
+            &(x * Isometry3::new(
+                Vector3::new(1e-3, -2e-3, 1e-3),
+                Vector3::new(0.01, 0.0, -0.02),
+            )),
+        );
+        let s = m.step(&disk, &[1e-3, -2e-3, 5e-4, 0.01, -0.02]);
+        let (r, j) = eval(&m, &off, &s, &[], true);
+        let (rm, jm) = eval(&reduced, &off, &s, &[], true);
+        let (a, am) = (j.transpose() * &j, jm.transpose() * &jm);
+        let (b, bm) = (j.transpose() * &r, jm.transpose() * &rm);
+        assert!((&a - &am).amax() <= 1e-12 * a.amax(), "{a} vs {am}");
+        assert!((&b - &bm).amax() <= 1e-11 * b.amax(), "{b} vs {bm}");
+        let (c, cm) = (r.norm_squared(), rm.norm_squared());
+        assert!((c - cm).abs() <= 1e-10 * c, "{c} vs {cm}");
+    }
+
+    #[test]
+    fn refining_over_the_face_moments_finds_the_points_optimum() {
+        for noise in [0.0, 1e-4] {
+            let (m, x, disk) = model(noise);
+            let start = x * Isometry3::new(
+                Vector3::new(2e-3, -1e-3, 3e-3),
+                Vector3::new(0.02, -0.01, 0.03),
+            );
+            let opts = Options::default();
+            let (rows, _) = refine_rows(&m, &start, &disk, &opts).unwrap();
+            let (via, _) = refine(&m, &start, &disk, &opts).unwrap();
+            assert!(
+                matches!(via.status, Status::Converged { .. }),
+                "{:?}",
+                via.status
+            );
+            // Both converged (a gain under 1e-12 of the cost stops either, which leaves noisy
+            // fits about 1e-8 apart); exact on exact points.
+            let d = rows.flange_to_sensor.inverse() * via.flange_to_sensor;
+            assert!(
+                d.translation.vector.norm() < 1e-7 && d.rotation.angle() < 1e-7,
+                "{d}"
+            );
+            if noise == 0.0 {
+                let e = x.inverse() * via.flange_to_sensor;
+                assert!(
+                    e.translation.vector.norm() < 1e-9 && e.rotation.angle() < 1e-9,
+                    "{e}"
+                );
+            }
+            assert_eq!(rows.n_residuals, via.n_residuals);
+        }
     }
 }
