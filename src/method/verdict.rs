@@ -126,15 +126,18 @@ pub struct Quality {
 }
 
 impl Quality {
-    /// The correlations of the covariance (unit diagonal).
+    /// The correlations of the covariance: a unit diagonal (exactly, not its rounding) and
+    /// symmetric (from its upper triangle).
     pub fn correlations(&self) -> Option<Matrix6<f64>> {
         let c = self.covariance?;
         let d: Vec<f64> = (0..6).map(|i| c[(i, i)].max(0.0).sqrt()).collect();
         Some(Matrix6::from_fn(|r, k| {
-            if d[r] > 0.0 && d[k] > 0.0 && d[r].is_finite() && d[k].is_finite() {
-                c[(r, k)] / (d[r] * d[k])
-            } else {
+            if !(d[r] > 0.0 && d[k] > 0.0 && d[r].is_finite() && d[k].is_finite()) {
                 f64::NAN
+            } else if r == k {
+                1.0
+            } else {
+                c[(r.min(k), r.max(k))] / (d[r] * d[k])
             }
         }))
     }

@@ -954,20 +954,29 @@ pub(crate) fn refine_rows<M: Model>(
                 loss: Loss::Squared,
                 ..*opts
             };
-            let ls = minimise(
-                model,
-                x0,
-                *specimen,
-                &labels,
-                &squared,
-                1.0,
-                (r0.clone(), j0, Some(a0)),
-            );
-            let (r, j) = eval_into(model, &ls.x, &ls.s, &labels, ls.last_j);
+            // That optimum on the model's reduced rows where it has them (`Model::reduced_fit`:
+            // the squared loss's normal equations alone), else on its own.
+            let (x_ls, s_ls, last_j) = match model.reduced_fit(flange_to_sensor, specimen, &squared)
+            {
+                Some((ls, s)) => (Transform::from_isometry(&ls.flange_to_sensor), s, None),
+                None => {
+                    let ls = minimise(
+                        model,
+                        x0,
+                        *specimen,
+                        &labels,
+                        &squared,
+                        1.0,
+                        (r0.clone(), j0, Some(a0)),
+                    );
+                    (ls.x, ls.s, ls.last_j)
+                }
+            };
+            let (r, j) = eval_into(model, &x_ls, &s_ls, &labels, last_j);
             let scale = mad(&r);
             (
                 scale,
-                minimise(model, ls.x, ls.s, &labels, opts, scale, (r, j, None)),
+                minimise(model, x_ls, s_ls, &labels, opts, scale, (r, j, None)),
             )
         }
     };
