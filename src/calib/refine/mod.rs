@@ -889,10 +889,16 @@ pub fn refine<M: Model>(
         return Ok((
             Refined {
                 initial_cost: cost_of(&r0, Loss::Squared, 1.0),
-                status: if converged {
-                    refined.status
-                } else {
-                    reduced.status
+                // The iterations of both fits: the reduced one did the work.
+                status: match (reduced.status, refined.status) {
+                    (Status::Converged { iterations: a }, Status::Converged { iterations: b }) => {
+                        Status::Converged { iterations: a + b }
+                    }
+                    (
+                        Status::Converged { iterations: a },
+                        Status::NotConverged { iterations: b },
+                    ) => Status::NotConverged { iterations: a + b },
+                    (reduced, _) => reduced,
                 },
                 ..refined
             },
