@@ -8,8 +8,8 @@
 //! points may carry weights (residual and Jacobian row scaled): their spread differs from the
 //! face points'.
 
-use super::plane::moment_rows;
-use super::{Model, Options, Refined, Transform, exp, frame_with, skew, transform_columns};
+use super::plane::{moment_rows, row_in_base};
+use super::{Model, Options, Refined, Transform, exp, frame_with, transform_columns};
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Point3, Rotation3, Vector2, Vector3};
 
 #[derive(Debug, Clone, PartialEq)]
@@ -368,15 +368,13 @@ impl Model for DiskReduced {
         let base = self.rest.n_residuals();
         let disk = Geometry::of(s);
         for (i, (f, v)) in self.face.iter().enumerate() {
-            let (ps, c) = (Vector3::new(v.x, 0.0, v.y), v.z);
-            let fr = *f.rotation.to_rotation_matrix().matrix();
-            let frr = fr * x.rot.matrix();
-            let q = frr * ps + (fr * x.t + f.translation.vector) * c;
+            let c = v.z;
+            let (q, dq_dw, dq_dt) = row_in_base(x, f, v, j.is_some());
             let from_centre = q - disk.centre * c;
             let k = base + i;
             r[k] = disk.n.dot(&from_centre);
             if let Some(j) = j.as_deref_mut() {
-                transform_columns(j, k, &disk.n, &(-frr * skew(&ps)), &(fr * c));
+                transform_columns(j, k, &disk.n, &dq_dw, &dq_dt);
                 for col in 0..3 {
                     j[(k, 6 + col)] = -disk.n[col] * c;
                 }

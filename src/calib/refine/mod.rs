@@ -908,6 +908,25 @@ pub fn refine<M: Model>(
     refine_rows(model, flange_to_sensor, specimen, opts)
 }
 
+/// The least-squares fit a robust one starts from and reads its scale at: on the model's
+/// reduced rows where it has them (`Model::reduced_fit`: the squared loss's normal equations
+/// alone), else on its own rows from the residuals, Jacobian and J^T J `at` the start.
+fn least_squares_start<M: Model>(
+    model: &M,
+    flange_to_sensor: &Isometry3<f64>,
+    specimen: &M::Specimen,
+    labels: &[f64],
+    squared: &Options,
+    at: (DVector<f64>, DMatrix<f64>, Option<DMatrix<f64>>),
+) -> (Transform, M::Specimen, Option<DMatrix<f64>>) {
+    if let Some((ls, s)) = model.reduced_fit(flange_to_sensor, specimen, squared) {
+        return (Transform::from_isometry(&ls.flange_to_sensor), s, None);
+    }
+    let x0 = Transform::from_isometry(flange_to_sensor);
+    let ls = minimise(model, x0, *specimen, labels, squared, 1.0, at);
+    (ls.x, ls.s, ls.last_j)
+}
+
 /// `refine` over the model's own rows.
 pub(crate) fn refine_rows<M: Model>(
     model: &M,
@@ -960,24 +979,14 @@ pub(crate) fn refine_rows<M: Model>(
                 loss: Loss::Squared,
                 ..*opts
             };
-            // That optimum on the model's reduced rows where it has them (`Model::reduced_fit`:
-            // the squared loss's normal equations alone), else on its own.
-            let (x_ls, s_ls, last_j) = match model.reduced_fit(flange_to_sensor, specimen, &squared)
-            {
-                Some((ls, s)) => (Transform::from_isometry(&ls.flange_to_sensor), s, None),
-                None => {
-                    let ls = minimise(
-                        model,
-                        x0,
-                        *specimen,
-                        &labels,
-                        &squared,
-                        1.0,
-                        (r0.clone(), j0, Some(a0)),
-                    );
-                    (ls.x, ls.s, ls.last_j)
-                }
-            };
+            let (x_ls, s_ls, last_j) = least_squares_start(
+                model,
+                flange_to_sensor,
+                specimen,
+                &labels,
+                &squared,
+                (r0.clone(), j0, Some(a0)),
+            );
             let (r, j) = eval_into(model, &x_ls, &s_ls, &labels, last_j);
             let scale = mad(&r);
             (

@@ -160,6 +160,24 @@ pub fn moment_rows(
     rows
 }
 
+/// A moment row v = (x, z, c) seen from the flange pose `f`: `Transform::point_in_base` of the
+/// point (x, z) with the constant terms scaled by c, and its derivatives (zero without `jac`).
+pub fn row_in_base(
+    x: &Transform,
+    f: &Isometry3<f64>,
+    v: &Vector3<f64>,
+    jac: bool,
+) -> (Vector3<f64>, Matrix3<f64>, Matrix3<f64>) {
+    let (ps, c) = (Vector3::new(v.x, 0.0, v.y), v.z);
+    let fr = *f.rotation.to_rotation_matrix().matrix();
+    let frr = fr * x.rot.matrix();
+    let q = frr * ps + (fr * x.t + f.translation.vector) * c;
+    if !jac {
+        return (q, Matrix3::zeros(), Matrix3::zeros());
+    }
+    (q, -frr * skew(&ps), fr * c)
+}
+
 /// The plane's points grouped by pose. A point's row (residual and Jacobian) is linear in
 /// u = (x, z, 1), so a pose's rows add up to normal equations in the moments S = sum u u^T alone;
 /// three rows v = sqrt(l) e (S's eigenvalues l and eigenvectors e; sum v v^T = S) have the same,
@@ -219,13 +237,11 @@ impl Model for Moments {
         let n = s.normal();
         let (e1, e2) = (s.frame * Vector3::x(), s.frame * Vector3::y());
         for (i, (f, v)) in self.rows.iter().enumerate() {
-            let (ps, c) = (Vector3::new(v.x, 0.0, v.y), v.z);
-            let fr = *f.rotation.to_rotation_matrix().matrix();
-            let frr = fr * x.rot.matrix();
-            let qb = frr * ps + (fr * x.t + f.translation.vector) * c;
+            let c = v.z;
+            let (qb, dq_dw, dq_dt) = row_in_base(x, f, v, j.is_some());
             r[i] = n.dot(&qb) - s.offset * c;
             if let Some(j) = j.as_deref_mut() {
-                transform_columns(j, i, &n, &(-frr * skew(&ps)), &(fr * c));
+                transform_columns(j, i, &n, &dq_dw, &dq_dt);
                 j[(i, 6)] = -e2.dot(&qb);
                 j[(i, 7)] = e1.dot(&qb);
                 j[(i, 8)] = -c;
