@@ -77,7 +77,7 @@ impl Model for BarModel {
 
     fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> BarModel {
         BarModel {
-            face: self.face.iter().map(|(f, p)| (to(f), *p)).collect(),
+            face: super::moved(&self.face, to),
             edges: self
                 .edges
                 .iter()
@@ -100,12 +100,7 @@ impl Model for BarModel {
 
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> BarModel {
         BarModel {
-            face: self
-                .face
-                .iter()
-                .filter(|(f, _)| !drop(f))
-                .copied()
-                .collect(),
+            face: super::kept(&self.face, drop),
             edges: self
                 .edges
                 .iter()

@@ -154,9 +154,9 @@ impl Model for DiskModel {
     fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> DiskModel {
         DiskModel {
             radius: self.radius,
-            ends: self.ends.iter().map(|(f, p)| (to(f), *p)).collect(),
+            ends: super::moved(&self.ends, to),
             end_weights: self.end_weights.clone(),
-            face: self.face.iter().map(|(f, p)| (to(f), *p)).collect(),
+            face: super::moved(&self.face, to),
             rims: self.rims.iter().map(|(f, a, b)| (to(f), *a, *b)).collect(),
             walls: self.walls.iter().map(|(f, p, w)| (to(f), *p, *w)).collect(),
         }
@@ -201,12 +201,7 @@ impl Model for DiskModel {
             } else {
                 kept_ends.iter().map(|&i| self.end_weights[i]).collect()
             },
-            face: self
-                .face
-                .iter()
-                .filter(|(f, _)| !drop(f))
-                .copied()
-                .collect(),
+            face: super::kept(&self.face, drop),
             rims: self
                 .rims
                 .iter()
@@ -338,19 +333,14 @@ impl Model for DiskReduced {
     fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> DiskReduced {
         DiskReduced {
             rest: self.rest.map_poses(to),
-            face: self.face.iter().map(|(f, v)| (to(f), *v)).collect(),
+            face: super::moved(&self.face, to),
         }
     }
 
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> DiskReduced {
         DiskReduced {
             rest: self.rest.without_poses(drop),
-            face: self
-                .face
-                .iter()
-                .filter(|(f, _)| !drop(f))
-                .copied()
-                .collect(),
+            face: super::kept(&self.face, drop),
         }
     }
 

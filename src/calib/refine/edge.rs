@@ -55,18 +55,13 @@ impl Model for EdgeModel {
 
     fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> EdgeModel {
         EdgeModel {
-            points: self.points.iter().map(|(f, p)| (to(f), *p)).collect(),
+            points: super::moved(&self.points, to),
         }
     }
 
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> EdgeModel {
         EdgeModel {
-            points: self
-                .points
-                .iter()
-                .filter(|(f, _)| !drop(f))
-                .copied()
-                .collect(),
+            points: super::kept(&self.points, drop),
         }
     }
 

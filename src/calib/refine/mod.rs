@@ -434,6 +434,22 @@ impl Sums {
 /// a few hundred kB, a tall problem's whole one was tens of MB per trial.
 const PART_ROWS: usize = 4096;
 
+/// The features of `v` whose flange pose `drop` does not pick, in order (`Model::without_poses`).
+pub fn kept<T: Copy>(
+    v: &[(Isometry3<f64>, T)],
+    drop: &dyn Fn(&Isometry3<f64>) -> bool,
+) -> Vec<(Isometry3<f64>, T)> {
+    v.iter().filter(|(f, _)| !drop(f)).copied().collect()
+}
+
+/// The features of `v` with each flange pose replaced by `to`'s image (`Model::map_poses`).
+pub fn moved<T: Copy>(
+    v: &[(Isometry3<f64>, T)],
+    to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>,
+) -> Vec<(Isometry3<f64>, T)> {
+    v.iter().map(|(f, p)| (to(f), *p)).collect()
+}
+
 /// A model with its starting specimen estimate.
 #[derive(Debug, Clone)]
 pub struct Problem<M: Model> {

@@ -55,18 +55,13 @@ impl Model for PlaneModel {
 
     fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> PlaneModel {
         PlaneModel {
-            points: self.points.iter().map(|(f, p)| (to(f), *p)).collect(),
+            points: super::moved(&self.points, to),
         }
     }
 
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> PlaneModel {
         PlaneModel {
-            points: self
-                .points
-                .iter()
-                .filter(|(f, _)| !drop(f))
-                .copied()
-                .collect(),
+            points: super::kept(&self.points, drop),
         }
     }
 
@@ -211,18 +206,13 @@ impl Model for Moments {
 
     fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> Moments {
         Moments {
-            rows: self.rows.iter().map(|(f, v)| (to(f), *v)).collect(),
+            rows: super::moved(&self.rows, to),
         }
     }
 
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Moments {
         Moments {
-            rows: self
-                .rows
-                .iter()
-                .filter(|(f, _)| !drop(f))
-                .copied()
-                .collect(),
+            rows: super::kept(&self.rows, drop),
         }
     }
 
