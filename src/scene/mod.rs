@@ -1,9 +1,11 @@
 //! Specimens placed anywhere (`base_to_specimen`), a table plane, and ray casts through parry.
 
+mod fan;
 pub mod form;
 pub mod shapes;
 mod specimen;
 
+pub use fan::{Fan, FanHit};
 pub use form::{FormError, FormTolerance};
 pub use shapes::{ConvexPlanes, CylinderZ, Sheet};
 pub use specimen::{Specimen, SpecimenKind, SpecimenType, UnknownSpecimen};
@@ -31,8 +33,29 @@ impl RayCast for PartShape {
         match self {
             PartShape::Cylinder(s) => s.cast_local_ray_and_get_normal(ray, max_toi, solid),
             PartShape::Planes(s) => s.cast_local_ray_and_get_normal(ray, max_toi, solid),
-            PartShape::Ball(s) => s.cast_local_ray_and_get_normal(ray, max_toi, solid),
+            PartShape::Ball(s) => shapes::cast_ball(s.radius, ray, max_toi, solid),
             PartShape::Sheet(s) => s.cast_local_ray_and_get_normal(ray, max_toi, solid),
+        }
+    }
+}
+
+impl PartShape {
+    /// The shape's bounding box in its own frame (low and high corners): None when it has none.
+    pub fn local_bounds(&self) -> Option<(Point3<f64>, Point3<f64>)> {
+        match self {
+            PartShape::Cylinder(c) => Some((
+                Point3::new(-c.radius, -c.radius, c.z_min),
+                Point3::new(c.radius, c.radius, c.z_max),
+            )),
+            PartShape::Planes(p) => p.bounds(),
+            PartShape::Ball(b) => Some((
+                Point3::from(Vector3::repeat(-b.radius)),
+                Point3::from(Vector3::repeat(b.radius)),
+            )),
+            PartShape::Sheet(s) => Some((
+                Point3::new(-s.half, -s.half, 0.0),
+                Point3::new(s.half, s.half, 0.0),
+            )),
         }
     }
 }
@@ -64,7 +87,8 @@ impl Surface {
                 disk,
                 paper,
             } => (
-                if p_in_part.x.hypot(p_in_part.y) <= radius {
+                // Squared, not `hypot`: libm's hypot was a fifth of a paper profile's cost.
+                if p_in_part.x * p_in_part.x + p_in_part.y * p_in_part.y <= radius * radius {
                     disk
                 } else {
                     paper
@@ -90,6 +114,8 @@ struct Placed {
     base_to_part: Isometry3<f64>,
     part: Part,
     bound_centre: Point3<f64>,
+    /// The part's bounding box in its frame (`PartShape::local_bounds`).
+    bounds: Option<(Point3<f64>, Point3<f64>)>,
     specimen: usize,
     /// Index of the part within its specimen, and the specimen's pose (for its form error).
     part_index: usize,
@@ -117,16 +143,6 @@ pub struct Hit {
     pub reflectance: f64,
     pub specular: bool,
     pub what: HitWhat,
-    /// The part hit (its index among the placed parts; None: the table).
-    part: Option<usize>,
-}
-
-/// A fan's origin with what its rays need of each placed part (`Scene::rays_from`): the vector
-/// to the part's bounding centre, its squared length, and the origin in the part's frame.
-#[derive(Debug, Clone)]
-pub struct RaysFrom {
-    origin: Point3<f64>,
-    parts: Vec<(Vector3<f64>, f64, Point3<f64>)>,
 }
 
 /// The table: the plane z = `height_m` in the base frame, seen from above.
@@ -165,6 +181,7 @@ impl Scene {
             let base_to_part = base_to_specimen * part.specimen_to_part;
             self.placed.push(Placed {
                 bound_centre: base_to_part * Point3::origin(),
+                bounds: part.shape.local_bounds(),
                 base_to_part,
                 part,
                 specimen: idx,
@@ -186,54 +203,13 @@ impl Scene {
     }
 
     /// First hit of the ray `origin + t * dir` (`dir` a unit vector) with `t` in [0, max_toi].
+    /// A profile's rays go through `Scene::fan` instead, which forms what they share once.
     pub fn cast_ray(&self, origin: &Point3<f64>, dir: &Vector3<f64>, max_toi: f64) -> Option<Hit> {
-        self.cast_ray_skipping(origin, dir, max_toi, None)
+        self.cast(origin, dir, max_toi)
     }
 
-    /// What every ray from `origin` needs of the scene, formed once for a fan of rays from it
-    /// (`cast_ray_from`): the same values each ray would form, so the same hits bit for bit.
-    pub fn rays_from(&self, origin: &Point3<f64>) -> RaysFrom {
-        RaysFrom {
-            origin: *origin,
-            parts: (self.placed.iter())
-                .map(|pl| {
-                    let oc = pl.bound_centre - origin;
-                    (
-                        oc,
-                        oc.norm_squared(),
-                        pl.base_to_part.inverse_transform_point(origin),
-                    )
-                })
-                .collect(),
-        }
-    }
-
-    /// `cast_ray` from the origin `from` was formed for.
-    pub fn cast_ray_from(&self, from: &RaysFrom, dir: &Vector3<f64>, max_toi: f64) -> Option<Hit> {
-        self.cast(&from.origin, Some(&from.parts), dir, max_toi, None)
-    }
-
-    /// `cast_ray` past the placed part `skip`.
-    fn cast_ray_skipping(
-        &self,
-        origin: &Point3<f64>,
-        dir: &Vector3<f64>,
-        max_toi: f64,
-        skip: Option<usize>,
-    ) -> Option<Hit> {
-        self.cast(origin, None, dir, max_toi, skip)
-    }
-
-    /// The first hit from `origin` along `dir`, with each part's values from `parts` (`RaysFrom`)
-    /// or formed here.
-    fn cast(
-        &self,
-        origin: &Point3<f64>,
-        parts: Option<&[(Vector3<f64>, f64, Point3<f64>)]>,
-        dir: &Vector3<f64>,
-        max_toi: f64,
-        skip: Option<usize>,
-    ) -> Option<Hit> {
+    /// The first hit from `origin` along `dir`.
+    fn cast(&self, origin: &Point3<f64>, dir: &Vector3<f64>, max_toi: f64) -> Option<Hit> {
         let mut best: Option<Hit> = None;
         let mut limit = max_toi;
         if let Some(t) = self.table
@@ -255,42 +231,24 @@ impl Scene {
                     reflectance: t.reflectance,
                     specular: false,
                     what: HitWhat::Table,
-                    part: None,
                 });
             }
         }
-        for (index, pl) in self.placed.iter().enumerate() {
-            if skip == Some(index) {
-                continue;
-            }
+        for pl in &self.placed {
             // Cull: distance from the bounding centre to the ray, and whether it lies ahead.
-            let (oc, oc2) = match parts {
-                Some(p) => (p[index].0, p[index].1),
-                None => {
-                    let oc = pl.bound_centre - origin;
-                    (oc, oc.norm_squared())
-                }
-            };
+            let oc = pl.bound_centre - origin;
+            let oc2 = oc.norm_squared();
             let along = oc.dot(dir);
             let r = pl.part.bound_radius;
             if along < -r || along - r > limit || oc2 - along * along > r * r {
                 continue;
             }
-            // parry's `cast_ray_and_get_normal`, the ray's origin in the part's frame formed once
-            // per fan.
-            let local = Ray::new(
-                parts.map_or_else(
-                    || pl.base_to_part.inverse_transform_point(origin),
-                    |p| p[index].2,
-                ),
-                pl.base_to_part.inverse_transform_vector(dir),
-            );
-            if let Some(hit) = pl
-                .part
-                .shape
-                .cast_local_ray_and_get_normal(&local, limit, true)
-                .map(|i| i.transform_by(&pl.base_to_part))
-            {
+            if let Some(hit) = pl.part.shape.cast_ray_and_get_normal(
+                &pl.base_to_part,
+                &Ray::new(*origin, *dir),
+                limit,
+                true,
+            ) {
                 let mut toi = hit.time_of_impact;
                 let nominal = origin + dir * toi;
                 let form = &self.forms[pl.specimen];
@@ -319,49 +277,10 @@ impl Scene {
                     reflectance,
                     specular,
                     what: HitWhat::Specimen(pl.specimen),
-                    part: Some(index),
                 });
             }
         }
         best
-    }
-
-    /// Whether a ray from `origin` along `d` (any length) cannot meet the table: there is none,
-    /// the ray runs along it, or it heads away from the table's plane (the time of impact
-    /// `cast_ray_skipping` would find is negative).
-    fn table_behind(&self, origin: &Point3<f64>, d: &Vector3<f64>) -> bool {
-        let Some(t) = self.table else {
-            return true;
-        };
-        let to_plane = t.height_m - origin.z;
-        d.z == 0.0 || (to_plane < 0.0 && d.z > 0.0) || (to_plane > 0.0 && d.z < 0.0)
-    }
-
-    /// Whether the camera at `camera` sees the point `hit` lit: the surface faces it and nothing
-    /// lies between. The path starts on the nominal surface, a nanometre out along the normal.
-    /// Every part is convex (a cylinder, a ball, a convex polyhedron, a flat sheet), so a path
-    /// leaving a part on the side its normal faces never meets that part again: only the other
-    /// parts and the table are cast against, which halves a profile's ray casts.
-    pub fn seen_from(&self, hit: &Hit, camera: &Point3<f64>) -> bool {
-        if hit.normal_in_base.dot(&(camera - hit.p_in_base)) <= 0.0 {
-            return false;
-        }
-        let start = hit.nominal_in_base + hit.normal_in_base * 1e-9;
-        let d = camera - start;
-        // Leaving the own part holds on the side its normal faces (a form error's displaced
-        // point can face the camera where the nominal start does not: cast against all then).
-        let skip = hit.part.filter(|_| hit.normal_in_base.dot(&d) > 0.0);
-        // No other part, and the table behind the ray or along it: nothing the cast could meet
-        // (its answer, without its square root and divisions).
-        if self.placed.len() == skip.is_some() as usize && self.table_behind(&start, &d) {
-            return true;
-        }
-        let len = d.norm();
-        if len == 0.0 {
-            return true;
-        }
-        self.cast_ray_skipping(&start, &(d / len), len, skip)
-            .is_none()
     }
 }
 

@@ -531,26 +531,30 @@ impl SensorModel {
         base_to_sensor: &Isometry3<f64>,
         mut rng: Option<&mut crate::rng::Rng>,
     ) -> Profile {
-        let apex = base_to_sensor * self.apex();
-        let camera = base_to_sensor * self.camera;
         let max_toi = self.depth_far / self.dir_z.abs()
             * (1.0 + self.tan_half_fov * self.tan_half_fov).sqrt()
             + 1e-9;
+        let fan = scene.fan(
+            base_to_sensor,
+            &self.apex(),
+            &self.camera,
+            self.dir_z,
+            max_toi,
+        );
         let mut points = Vec::with_capacity(self.tans.len());
-        let from = scene.rays_from(&apex);
         for k in 0..self.tans.len() {
-            let dir = base_to_sensor.rotation * self.column_dir(k);
-            let p = scene.cast_ray_from(&from, &dir, max_toi).and_then(|hit| {
-                let p_in_sensor = base_to_sensor.inverse_transform_point(&hit.p_in_base);
+            let dir = self.column_dir(k);
+            let p = fan.cast(&dir).and_then(|hit| {
+                let p_in_sensor = self.apex() + dir * hit.toi;
                 let depth = self.depth(&p_in_sensor);
                 if depth < self.depth_near || depth > self.depth_far {
                     return None;
                 }
                 // The camera must see the lit point: facing it and with nothing in between.
-                if !scene.seen_from(&hit, &camera) {
+                if !fan.seen(&hit) {
                     return None;
                 }
-                let intensity = hit.reflectance * (-hit.normal_in_base.dot(&dir)).max(0.0);
+                let intensity = hit.reflectance * hit.cos_incidence.max(0.0);
                 Some((p_in_sensor, intensity, hit.specular))
             });
             let point = match (p, rng.as_deref_mut()) {
