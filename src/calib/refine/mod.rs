@@ -196,6 +196,22 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
         None
     }
 
+    /// A robust fit's start near its optimum, from the least-squares one (x, s), whose
+    /// residuals are `r`, with robust scale `scale`, found on a smaller model (`disk`: each
+    /// round's weights fixed, the face points by their weighted moments), for the robust fit to
+    /// finish on this one; None: none smaller.
+    fn robust_start(
+        &self,
+        _x: &Transform,
+        _s: &Self::Specimen,
+        _labels: &[f64],
+        _opts: &Options,
+        _scale: f64,
+        _r: DVector<f64>,
+    ) -> Option<(Transform, Self::Specimen)> {
+        None
+    }
+
     /// The specimen's fixed point (disk or ball centre), when it has one.
     fn centre(&self, _s: &Self::Specimen) -> Option<Point3<f64>> {
         None
@@ -1003,11 +1019,16 @@ pub(crate) fn refine_rows<M: Model>(
                 &squared,
                 (r0.clone(), j0, Some(a0)),
             );
-            let (r, j) = eval_into(model, &x_ls, &s_ls, &labels, last_j);
+            // The residuals alone first: a model with a robust start needs no Jacobian here.
+            let r = eval(model, &x_ls, &s_ls, &labels, false).0;
             let scale = mad(&r);
+            let (x_h, s_h) = model
+                .robust_start(&x_ls, &s_ls, &labels, opts, scale, r)
+                .unwrap_or((x_ls, s_ls));
+            let (r, j) = eval_into(model, &x_h, &s_h, &labels, last_j);
             (
                 scale,
-                minimise(model, x_ls, s_ls, &labels, opts, scale, (r, j, None)),
+                minimise(model, x_h, s_h, &labels, opts, scale, (r, j, None)),
             )
         }
     };

@@ -131,6 +131,15 @@ impl PlaneModel {
 pub fn moment_rows(
     points: &[(Isometry3<f64>, Vector2<f64>)],
 ) -> Vec<(Isometry3<f64>, Vector3<f64>)> {
+    weighted_moment_rows(points, |_| 1.0)
+}
+
+/// `moment_rows` of the points weighted by `weight` (of a point's index): sum v v^T equal to
+/// the run's sum w u u^T (a robust fit's weights, fixed for one of its rounds).
+pub fn weighted_moment_rows(
+    points: &[(Isometry3<f64>, Vector2<f64>)],
+    weight: impl Fn(usize) -> f64,
+) -> Vec<(Isometry3<f64>, Vector3<f64>)> {
     let mut rows = Vec::new();
     let mut i = 0;
     while i < points.len() {
@@ -140,7 +149,7 @@ pub fn moment_rows(
         while k < points.len() && points[k].0 == f {
             let p = points[k].1;
             let u = Vector3::new(p.x, p.y, 1.0);
-            sum += u * u.transpose();
+            sum += u * u.transpose() * weight(k);
             k += 1;
         }
         let e = SymmetricEigen::new(sum);
