@@ -307,7 +307,10 @@ impl Model for DiskModel {
         scale: f64,
         r: DVector<f64>,
     ) -> Option<(Transform, DiskPose)> {
-        if !self.rims.is_empty() || 2 * moment_rows(&self.face).len() >= self.face.len() {
+        // Worth it where each pose holds tens of face points: a round costs a 3 x 3
+        // eigen-decomposition per pose where a robust iteration costs a Jacobian row per point.
+        let runs = 1 + (self.face.windows(2)).filter(|w| w[0].0 != w[1].0).count();
+        if !self.rims.is_empty() || 30 * runs > self.face.len() {
             return None;
         }
         let squared = Options {
@@ -353,16 +356,28 @@ impl DiskModel {
         if !self.rims.is_empty() {
             return None;
         }
+        // Each pose's ends joined to its face points (both in pose order), so that a pose's
+        // plane rows make one run; with the residual index of each.
         let n_ends = self.ends.len();
-        let planes: Vec<(Isometry3<f64>, Vector2<f64>)> =
-            self.ends.iter().chain(&self.face).copied().collect();
-        let plane_weight = |k: usize| {
-            if k < n_ends {
-                w[2 * k]
-            } else {
-                w[2 * n_ends + (k - n_ends)]
+        let mut planes = Vec::with_capacity(n_ends + self.face.len());
+        let mut index = Vec::with_capacity(n_ends + self.face.len());
+        let mut e = 0;
+        for (i, (f, p)) in self.face.iter().enumerate() {
+            if i == 0 || self.face[i - 1].0 != *f {
+                while e < n_ends && self.ends[e].0 == *f {
+                    planes.push(self.ends[e]);
+                    index.push(2 * e);
+                    e += 1;
+                }
             }
-        };
+            planes.push((*f, *p));
+            index.push(2 * n_ends + i);
+        }
+        for (k, end) in self.ends.iter().enumerate().skip(e) {
+            planes.push(*end);
+            index.push(2 * k);
+        }
+        let plane_weight = |k: usize| w[index[k]];
         let face = weighted_moment_rows(&planes, plane_weight);
         let base = 2 * n_ends + self.face.len();
         let walls = (self.ends.iter().enumerate())
