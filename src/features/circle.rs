@@ -44,9 +44,13 @@ pub fn fit_circle(pts: &[Vector2<f64>]) -> Option<Circle> {
     // Gauss-Newton on f_i = |p_i - c| - r, with J_i = (-d_x / n, -d_y / n, -1): J^T J's five
     // distinct sums and J^T f kept as scalars (the same products and sums as the 3 x 3 outer
     // product, the same bits, without its nine).
+    // The sum of squared residuals at the last iteration's start: its step is below 1e-12 of
+    // the radius, so it is the final fit's to far better than its digits (no pass of its own).
+    let mut ss = 0.0;
     for _ in 0..50 {
         let (mut xx, mut xy, mut yy, mut sx, mut sy) = (0.0, 0.0, 0.0, 0.0, 0.0);
         let (mut fx, mut fy, mut ff) = (0.0, 0.0, 0.0);
+        ss = 0.0;
         for p in pts {
             let d = (p - m) - c;
             let n = d.norm();
@@ -63,6 +67,7 @@ pub fn fit_circle(pts: &[Vector2<f64>]) -> Option<Circle> {
             fx += jx * f;
             fy += jy * f;
             ff += -1.0 * f;
+            ss += f * f;
         }
         let k = pts.len() as f64;
         let jtj = Matrix3::new(xx, xy, sx, xy, yy, sy, sx, sy, k);
@@ -70,11 +75,12 @@ pub fn fit_circle(pts: &[Vector2<f64>]) -> Option<Circle> {
         let step = jtj.lu().solve(&(-jtf))?;
         c += Vector2::new(step.x, step.y);
         r += step.z;
-        if step.norm() < 1e-15 * (1.0 + r) {
+        // Gauss-Newton gains digits many at a time here (its rate is of the order of the noise
+        // over the radius): the step after one under 1e-12 of the radius is far smaller still.
+        if step.norm() < 1e-12 * (1.0 + r) {
             break;
         }
     }
-    let ss: f64 = pts.iter().map(|p| ((p - m - c).norm() - r).powi(2)).sum();
     Some(Circle {
         centre: c + m,
         radius: r.abs(),
