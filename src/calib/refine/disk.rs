@@ -495,6 +495,7 @@ impl Model for DiskReduced {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calib::refine::testing::same_normal_equations;
     use crate::calib::refine::{Status, eval, refine, refine_rows};
 
     /// A 50 mm disk at z = 0.01 seen from 12 poses, 150 face points and two chord ends each,
@@ -592,12 +593,7 @@ mod tests {
         let s = m.step(&disk, &[1e-3, -2e-3, 5e-4, 0.01, -0.02]);
         let (r, j) = eval(&m, &off, &s, &[], true);
         let (rm, jm) = eval(&reduced, &off, &s, &[], true);
-        let (a, am) = (j.transpose() * &j, jm.transpose() * &jm);
-        let (b, bm) = (j.transpose() * &r, jm.transpose() * &rm);
-        assert!((&a - &am).amax() <= 1e-12 * a.amax(), "{a} vs {am}");
-        assert!((&b - &bm).amax() <= 1e-11 * b.amax(), "{b} vs {bm}");
-        let (c, cm) = (r.norm_squared(), rm.norm_squared());
-        assert!((c - cm).abs() <= 1e-10 * c, "{c} vs {cm}");
+        same_normal_equations((&j, &r, None), (&jm, &rm), 1e-11);
     }
 
     #[test]
@@ -653,13 +649,7 @@ mod tests {
         let w = DVector::from_fn(r.len(), |i, _| 0.2 + (0.37 * i as f64).sin().abs());
         let reduced = m.reweighted_rows(&w).unwrap();
         let (rm, jm) = eval(&reduced, &t, &s, &[], true);
-        let jw = DMatrix::from_fn(j.nrows(), j.ncols(), |i, c| j[(i, c)] * w[i]);
-        let (a, am) = (jw.transpose() * &j, jm.transpose() * &jm);
-        let (b, bm) = (jw.transpose() * &r, jm.transpose() * &rm);
-        assert!((&a - &am).amax() <= 1e-12 * a.amax(), "{a} vs {am}");
-        assert!((&b - &bm).amax() <= 1e-11 * b.amax(), "{b} vs {bm}");
-        let c = r.iter().zip(w.iter()).map(|(r, w)| w * r * r).sum::<f64>();
-        assert!((c - rm.norm_squared()).abs() <= 1e-10 * c);
+        same_normal_equations((&j, &r, Some(&w)), (&jm, &rm), 1e-11);
         // Censored rims come and go with the fit: no reduced round for them.
         m.rims.push((m.face[0].0, m.face[0].1, m.face[1].1));
         assert!(

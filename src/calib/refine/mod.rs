@@ -1401,3 +1401,28 @@ mod tests {
         }
     }
 }
+
+/// What the tests of the reduced models share.
+#[cfg(test)]
+pub(crate) mod testing {
+    use nalgebra::{DMatrix, DVector};
+
+    /// Asserts that rows (jm, rm) have the normal equations of the rows (j, r) weighted by `w`
+    /// (None: all 1): J^T W J to 1e-12 and J^T W r to `tol_b`, relative to their largest
+    /// entries, and the weighted sum of squares to 1e-10.
+    pub fn same_normal_equations(
+        (j, r, w): (&DMatrix<f64>, &DVector<f64>, Option<&DVector<f64>>),
+        (jm, rm): (&DMatrix<f64>, &DVector<f64>),
+        tol_b: f64,
+    ) {
+        let wt = |i: usize| w.map_or(1.0, |w| w[i]);
+        let jw = DMatrix::from_fn(j.nrows(), j.ncols(), |i, c| j[(i, c)] * wt(i));
+        let (a, am) = (jw.transpose() * j, jm.transpose() * jm);
+        let (b, bm) = (jw.transpose() * r, jm.transpose() * rm);
+        assert!((&a - &am).amax() <= 1e-12 * a.amax(), "{a} vs {am}");
+        assert!((&b - &bm).amax() <= tol_b * b.amax(), "{b} vs {bm}");
+        let c: f64 = (r.iter().enumerate()).map(|(i, r)| wt(i) * r * r).sum();
+        let cm = rm.norm_squared();
+        assert!((c - cm).abs() <= 1e-10 * c, "{c} vs {cm}");
+    }
+}

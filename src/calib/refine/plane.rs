@@ -299,14 +299,9 @@ mod tests {
         let s = plane.stepped(&[0.01, -0.02, 1e-3]);
         let (r, j) = eval(&m, &off, &s, &[], true);
         let (rm, jm) = eval(&reduced, &off, &s, &[], true);
-        let (a, am) = (j.transpose() * &j, jm.transpose() * &jm);
-        let (b, bm) = (j.transpose() * &r, jm.transpose() * &rm);
-        assert!((&a - &am).amax() <= 1e-12 * a.amax(), "{a} vs {am}");
-        assert!((&b - &bm).amax() <= 1e-12 * b.amax(), "{b} vs {bm}");
-        let (c, cm) = (r.norm_squared(), rm.norm_squared());
         // The moments' rows' residuals cancel more (S's eigen-decomposition is exact to its
         // largest eigenvalue's rounding): the cost agrees to 1e-10, the optimum the same.
-        assert!((c - cm).abs() <= 1e-10 * c, "{c} vs {cm}");
+        crate::calib::refine::testing::same_normal_equations((&j, &r, None), (&jm, &rm), 1e-12);
     }
 
     #[test]
