@@ -959,6 +959,36 @@ fn least_squares_start<M: Model>(
     (ls.x, ls.s, ls.last_j)
 }
 
+/// The robust fit from the least-squares optimum, where its scale is read (1.4826 MAD of the
+/// residuals there, so every start that reaches it gives one objective), started nearer its own
+/// optimum where the model can (`Model::robust_start`); its scale and its fit.
+fn robust_fit<M: Model>(
+    model: &M,
+    flange_to_sensor: &Isometry3<f64>,
+    specimen: &M::Specimen,
+    labels: &[f64],
+    opts: &Options,
+    at: (DVector<f64>, DMatrix<f64>, Option<DMatrix<f64>>),
+) -> (f64, Fit<M::Specimen>) {
+    let squared = Options {
+        loss: Loss::Squared,
+        ..*opts
+    };
+    let (x_ls, s_ls, last_j) =
+        least_squares_start(model, flange_to_sensor, specimen, labels, &squared, at);
+    // The residuals alone first: a model with a robust start needs no Jacobian here.
+    let r = eval(model, &x_ls, &s_ls, labels, false).0;
+    let scale = mad(&r);
+    let (x_h, s_h) = model
+        .robust_start(&x_ls, &s_ls, labels, opts, scale, r)
+        .unwrap_or((x_ls, s_ls));
+    let (r, j) = eval_into(model, &x_h, &s_h, labels, last_j);
+    (
+        scale,
+        minimise(model, x_h, s_h, labels, opts, scale, (r, j, None)),
+    )
+}
+
 /// `refine` over the model's own rows.
 pub(crate) fn refine_rows<M: Model>(
     model: &M,
@@ -1004,33 +1034,14 @@ pub(crate) fn refine_rows<M: Model>(
                 (r0.clone(), j0, Some(a0)),
             ),
         ),
-        Loss::Huber { .. } => {
-            // The robust scale is the noise's, not the start's: 1.4826 MAD of the residuals at the
-            // least-squares optimum, so every start that reaches it gives one objective.
-            let squared = Options {
-                loss: Loss::Squared,
-                ..*opts
-            };
-            let (x_ls, s_ls, last_j) = least_squares_start(
-                model,
-                flange_to_sensor,
-                specimen,
-                &labels,
-                &squared,
-                (r0.clone(), j0, Some(a0)),
-            );
-            // The residuals alone first: a model with a robust start needs no Jacobian here.
-            let r = eval(model, &x_ls, &s_ls, &labels, false).0;
-            let scale = mad(&r);
-            let (x_h, s_h) = model
-                .robust_start(&x_ls, &s_ls, &labels, opts, scale, r)
-                .unwrap_or((x_ls, s_ls));
-            let (r, j) = eval_into(model, &x_h, &s_h, &labels, last_j);
-            (
-                scale,
-                minimise(model, x_h, s_h, &labels, opts, scale, (r, j, None)),
-            )
-        }
+        Loss::Huber { .. } => robust_fit(
+            model,
+            flange_to_sensor,
+            specimen,
+            &labels,
+            opts,
+            (r0.clone(), j0, Some(a0)),
+        ),
     };
     let Fit {
         x,
