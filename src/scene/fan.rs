@@ -5,7 +5,8 @@
 //! base, the fan and the part (four rotations a column, most of a profile's cost).
 //!
 //! The hits are `Scene::cast_ray`'s to rounding (the same tests in another frame); the tests below
-//! hold them to 1e-15 m on random scenes of every specimen kind, with and without form error.
+//! hold them to 1e-15 m along the surface's normal on random scenes of every specimen kind, with
+//! and without form error, seen or hidden alike.
 
 use super::Scene;
 use nalgebra::{Isometry3, Matrix3, Point3, Vector3};
