@@ -125,3 +125,34 @@ pub fn velocity_at(stream: &[(f64, Isometry3<f64>)], t: f64) -> (Vector3<f64>, V
     let linear = here.rotation.inverse() * ((b.translation.vector - a.translation.vector) / dt);
     (turn, linear)
 }
+
+/// Partial sums per quantity in `lane_sums`: lane l takes items l, l + 8, ...
+const LANES: usize = 8;
+
+/// The sums over `items` of each of the `K` quantities `terms` gives an item, kept as eight
+/// partial sums each: one running sum is a chain of dependent adds no compiler may reorder,
+/// eight of them vectorise (inline this into a function built for the wider vector units). The
+/// order is fixed (lanes, then the lanes in order, then the items past the last whole eight),
+/// so the bits do not depend on the vector unit.
+#[inline(always)]
+pub fn lane_sums<T, const K: usize>(items: &[T], terms: impl Fn(&T) -> [f64; K]) -> [f64; K] {
+    let mut acc = [[0.0f64; LANES]; K];
+    let groups = items.chunks_exact(LANES);
+    let tail = groups.remainder();
+    for g in groups {
+        for l in 0..LANES {
+            let t = terms(&g[l]);
+            for k in 0..K {
+                acc[k][l] += t[k];
+            }
+        }
+    }
+    let mut out = acc.map(|lanes| lanes.iter().sum::<f64>());
+    for item in tail {
+        let t = terms(item);
+        for k in 0..K {
+            out[k] += t[k];
+        }
+    }
+    out
+}

@@ -18,21 +18,8 @@ pub fn fit_circle(pts: &[Vector2<f64>]) -> Option<Circle> {
     }
     // Centre the data for conditioning.
     let m = pts.iter().sum::<Vector2<f64>>() / pts.len() as f64;
-    // Rows (d_x, d_y, 1) against |d|^2, summed as scalars (the outer product's bits).
-    let (mut xx, mut xy, mut yy, mut sx, mut sy) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    let (mut bx, mut by, mut bb) = (0.0, 0.0, 0.0);
-    for p in pts {
-        let d = p - m;
-        let q = d.x * d.x + d.y * d.y;
-        xx += d.x * d.x;
-        xy += d.x * d.y;
-        yy += d.y * d.y;
-        sx += d.x * 1.0;
-        sy += d.y * 1.0;
-        bx += d.x * q;
-        by += d.y * q;
-        bb += 1.0 * q;
-    }
+    // Rows (d_x, d_y, 1) against |d|^2.
+    let [xx, xy, yy, sx, sy, bx, by, bb] = kasa_sums(pts, m);
     let ata = Matrix3::new(xx, xy, sx, xy, yy, sy, sx, sy, pts.len() as f64);
     let sol = ata.lu().solve(&Vector3::new(bx, by, bb))?;
     let mut c = Vector2::new(sol.x / 2.0, sol.y / 2.0);
@@ -41,34 +28,17 @@ pub fn fit_circle(pts: &[Vector2<f64>]) -> Option<Circle> {
         return None;
     }
     let mut r = r2.sqrt();
-    // Gauss-Newton on f_i = |p_i - c| - r, with J_i = (-d_x / n, -d_y / n, -1): J^T J's five
-    // distinct sums and J^T f kept as scalars (the same products and sums as the 3 x 3 outer
-    // product, the same bits, without its nine).
+    // Gauss-Newton on f_i = |p_i - c| - r, with J_i = (-d_x / n, -d_y / n, -1).
     // The sum of squared residuals at the last iteration's start: its step is below 1e-12 of
     // the radius, so it is the final fit's to far better than its digits (no pass of its own).
     let mut ss = 0.0;
     for _ in 0..50 {
-        let (mut xx, mut xy, mut yy, mut sx, mut sy) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        let (mut fx, mut fy, mut ff) = (0.0, 0.0, 0.0);
-        ss = 0.0;
-        for p in pts {
-            let d = (p - m) - c;
-            let n = d.norm();
-            if n == 0.0 {
-                return None;
-            }
-            let f = n - r;
-            let (jx, jy) = (-d.x / n, -d.y / n);
-            xx += jx * jx;
-            xy += jx * jy;
-            yy += jy * jy;
-            sx += jx * -1.0;
-            sy += jy * -1.0;
-            fx += jx * f;
-            fy += jy * f;
-            ff += -1.0 * f;
-            ss += f * f;
+        let [xx, xy, yy, sx, sy, fx, fy, ff, s] = gauss_newton_sums(pts, m, c, r);
+        // A point on the centre (n = 0) made its row NaN.
+        if !(xx + yy + s).is_finite() {
+            return None;
         }
+        ss = s;
         let k = pts.len() as f64;
         let jtj = Matrix3::new(xx, xy, sx, xy, yy, sy, sx, sy, k);
         let jtf = Vector3::new(fx, fy, ff);
@@ -85,6 +55,40 @@ pub fn fit_circle(pts: &[Vector2<f64>]) -> Option<Circle> {
         centre: c + m,
         radius: r.abs(),
         rms: (ss / pts.len() as f64).sqrt(),
+    })
+}
+
+/// The algebraic fit's sums about the mean `m`: d_x^2, d_x d_y, d_y^2, d_x, d_y, d_x |d|^2,
+/// d_y |d|^2, |d|^2.
+#[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
+fn kasa_sums(pts: &[Vector2<f64>], m: Vector2<f64>) -> [f64; 8] {
+    crate::math::lane_sums(pts, |p| {
+        let (x, y) = (p.x - m.x, p.y - m.y);
+        let q = x * x + y * y;
+        [x * x, x * y, y * y, x, y, x * q, y * q, q]
+    })
+}
+
+/// Gauss-Newton's sums at centre `c` (from the mean `m`) and radius `r`: J^T J's five distinct
+/// sums (j_x^2, j_x j_y, j_y^2, -j_x, -j_y), J^T f (j_x f, j_y f, -f) and f^2.
+#[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
+fn gauss_newton_sums(pts: &[Vector2<f64>], m: Vector2<f64>, c: Vector2<f64>, r: f64) -> [f64; 9] {
+    crate::math::lane_sums(pts, |p| {
+        let (x, y) = ((p.x - m.x) - c.x, (p.y - m.y) - c.y);
+        let n = (x * x + y * y).sqrt();
+        let f = n - r;
+        let (jx, jy) = (-x / n, -y / n);
+        [
+            jx * jx,
+            jx * jy,
+            jy * jy,
+            -jx,
+            -jy,
+            jx * f,
+            jy * f,
+            -f,
+            f * f,
+        ]
     })
 }
 
@@ -143,4 +147,75 @@ pub fn fit_sphere(pts: &[nalgebra::Vector3<f64>]) -> Option<Sphere> {
         radius: r.abs(),
         rms: (ss / pts.len() as f64).sqrt(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Points on an arc of the circle (cx, cy, r) from angle a0 to a1, with `noise` times a
+    /// fixed pattern added to the radius.
+    fn arc(
+        n: usize,
+        (cx, cy, r): (f64, f64, f64),
+        (a0, a1): (f64, f64),
+        noise: f64,
+    ) -> Vec<Vector2<f64>> {
+        (0..n)
+            .map(|i| {
+                let a = a0 + (a1 - a0) * i as f64 / (n - 1) as f64;
+                let rr = r + noise * ((i * 7919 % 13) as f64 - 6.0) / 6.0;
+                Vector2::new(cx + rr * a.cos(), cy + rr * a.sin())
+            })
+            .collect()
+    }
+
+    #[test]
+    fn exact_points_give_the_exact_circle_whatever_their_count() {
+        // Counts below, at and past a whole group of lanes.
+        for n in [3, 5, 8, 9, 17, 1003] {
+            let truth = (0.012, 0.31, 0.0695);
+            let c = fit_circle(&arc(n, truth, (-2.4, -0.7), 0.0)).unwrap();
+            assert!(
+                (c.centre - Vector2::new(truth.0, truth.1)).norm() < 1e-13,
+                "{n}: {c:?}"
+            );
+            assert!((c.radius - truth.2).abs() < 1e-13, "{n}: {c:?}");
+            assert!(c.rms < 1e-13, "{n}: {c:?}");
+        }
+    }
+
+    #[test]
+    fn noisy_points_give_the_least_squares_circle_and_its_rms() {
+        let pts = arc(1001, (-0.05, 0.4, 0.0695), (-2.0, -1.1), 1e-4);
+        let c = fit_circle(&pts).unwrap();
+        // At the geometric fit's optimum J^T f = 0: one more Gauss-Newton step, summed
+        // plainly point by point, goes nowhere.
+        let (mut jtj, mut g, mut ss) = (Matrix3::zeros(), Vector3::zeros(), 0.0);
+        for p in &pts {
+            let d = p - c.centre;
+            let f = d.norm() - c.radius;
+            let j = Vector3::new(-d.x / d.norm(), -d.y / d.norm(), -1.0);
+            jtj += j * j.transpose();
+            g += j * f;
+            ss += f * f;
+        }
+        let step = jtj.lu().solve(&g).unwrap();
+        assert!(step.norm() < 1e-14, "step {step:?}");
+        let rms = (ss / pts.len() as f64).sqrt();
+        assert!(
+            rms > 1e-5 && (c.rms - rms).abs() < 1e-9 * rms,
+            "{} vs {rms}",
+            c.rms
+        );
+    }
+
+    #[test]
+    fn too_few_or_collinear_points_give_none() {
+        let line: Vec<Vector2<f64>> = (0..20)
+            .map(|i| Vector2::new(i as f64, 2.0 * i as f64))
+            .collect();
+        assert!(fit_circle(&line).is_none());
+        assert!(fit_circle(&line[..2]).is_none());
+    }
 }

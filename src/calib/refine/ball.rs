@@ -129,15 +129,28 @@ impl Model for BallModel {
             let f = &self.poses[*k as usize];
             let fr = *f.rotation.to_rotation_matrix().matrix();
             let s = Self::centre_in_sensor(x, f, c);
-            let (mut dd, mut rrdd, mut dr) = (Matrix3::zeros(), Matrix3::zeros(), Vector3::zeros());
-            for p in arc.iter() {
-                let (r, d) = self.residual(p, &s);
-                let outer = d * d.transpose();
-                dd += outer;
-                rrdd += outer * (r * r);
-                dr += d * r;
-                sums.rss += r * r;
-            }
+            let [
+                xx,
+                xy,
+                xz,
+                yy,
+                yz,
+                zz,
+                rxx,
+                rxy,
+                rxz,
+                ryy,
+                ryz,
+                rzz,
+                rx,
+                ry,
+                rz,
+                rr,
+            ] = arc_sums(arc, &s, self.radius);
+            let dd = Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz);
+            let rrdd = Matrix3::new(rxx, rxy, rxz, rxy, ryy, ryz, rxz, ryz, rzz);
+            let dr = Vector3::new(rx, ry, rz);
+            sums.rss += rr;
             let mut a = nalgebra::SMatrix::<f64, 3, P>::zeros();
             a.fixed_view_mut::<3, 3>(0, 0).copy_from(&skew(&s));
             a.fixed_view_mut::<3, 3>(0, 3)
@@ -207,28 +220,6 @@ impl BallModel {
         x.rot.matrix().transpose() * (g - x.t)
     }
 
-    /// The residual of the point `p` against the sphere centred at `s` (sensor frame), and its
-    /// gradient in `s`.
-    fn residual(&self, p: &Vector2<f64>, s: &Vector3<f64>) -> (f64, Vector3<f64>) {
-        let v = Vector3::new(p.x, 0.0, p.y) - s;
-        let dist = v.norm().max(1e-12);
-        let g = dist - self.radius;
-        // The noise is in z: a distance g along the normal is a z offset g / |n_z|, so divide
-        // by |n_z| (the z residual's weight, to first order) but no more than 1 / NZ_MIN, which
-        // keeps an arc's ends from dominating.
-        let nz = v.z.abs() / dist;
-        let w = nz.max(NZ_MIN);
-        // d g / d v = v / |v|; d w / d v = sign(v_z) (e_z / |v| - v_z v / |v|^3) above the
-        // floor; v = p - s, so d r / d s = -(d g / d v / w - g d w / d v / w^2).
-        let dg = v / dist;
-        let dw = if nz > NZ_MIN {
-            (Vector3::z() / dist - v * (v.z / dist.powi(3))) * v.z.signum()
-        } else {
-            Vector3::zeros()
-        };
-        (g / w, -(dg / w - dw * (g / (w * w))))
-    }
-
     /// Rows 0.. of `r` (and `j`) for the points `part` (in the order added).
     fn rows(
         &self,
@@ -275,7 +266,7 @@ impl BallModel {
         r: &mut DVector<f64>,
         j: Option<&mut DMatrix<f64>>,
     ) {
-        let (ri, dr_ds) = self.residual(p, s);
+        let (ri, dr_ds) = residual(self.radius, p, s);
         r[i] = ri;
         if let Some(j) = j {
             let dw = dr_ds.transpose() * skew(s);
@@ -289,6 +280,58 @@ impl BallModel {
             }
         }
     }
+}
+
+/// The residual of the point `p` against the sphere centred at `s` (sensor frame), and its
+/// gradient in `s`.
+fn residual(radius: f64, p: &Vector2<f64>, s: &Vector3<f64>) -> (f64, Vector3<f64>) {
+    let v = Vector3::new(p.x, 0.0, p.y) - s;
+    let dist = v.norm().max(1e-12);
+    let g = dist - radius;
+    // The noise is in z: a distance g along the normal is a z offset g / |n_z|, so divide
+    // by |n_z| (the z residual's weight, to first order) but no more than 1 / NZ_MIN, which
+    // keeps an arc's ends from dominating.
+    let nz = v.z.abs() / dist;
+    let w = nz.max(NZ_MIN);
+    // d g / d v = v / |v|; d w / d v = sign(v_z) (e_z / |v| - v_z v / |v|^3) above the
+    // floor; v = p - s, so d r / d s = -(d g / d v / w - g d w / d v / w^2).
+    let dg = v / dist;
+    let dw = if nz > NZ_MIN {
+        (Vector3::z() / dist - v * (v.z / (dist * dist * dist))) * v.z.signum()
+    } else {
+        Vector3::zeros()
+    };
+    (g / w, -(dg / w - dw * (g / (w * w))))
+}
+
+/// An arc's sums at the centre `s` (sensor frame): d d^T's six distinct entries, r^2 d d^T's,
+/// d r and r^2, d the residual's gradient in `s` (`BallModel::sums`).
+#[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
+fn arc_sums(arc: &[Vector2<f64>], s: &Vector3<f64>, radius: f64) -> [f64; 16] {
+    crate::math::lane_sums(arc, |p| {
+        let (r, d) = residual(radius, p, s);
+        let (xx, xy, xz) = (d.x * d.x, d.x * d.y, d.x * d.z);
+        let (yy, yz, zz) = (d.y * d.y, d.y * d.z, d.z * d.z);
+        let rr = r * r;
+        [
+            xx,
+            xy,
+            xz,
+            yy,
+            yz,
+            zz,
+            xx * rr,
+            xy * rr,
+            xz * rr,
+            yy * rr,
+            yz * rr,
+            zz * rr,
+            d.x * r,
+            d.y * r,
+            d.z * r,
+            rr,
+        ]
+    })
 }
 
 #[cfg(test)]
