@@ -52,6 +52,17 @@ fn bench(c: &mut Criterion) {
         c.bench_function(&format!("refine/{method}_closed_form"), |b| {
             b.iter(|| black_box(lasercal::method::calibrate(black_box(&caps), sensor)))
         });
+        // Issue 27: the verdict's figures of the closed form's result (its rows at the result).
+        c.bench_function(&format!("verdict/{method}_closed_form"), |b| {
+            b.iter(|| {
+                black_box(lasercal::method::verdict::quality(
+                    black_box(&cal),
+                    None,
+                    &caps,
+                    sensor,
+                ))
+            })
+        });
         let opts = lasercal::calib::refine::Options::default();
         let kind = caps.method;
         c.bench_function(&format!("refine/{method}_refinement"), |b| {

@@ -104,11 +104,10 @@ fn chord_frame_ellipse(
         .sum::<Vector2<f64>>()
         / m as f64;
     let r_theta = rot_y(c.y.atan2(c.x));
-    let pts: Vec<Vector2<f64>> = scan
-        .chords
-        .iter()
-        .flat_map(|ch| [in_frame(&r_theta, &ch.a), in_frame(&r_theta, &ch.b)])
-        .collect();
+    let mut pts = Vec::with_capacity(2 * m);
+    for ch in &scan.chords {
+        pts.extend([in_frame(&r_theta, &ch.a), in_frame(&r_theta, &ch.b)]);
+    }
     let ell = Ellipse::fit(&pts).map_err(|e| CalibError::NotAnEllipse {
         scan: scan_index,
         reason: match e {

@@ -683,7 +683,7 @@ fn plane_normal(
 ) -> Vector3<f64> {
     let pts: Vec<Vector3<f64>> = ends
         .iter()
-        .map(|(f, p)| (f * flange_to_sensor * Point3::new(p.x, 0.0, p.y)).coords)
+        .map(|(f, p)| (f * (flange_to_sensor * Point3::new(p.x, 0.0, p.y))).coords)
         .collect();
     let mean = pts.iter().sum::<Vector3<f64>>() / pts.len().max(1) as f64;
     let cov = pts

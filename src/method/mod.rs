@@ -608,9 +608,9 @@ fn toward_sensors(
     flange_to_sensor: &Isometry3<f64>,
     apex: &Point3<f64>,
 ) -> Vector3<f64> {
-    let side: f64 = flanges
-        .map(|f| n.dot(&((f * flange_to_sensor * apex).coords - on_face)))
-        .sum();
+    // The apex in the flange frame once; each pose then moves a point, not a transform.
+    let apex = flange_to_sensor * apex;
+    let side: f64 = flanges.map(|f| n.dot(&((f * apex).coords - on_face))).sum();
     if side < 0.0 { -n } else { n }
 }
 

@@ -1416,7 +1416,26 @@ mod tests {
 /// What the tests of the reduced models share.
 #[cfg(test)]
 pub(crate) mod testing {
+    use super::Sums;
     use nalgebra::{DMatrix, DVector};
+
+    /// Asserts that a model's own sums (`Model::sums`) are the sums of its rows (`Sums::of` of
+    /// `eval`'s residuals and Jacobian) to 1e-12 relative to each one's largest entry.
+    pub fn same_sums(fast: &Sums, rows: &Sums) {
+        let close = |a: &DMatrix<f64>, b: &DMatrix<f64>| {
+            assert_eq!(a.shape(), b.shape());
+            let scale = b.amax().max(1e-300);
+            assert!((a - b).amax() <= 1e-12 * scale, "{a} vs {b}");
+        };
+        close(&fast.ata, &rows.ata);
+        close(&fast.meat, &rows.meat);
+        close(&fast.scores, &rows.scores);
+        close(&fast.grams, &rows.grams);
+        let column = |v: &DVector<f64>| DMatrix::from_column_slice(v.len(), 1, v.as_slice());
+        close(&column(&fast.atr), &column(&rows.atr));
+        assert!((fast.rss - rows.rss).abs() <= 1e-12 * rows.rss && rows.rss > 0.0);
+        assert_eq!(fast.n, rows.n);
+    }
 
     /// Asserts that rows (jm, rm) have the normal equations of the rows (j, r) weighted by `w`
     /// (None: all 1): J^T W J to 1e-12 and J^T W r to `tol_b`, relative to their largest
