@@ -77,7 +77,8 @@ fn gauss_newton_sums(pts: &[Vector2<f64>], m: Vector2<f64>, c: Vector2<f64>, r: 
         let (x, y) = ((p.x - m.x) - c.x, (p.y - m.y) - c.y);
         let n = (x * x + y * y).sqrt();
         let f = n - r;
-        let (jx, jy) = (-x / n, -y / n);
+        let inv = -1.0 / n;
+        let (jx, jy) = (x * inv, y * inv);
         [
             jx * jx,
             jx * jy,

@@ -339,19 +339,16 @@ impl Plan for BallPlanned {
                             .profile(&scene, &pose, noisy.then_some(&mut **rng)),
                     )
                 } else {
-                    ProfileData::Arc(
-                        crate::sim::ball::analytic_arc_formed(
-                            rig,
-                            &target,
-                            Some((frame, &form)),
-                            &pose,
-                            self.x_step,
-                            self.sigma,
-                            0.9,
-                            rng,
-                        )
-                        .into(),
-                    )
+                    ProfileData::Arc(crate::sim::ball::analytic_arc_formed(
+                        rig,
+                        &target,
+                        Some((frame, &form)),
+                        &pose,
+                        self.x_step,
+                        self.sigma,
+                        0.9,
+                        rng,
+                    ))
                 };
                 profiles.push(CaptureProfile {
                     group: id,

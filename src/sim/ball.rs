@@ -88,8 +88,9 @@ pub fn analytic_arc(
 
 /// `analytic_arc` on a ball with an optional form error (the ball's frame and the error): each
 /// point lies on the real surface, r = R + delta(u), found by fixed-point iteration on u.
+/// Collected into `C` directly (a capture's shared points: one allocation, no copy).
 #[allow(clippy::too_many_arguments)]
-pub fn analytic_arc_formed(
+pub fn analytic_arc_formed<C: FromIterator<Vector2<f64>>>(
     rig: &Rig,
     ball: &BallTarget,
     form: Option<(&Isometry3<f64>, &crate::scene::FormError)>,
@@ -98,11 +99,11 @@ pub fn analytic_arc_formed(
     sigma: f64,
     fraction: f64,
     rng: &mut crate::rng::Rng,
-) -> Vec<Vector2<f64>> {
+) -> C {
     let c = base_to_sensor.inverse_transform_point(&ball.centre);
     let rd2 = ball.radius * ball.radius - c.y * c.y;
     if rd2 <= 0.0 {
-        return Vec::new();
+        return std::iter::empty().collect();
     }
     let rd = rd2.sqrt();
     let half = rd * fraction;

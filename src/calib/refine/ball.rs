@@ -291,17 +291,22 @@ fn residual(radius: f64, p: &Vector2<f64>, s: &Vector3<f64>) -> (f64, Vector3<f6
     // The noise is in z: a distance g along the normal is a z offset g / |n_z|, so divide
     // by |n_z| (the z residual's weight, to first order) but no more than 1 / NZ_MIN, which
     // keeps an arc's ends from dominating.
-    let nz = v.z.abs() / dist;
+    // Two reciprocals rather than a dozen divisions (the arcs' sums are most of a ball
+    // trial's verdict, and a vector unit divides slowly).
+    let inv_dist = 1.0 / dist;
+    let u = v * inv_dist;
+    let nz = u.z.abs();
     let w = nz.max(NZ_MIN);
-    // d g / d v = v / |v|; d w / d v = sign(v_z) (e_z / |v| - v_z v / |v|^3) above the
-    // floor; v = p - s, so d r / d s = -(d g / d v / w - g d w / d v / w^2).
-    let dg = v / dist;
+    let inv_w = 1.0 / w;
+    // d g / d v = u; d w / d v = sign(v_z) (e_z - u_z u) / |v| above the floor; v = p - s,
+    // so d r / d s = -(d g / d v / w - g d w / d v / w^2).
     let dw = if nz > NZ_MIN {
-        (Vector3::z() / dist - v * (v.z / (dist * dist * dist))) * v.z.signum()
+        (Vector3::z() - u * u.z) * (inv_dist * v.z.signum())
     } else {
         Vector3::zeros()
     };
-    (g / w, -(dg / w - dw * (g / (w * w))))
+    let r = g * inv_w;
+    (r, -(u - dw * r) * inv_w)
 }
 
 /// An arc's sums at the centre `s` (sensor frame): d d^T's six distinct entries, r^2 d d^T's,
