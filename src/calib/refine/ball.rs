@@ -53,14 +53,8 @@ impl Model for BallModel {
 
     /// Numbered per arc, not per point: neither a pose per point nor a table sized by them.
     fn clusters(&self) -> Vec<u32> {
-        let per_arc: Vec<&Isometry3<f64>> = self
-            .arcs
-            .iter()
-            .map(|(k, _)| &self.poses[*k as usize])
-            .collect();
-        let ids = super::honest::clusters(&per_arc, per_arc.len());
         let mut out = Vec::with_capacity(self.n);
-        for ((_, a), id) in self.arcs.iter().zip(ids) {
+        for ((_, a), id) in self.arcs.iter().zip(self.arc_clusters()) {
             out.extend(std::iter::repeat_n(id, a.len()));
         }
         out
@@ -111,9 +105,12 @@ impl Model for BallModel {
     /// Per arc, not per row: a point's row is d^T A with d its residual's gradient in the
     /// sensor-frame centre and A = [skew(s), -R^T, R^T F_R^T] the arc's own 3 x 9, so the rows'
     /// sums are A^T (sum d d^T) A and A^T (sum d r): three columns per point instead of nine.
-    fn sums(&self, x: &Transform, c: &Vector3<f64>, clusters: &[u32], g: usize) -> Option<Sums> {
+    /// Clustered per arc's pose (`arc_clusters`), not through a number per point.
+    fn sums(&self, x: &Transform, c: &Vector3<f64>) -> Option<Sums> {
         const P: usize = 9;
-        let clustered = clusters.len() == self.n && self.n > 0;
+        let clusters = self.arc_clusters();
+        let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
+        let clustered = self.n > 0;
         let gram_clusters = clustered && g <= super::honest::MAX_JACKKNIFE;
         let mut sums = Sums {
             ata: DMatrix::zeros(P, P),
@@ -125,7 +122,7 @@ impl Model for BallModel {
             n: self.n,
         };
         let rmat = *x.rot.matrix();
-        for ((k, arc), &start) in self.arcs.iter().zip(&self.starts) {
+        for ((k, arc), &cl) in self.arcs.iter().zip(&clusters) {
             let f = &self.poses[*k as usize];
             let fr = *f.rotation.to_rotation_matrix().matrix();
             let s = Self::centre_in_sensor(x, f, c);
@@ -163,7 +160,7 @@ impl Model for BallModel {
             sums.meat += a.transpose() * rrdd * a;
             sums.atr += &score;
             if clustered {
-                let cl = clusters[start] as usize;
+                let cl = cl as usize;
                 let mut col = sums.scores.column_mut(cl);
                 col += &score;
                 if gram_clusters {
@@ -211,6 +208,14 @@ impl BallModel {
         self.arcs.push(((self.poses.len() - 1) as u32, points));
         self.starts.push(self.n);
         self.n += self.arcs[self.arcs.len() - 1].1.len();
+    }
+
+    /// Each arc's cluster: arcs seen from one flange pose share a number (`honest::clusters`).
+    fn arc_clusters(&self) -> Vec<u32> {
+        let per_arc: Vec<&Isometry3<f64>> = (self.arcs.iter())
+            .map(|(k, _)| &self.poses[*k as usize])
+            .collect();
+        super::honest::clusters(&per_arc, per_arc.len())
     }
 
     /// The centre in the sensor frame: s = R^T (F_R^T (c - F_t) - t).
@@ -378,14 +383,10 @@ mod tests {
         let (m, x, c) = model();
         let clusters = m.clusters();
         let g = clusters.iter().map(|&k| k as usize + 1).max().unwrap();
-        let fast = Model::sums(&m, &x, &c, &clusters, g).unwrap();
+        let fast = Model::sums(&m, &x, &c).unwrap();
         let (r, j) = super::super::eval(&m, &x, &c, &[], true);
         let rows = Sums::of(&r, &j, &clusters, g);
         assert!(g == 5 && fast.grams.ncols() == 9 * g);
         super::super::testing::same_sums(&fast, &rows);
-        // Without clusters: no scores, no grams.
-        let none = Model::sums(&m, &x, &c, &[], 0).unwrap();
-        assert_eq!((none.scores.ncols(), none.grams.ncols()), (0, 0));
-        super::super::testing::same_sums(&none, &Sums::of(&r, &j, &[], 0));
     }
 }

@@ -230,15 +230,10 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
         Vec::new()
     }
 
-    /// The verdict's sums over every residual (`Sums`, clusters `clusters` of `g`) where the
-    /// model's structure gives them without forming each row; None: formed row by row.
-    fn sums(
-        &self,
-        _x: &Transform,
-        _s: &Self::Specimen,
-        _clusters: &[u32],
-        _g: usize,
-    ) -> Option<Sums> {
+    /// The verdict's sums over every residual (`Sums`, clustered as `clusters` numbers them)
+    /// where the model's structure gives them without forming each row; None: formed row by
+    /// row.
+    fn sums(&self, _x: &Transform, _s: &Self::Specimen) -> Option<Sums> {
         None
     }
 
@@ -538,13 +533,13 @@ impl<M: Model + 'static> Refinable for Problem<M> {
         self.model.timed_problem(&self.specimen, line)
     }
     fn sums(&self, x: &Isometry3<f64>) -> Sums {
-        let clusters = self.clusters();
-        let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
         let x = Transform::from_isometry(x);
         let m = &self.model;
-        if let Some(sums) = m.sums(&x, &self.specimen, &clusters, g) {
+        if let Some(sums) = m.sums(&x, &self.specimen) {
             return sums;
         }
+        let clusters = self.clusters();
+        let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
         let labels = m.labels(&x, &self.specimen);
         let whole = || {
             let (r, j) = eval(m, &x, &self.specimen, &labels, true);
