@@ -126,27 +126,7 @@ impl Model for BallModel {
             let f = &self.poses[*k as usize];
             let fr = *f.rotation.to_rotation_matrix().matrix();
             let s = Self::centre_in_sensor(x, f, c);
-            let [
-                xx,
-                xy,
-                xz,
-                yy,
-                yz,
-                zz,
-                rxx,
-                rxy,
-                rxz,
-                ryy,
-                ryz,
-                rzz,
-                rx,
-                ry,
-                rz,
-                rr,
-            ] = arc_sums(arc, &s, self.radius);
-            let dd = Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz);
-            let rrdd = Matrix3::new(rxx, rxy, rxz, rxy, ryy, ryz, rxz, ryz, rzz);
-            let dr = Vector3::new(rx, ry, rz);
+            let (dd, rrdd, dr, rr) = arc_sums(arc, &s, self.radius);
             sums.rss += rr;
             let mut a = nalgebra::SMatrix::<f64, 3, P>::zeros();
             a.fixed_view_mut::<3, 3>(0, 0).copy_from(&skew(&s));
@@ -314,34 +294,40 @@ fn residual(radius: f64, p: &Vector2<f64>, s: &Vector3<f64>) -> (f64, Vector3<f6
     (r, -(u - dw * r) * inv_w)
 }
 
-/// An arc's sums at the centre `s` (sensor frame): d d^T's six distinct entries, r^2 d d^T's,
-/// d r and r^2, d the residual's gradient in `s` (`BallModel::sums`).
+/// An arc's sums at the centre `s` (sensor frame): d d^T, r^2 d d^T, d r and r^2, d the
+/// residual's gradient in `s` (`BallModel::sums`).
 #[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
-fn arc_sums(arc: &[Vector2<f64>], s: &Vector3<f64>, radius: f64) -> [f64; 16] {
-    crate::math::lane_sums(arc, |p| {
+fn arc_sums(
+    arc: &[Vector2<f64>],
+    s: &Vector3<f64>,
+    radius: f64,
+) -> (Matrix3<f64>, Matrix3<f64>, Vector3<f64>, f64) {
+    // d d^T's six distinct entries, the same times r^2, d r, r^2.
+    let t = crate::math::lane_sums(arc, |p| {
         let (r, d) = residual(radius, p, s);
-        let (xx, xy, xz) = (d.x * d.x, d.x * d.y, d.x * d.z);
-        let (yy, yz, zz) = (d.y * d.y, d.y * d.z, d.z * d.z);
         let rr = r * r;
-        [
-            xx,
-            xy,
-            xz,
-            yy,
-            yz,
-            zz,
-            xx * rr,
-            xy * rr,
-            xz * rr,
-            yy * rr,
-            yz * rr,
-            zz * rr,
-            d.x * r,
-            d.y * r,
-            d.z * r,
-            rr,
-        ]
-    })
+        let outer = [
+            d.x * d.x,
+            d.x * d.y,
+            d.x * d.z,
+            d.y * d.y,
+            d.y * d.z,
+            d.z * d.z,
+        ];
+        let mut t = [0.0; 16];
+        for k in 0..6 {
+            t[k] = outer[k];
+            t[6 + k] = outer[k] * rr;
+        }
+        t[12..15].copy_from_slice(&[d.x * r, d.y * r, d.z * r]);
+        t[15] = rr;
+        t
+    });
+    let sym = |o: usize| {
+        let [xx, xy, xz, yy, yz, zz] = [t[o], t[o + 1], t[o + 2], t[o + 3], t[o + 4], t[o + 5]];
+        Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz)
+    };
+    (sym(0), sym(6), Vector3::new(t[12], t[13], t[14]), t[15])
 }
 
 #[cfg(test)]
