@@ -671,18 +671,51 @@ fn gram(a: &[&[f64]], b: &[&[f64]]) -> DMatrix<f64> {
 /// the wider vector units too and picked at run time (`multiversion`): the lanes are the eight
 /// partial sums, multiplied and added separately as before (Rust never fuses them), so every
 /// machine gets the same bits.
+///
+/// One pair's sums are a chain of dependent adds, one vector add per add's latency; up to
+/// `TILE` pairs that share their first column run side by side, their chains interleaved and
+/// that column read once. Each pair's sums keep their order, so the bits do not change.
 #[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
 fn add_block(acc: &mut [[f64; 8]], pairs: &[(usize, usize)], a: &[&[f64]], b: &[&[f64]]) {
-    for (acc, &(c, d)) in acc.iter_mut().zip(pairs) {
-        // A local copy of the sums, which the compiler keeps in registers.
-        let mut sums = *acc;
-        for (x, y) in a[c].chunks_exact(8).zip(b[d].chunks_exact(8)) {
+    let mut i = 0;
+    while i < pairs.len() {
+        let c = pairs[i].0;
+        let mut end = i + 1;
+        while end < pairs.len() && end - i < TILE && pairs[end].0 == c {
+            end += 1;
+        }
+        let ys = |t: usize| b[pairs[i + t].1];
+        match end - i {
+            4 => add_tile::<4>(&mut acc[i..end], a[c], std::array::from_fn(ys)),
+            3 => add_tile::<3>(&mut acc[i..end], a[c], std::array::from_fn(ys)),
+            2 => add_tile::<2>(&mut acc[i..end], a[c], std::array::from_fn(ys)),
+            _ => add_tile::<1>(&mut acc[i..end], a[c], std::array::from_fn(ys)),
+        }
+        i = end;
+    }
+}
+
+/// Pairs summed side by side in `add_block`: four chains cover an add's latency, and their
+/// sums, the shared column and the other four fit in the registers.
+const TILE: usize = 4;
+
+/// `T` pairs (x, ys[t]) of one block: eight partial sums each, in row order.
+#[inline(always)]
+fn add_tile<const T: usize>(acc: &mut [[f64; 8]], x: &[f64], ys: [&[f64]; T]) {
+    let mut sums: [[f64; 8]; T] = std::array::from_fn(|t| acc[t]);
+    let (xs, _) = x.as_chunks::<8>();
+    let ys: [&[[f64; 8]]; T] = ys.map(|y| &y.as_chunks::<8>().0[..xs.len()]);
+    for r in 0..xs.len() {
+        let xc = &xs[r];
+        for t in 0..T {
+            // In bounds: every `ys[t]` has `xs.len()` chunks (the compiler drops the check).
+            let yc = &ys[t][r];
             for k in 0..8 {
-                sums[k] += x[k] * y[k];
+                sums[t][k] += xc[k] * yc[k];
             }
         }
-        *acc = sums;
     }
+    acc[..T].copy_from_slice(&sums);
 }
 
 /// The p x p symmetric matrix from each pair's partial sums and its remainder (`tail`).
