@@ -258,6 +258,11 @@ impl Model for DiskModel {
         }
     }
 
+    /// A model of chord ends alone (the closed form's figures) in lanes of eight ends.
+    fn sums(&self, x: &Transform, s: &DiskPose) -> Option<super::Sums> {
+        super::disk_lanes::sums(self, x, s)
+    }
+
     fn step(&self, s: &DiskPose, dx: &[f64]) -> DiskPose {
         DiskPose {
             centre: s.centre + Vector3::new(dx[0], dx[1], dx[2]),

@@ -330,10 +330,11 @@ pub fn clusters(flanges: &[&Isometry3<f64>], n_residuals: usize) -> Vec<u32> {
     if flanges.len() != n_residuals {
         return Vec::new();
     }
-    // Room for a pose per four residuals (a disk chord's two ends) up to a thousand poses; a
-    // table sized by a tall problem's residuals was megabytes for a few hundred poses.
+    // Room for a pose per two residuals (a disk chord's two ends, numbered per end) up to a
+    // thousand poses; a table sized by a tall problem's residuals was megabytes for a few
+    // hundred poses, and one grown on the way rehashes.
     let mut ids: FxHashMap<[u64; 7], u32> =
-        FxHashMap::with_capacity_and_hasher((n_residuals / 4).min(1 << 10), Default::default());
+        FxHashMap::with_capacity_and_hasher((n_residuals / 2).min(1 << 10), Default::default());
     let mut out = Vec::with_capacity(n_residuals);
     let mut last: Option<(&Isometry3<f64>, u32)> = None;
     for &f in flanges {

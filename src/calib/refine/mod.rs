@@ -12,6 +12,7 @@
 pub mod ball;
 pub mod bar;
 pub mod disk;
+mod disk_lanes;
 pub mod edge;
 pub mod faces;
 pub mod honest;

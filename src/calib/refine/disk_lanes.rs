@@ -1,0 +1,332 @@
+//! The verdict's sums of a disk model of chord ends alone (the closed form's figures), eight
+//! ends at a time.
+//!
+//! Row by row (`Model::eval`, then `Sums::of`) each end costs two Jacobian rows formed through
+//! 3 x 3 products, written across eleven columns of a tall J, and a cluster number per row.
+//! Here each end's two rows come from its pose's F_R R, F_R and origin in lanes of eight ends,
+//! straight into a block of columns in the first-level cache that `add_block` sums, and each
+//! pose's score is added per end. The same sums as the rows' to rounding
+//! (`tests::lanes_sum_what_the_rows_sum`).
+
+use super::disk::{DiskModel, DiskPose};
+use super::{GRAM_BLOCK, Sums, Transform, add_block, finish, honest, pairs};
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Vector3};
+
+/// Columns: rotation 3, translation 3, the disk's centre 3 and normal 2.
+const P: usize = 11;
+/// Rows per block: the block, its scaled copy and its ends' chunks take about 70 kB.
+const BLOCK_ROWS: usize = GRAM_BLOCK / 2;
+/// Chunks of eight ends (sixteen rows) per block.
+const BLOCK_CHUNKS: usize = BLOCK_ROWS / 16;
+
+/// Eight ends: their poses' F_R R and F_R (row-major), F (R t) + F_t, the end (x, z) in the
+/// sensor, its weight on the rim residual and 1 (0: a lane past the last end).
+#[derive(Clone, Copy, Default)]
+struct Chunk {
+    frr: [[f64; 8]; 9],
+    fr: [[f64; 8]; 9],
+    origin: [[f64; 8]; 3],
+    x: [f64; 8],
+    z: [f64; 8],
+    weight: [f64; 8],
+    live: [f64; 8],
+}
+
+/// The disk at the estimate: centre, normal and the normal's two derivatives.
+struct Disk {
+    centre: Vector3<f64>,
+    n: Vector3<f64>,
+    dn: [Vector3<f64>; 2],
+    radius: f64,
+}
+
+/// Eight ends' two rows each: Jacobian (column-major over the lanes) and residuals.
+struct Rows {
+    plane: [[f64; 8]; P],
+    rim: [[f64; 8]; P],
+    r_plane: [f64; 8],
+    r_rim: [f64; 8],
+}
+
+/// `Model::sums` of `m` when it holds chord ends alone and more poses than keep their grams
+/// (`honest::MAX_JACKKNIFE`); None otherwise (the rows' path sums it).
+pub(super) fn sums(m: &DiskModel, x: &Transform, s: &DiskPose) -> Option<Sums> {
+    let ends_only = m.face.is_empty() && m.rims.is_empty() && m.walls.is_empty();
+    if !ends_only || m.ends.is_empty() {
+        return None;
+    }
+    let flanges: Vec<&Isometry3<f64>> = m.ends.iter().map(|(f, _)| f).collect();
+    let clusters = honest::clusters(&flanges, flanges.len());
+    let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
+    if g <= honest::MAX_JACKKNIFE {
+        return None;
+    }
+    let disk = Disk {
+        centre: s.centre,
+        n: s.q * Vector3::z(),
+        dn: [-(s.q * Vector3::y()), s.q * Vector3::x()],
+        radius: m.radius,
+    };
+    let pairs = pairs(P);
+    let (mut ata, mut meat) = (vec![[0.0; 8]; pairs.len()], vec![[0.0; 8]; pairs.len()]);
+    let (mut atr, mut rss) = ([[0.0; 8]; P], [0.0; 8]);
+    let mut scores = vec![0.0; P * g];
+    let rows_max = (2 * m.ends.len()).next_multiple_of(16).min(BLOCK_ROWS);
+    let (mut jb, mut sb) = (vec![0.0; P * rows_max], vec![0.0; P * rows_max]);
+    let mut block = vec![Chunk::default(); rows_max / 16];
+    let mut poses = Poses { x, last: None };
+    for first in (0..m.ends.len()).step_by(8 * BLOCK_CHUNKS) {
+        let ends = first..(first + 8 * BLOCK_CHUNKS).min(m.ends.len());
+        let chunks = ends.len().div_ceil(8);
+        for (k, chunk) in block[..chunks].iter_mut().enumerate() {
+            let start = ends.start + 8 * k;
+            poses.fill(chunk, m, start..(start + 8).min(ends.end));
+        }
+        sum_block(
+            &block[..chunks],
+            &disk,
+            (&mut jb, &mut sb, rows_max),
+            (&mut atr, &mut rss),
+            (&clusters[ends], &mut scores),
+        );
+        let rows = 16 * chunks;
+        let (cj, cs) = (
+            block_columns(&jb, rows_max, rows),
+            block_columns(&sb, rows_max, rows),
+        );
+        add_block(&mut ata, &pairs, &cj, &cj);
+        add_block(&mut meat, &pairs, &cs, &cs);
+    }
+    Some(Sums {
+        ata: finish(&ata, &pairs, P, |_, _| 0.0),
+        atr: DVector::from_fn(P, |k, _| atr[k].iter().sum()),
+        meat: finish(&meat, &pairs, P, |_, _| 0.0),
+        scores: DMatrix::from_column_slice(P, g, &scores),
+        grams: DMatrix::zeros(P, 0),
+        rss: rss.iter().sum(),
+        n: 2 * m.ends.len(),
+    })
+}
+
+/// The first `rows` rows of each column of a block of `stride` rows per column.
+fn block_columns(v: &[f64], stride: usize, rows: usize) -> Vec<&[f64]> {
+    (0..P).map(|c| &v[c * stride..c * stride + rows]).collect()
+}
+
+/// Each end's pose products, formed once per run of ends seen from one pose.
+struct Poses<'a> {
+    x: &'a Transform,
+    last: Option<(&'a Isometry3<f64>, Matrix3<f64>, Matrix3<f64>, Vector3<f64>)>,
+}
+
+impl<'a> Poses<'a> {
+    /// Chunk `c` of ends `ends` of `m` (at most eight); spare lanes dead (`live` 0).
+    fn fill(&mut self, c: &mut Chunk, m: &'a DiskModel, ends: std::ops::Range<usize>) {
+        c.live = [0.0; 8];
+        c.weight = [0.0; 8];
+        for (l, e) in ends.enumerate() {
+            let (f, p) = &m.ends[e];
+            let (fr, frr, origin) = match self.last {
+                Some((g, fr, frr, o)) if std::ptr::eq(g, f) || g == f => (fr, frr, o),
+                _ => {
+                    let fr = *f.rotation.to_rotation_matrix().matrix();
+                    let frr = fr * self.x.rot.matrix();
+                    let o = fr * self.x.t + f.translation.vector;
+                    self.last = Some((f, fr, frr, o));
+                    (fr, frr, o)
+                }
+            };
+            for r in 0..3 {
+                for k in 0..3 {
+                    c.frr[3 * r + k][l] = frr[(r, k)];
+                    c.fr[3 * r + k][l] = fr[(r, k)];
+                }
+                c.origin[r][l] = origin[r];
+            }
+            c.x[l] = p.x;
+            c.z[l] = p.y;
+            c.weight[l] = m.end_weights.get(e).copied().unwrap_or(1.0);
+            c.live[l] = 1.0;
+        }
+    }
+}
+
+/// One block's rows into `jb` (J) and `sb` (J scaled by r), column-major with `stride` rows
+/// per column (a chunk's plane rows, then its rim rows); their J^T r and r^T r into the
+/// lanes, and each end's score into its cluster's column.
+#[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
+fn sum_block(
+    block: &[Chunk],
+    disk: &Disk,
+    (jb, sb, stride): (&mut [f64], &mut [f64], usize),
+    (atr, rss): (&mut [[f64; 8]; P], &mut [f64; 8]),
+    (clusters, scores): (&[u32], &mut [f64]),
+) {
+    let mut run = (clusters[0], [0.0; P]);
+    for (k, chunk) in block.iter().enumerate() {
+        let rows = lanes(chunk, disk);
+        let mut scaled = [[0.0; 8]; 2 * P];
+        for c in 0..P {
+            for l in 0..8 {
+                scaled[c][l] = rows.plane[c][l] * rows.r_plane[l];
+                scaled[P + c][l] = rows.rim[c][l] * rows.r_rim[l];
+                atr[c][l] += scaled[c][l] + scaled[P + c][l];
+            }
+            let at = c * stride + 16 * k;
+            jb[at..at + 8].copy_from_slice(&rows.plane[c]);
+            jb[at + 8..at + 16].copy_from_slice(&rows.rim[c]);
+            sb[at..at + 8].copy_from_slice(&scaled[c]);
+            sb[at + 8..at + 16].copy_from_slice(&scaled[P + c]);
+        }
+        for l in 0..8 {
+            rss[l] += rows.r_plane[l] * rows.r_plane[l] + rows.r_rim[l] * rows.r_rim[l];
+        }
+        // A pose's ends are consecutive as a rule: their scores are summed in registers and
+        // added to the pose's column once per run.
+        for (l, &cl) in clusters.iter().skip(8 * k).take(8).enumerate() {
+            if run.0 != cl {
+                add_run(scores, &run);
+                run = (cl, [0.0; P]);
+            }
+            for (c, s) in run.1.iter_mut().enumerate() {
+                *s += scaled[c][l] + scaled[P + c][l];
+            }
+        }
+    }
+    add_run(scores, &run);
+}
+
+/// A run's scores into its cluster's column.
+#[inline(always)]
+fn add_run(scores: &mut [f64], (cl, sums): &(u32, [f64; P])) {
+    let at = *cl as usize * P;
+    for (o, s) in scores[at..at + P].iter_mut().zip(sums) {
+        *o += s;
+    }
+}
+
+/// Eight ends' rows, as `disk::Geometry::plane_row` and `rim_row` form them from
+/// q = F_R R p + F (R t) + F_t with p = (x, 0, z): the rotation columns g^T dq/dw =
+/// -(F_R R)^T g x p, written out for p's zero y.
+#[inline(always)]
+fn lanes(c: &Chunk, d: &Disk) -> Rows {
+    let mut o = Rows {
+        plane: [[0.0; 8]; P],
+        rim: [[0.0; 8]; P],
+        r_plane: [0.0; 8],
+        r_rim: [0.0; 8],
+    };
+    for l in 0..8 {
+        let (x, z) = (c.x[l], c.z[l]);
+        let q: [f64; 3] =
+            std::array::from_fn(|r| c.frr[3 * r][l] * x + c.frr[3 * r + 2][l] * z + c.origin[r][l]);
+        let v: [f64; 3] = std::array::from_fn(|r| q[r] - d.centre[r]);
+        let dot = |a: &[f64; 3], b: &Vector3<f64>| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let h = dot(&v, &d.n);
+        let w: [f64; 3] = std::array::from_fn(|r| v[r] - d.n[r] * h);
+        let wn = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
+        let scale = if wn > 0.0 { c.weight[l] / wn } else { 0.0 };
+        let g = Vector3::new(w[0] * scale, w[1] * scale, w[2] * scale);
+        // Both rows: the transform's six columns from the gradient in the base frame.
+        let row = |out: &mut [[f64; 8]; P], g: &Vector3<f64>| {
+            let a: [f64; 3] = std::array::from_fn(|k| {
+                c.frr[k][l] * g[0] + c.frr[3 + k][l] * g[1] + c.frr[6 + k][l] * g[2]
+            });
+            out[0][l] = -a[1] * z;
+            out[1][l] = a[0] * z - a[2] * x;
+            out[2][l] = a[1] * x;
+            for k in 0..3 {
+                out[3 + k][l] = c.fr[k][l] * g[0] + c.fr[3 + k][l] * g[1] + c.fr[6 + k][l] * g[2];
+                out[6 + k][l] = -g[k];
+            }
+        };
+        row(&mut o.plane, &d.n);
+        row(&mut o.rim, &g);
+        let live = c.live[l];
+        o.plane[9][l] = dot(&v, &d.dn[0]);
+        o.plane[10][l] = dot(&v, &d.dn[1]);
+        o.rim[9][l] = -h * g.dot(&d.dn[0]);
+        o.rim[10][l] = -h * g.dot(&d.dn[1]);
+        o.r_plane[l] = h * live;
+        o.r_rim[l] = c.weight[l] * (wn - d.radius) * live;
+        for k in 0..P {
+            o.plane[k][l] *= live;
+            o.rim[k][l] *= live;
+        }
+    }
+    o
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{Model, Sums, eval, testing};
+    use super::*;
+    use nalgebra::{Point3, UnitQuaternion, Vector2};
+
+    /// 83 poses (more than keep their grams) of two ends each, one pose of three, odd weights:
+    /// 167 ends, the last chunk part dead; the ends anywhere near the rim (the sums need no
+    /// consistent geometry).
+    fn model() -> (DiskModel, Transform, DiskPose) {
+        let x = Transform::from_isometry(&Isometry3::new(
+            Vector3::new(0.006, 0.054, 0.364),
+            Vector3::new(3.1, -0.02, 0.1),
+        ));
+        let disk = DiskPose::new(
+            Point3::new(-0.32, -0.30, 0.01),
+            &Vector3::new(0.1, -0.2, 1.0),
+        );
+        let mut m = DiskModel {
+            radius: 0.05,
+            ends: Vec::new(),
+            face: Vec::new(),
+            rims: Vec::new(),
+            end_weights: Vec::new(),
+            walls: Vec::new(),
+        };
+        for k in 0..83 {
+            let a = k as f64;
+            let f = Isometry3::from_parts(
+                Vector3::new(-0.2 + 0.001 * a, -0.3, 0.36 + 0.01 * (0.3 * a).sin()).into(),
+                UnitQuaternion::from_euler_angles(
+                    3.0 + 0.1 * (0.7 * a).sin(),
+                    0.2,
+                    -2.0 + 0.01 * a,
+                ),
+            );
+            for e in 0..if k == 40 { 3 } else { 2 } {
+                let side = if e % 2 == 0 { -1.0 } else { 1.0 };
+                m.ends.push((
+                    f,
+                    Vector2::new(
+                        side * (0.04 + 0.001 * (a * 1.7).cos()),
+                        0.3 + 0.002 * a.sin(),
+                    ),
+                ));
+                m.end_weights.push(1.0 + 0.1 * (a + e as f64).cos());
+            }
+        }
+        (m, x, disk)
+    }
+
+    #[test]
+    fn lanes_sum_what_the_rows_sum() {
+        let (m, x, disk) = model();
+        let fast = sums(&m, &x, &disk).expect("ends alone, 83 poses");
+        let clusters = m.clusters();
+        let g = clusters.iter().map(|&k| k as usize + 1).max().unwrap();
+        let (r, j) = eval(&m, &x, &disk, &[], true);
+        let rows = Sums::of(&r, &j, &clusters, g);
+        assert_eq!((g, fast.scores.ncols(), fast.n), (83, 83, 2 * 167));
+        testing::same_sums(&fast, &rows);
+    }
+
+    #[test]
+    fn few_poses_or_face_points_go_the_rows_way() {
+        let (mut m, x, disk) = model();
+        let mut few = m.clone();
+        few.ends.truncate(128);
+        assert!(sums(&few, &x, &disk).is_none());
+        m.face.push(m.ends[0]);
+        assert!(sums(&m, &x, &disk).is_none());
+    }
+}
