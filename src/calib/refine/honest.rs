@@ -271,6 +271,11 @@ pub fn grams(j: &DMatrix<f64>, clusters: &[u32], g: usize) -> DMatrix<f64> {
 /// independent generator's edge and disk from 16 poses (one pose often carries a direction);
 /// the jackknife's (I - M_c)^-1 (CR3) over-covered (97-99 %). None without the clusters' grams,
 /// or when one pose alone carries a direction (leverage 1).
+///
+/// A pose's gram A_c = F^T F has the rank of its rows (a chord's four), so with B = A^-1/2 F^T
+/// the step A^-1/2 (I - B B^T)^-1/2 A^-1/2 s_c is A^-1 (s_c + F^T f(X) F A^-1 s_c), f(x) =
+/// ((1 - x)^-1/2 - 1) / x of X = F A^-1 F^T (k x k, the same leverages): no p x p
+/// decomposition per pose. F comes from `low_rank_factor`.
 fn leverage_adjusted(
     a: &DMatrix<f64>,
     grams: &[DMatrix<f64>],
@@ -285,23 +290,74 @@ fn leverage_adjusted(
     if !ea.eigenvalues.iter().all(|&l| l > 0.0) {
         return None;
     }
-    let inv_half = &ea.eigenvectors
-        * DMatrix::from_diagonal(&ea.eigenvalues.map(|l| 1.0 / l.sqrt()))
+    let inv = &ea.eigenvectors
+        * DMatrix::from_diagonal(&ea.eigenvalues.map(|l| 1.0 / l))
         * ea.eigenvectors.transpose();
     let mut v = DMatrix::zeros(p, p);
     for (c, gc) in grams.iter().enumerate() {
-        let m = &inv_half * gc * &inv_half;
-        let em = nalgebra::SymmetricEigen::new((&m + m.transpose()) * 0.5);
-        if !em.eigenvalues.iter().all(|&h| h < 1.0 - 1e-9) {
+        let f = low_rank_factor(gc);
+        let s = scores.column(c);
+        if f.nrows() == 0 {
+            // A pose whose rows say nothing: no leverage to correct for.
+            let step = &inv * s;
+            v += &step * step.transpose();
+            continue;
+        }
+        let fa = &f * &inv;
+        let x = &fa * f.transpose();
+        let ex = nalgebra::SymmetricEigen::new((&x + x.transpose()) * 0.5);
+        if !ex.eigenvalues.iter().all(|&h| h < 1.0 - 1e-9) {
             return None;
         }
-        let w = &em.eigenvectors
-            * DMatrix::from_diagonal(&em.eigenvalues.map(|h| 1.0 / (1.0 - h.max(0.0)).sqrt()))
-            * em.eigenvectors.transpose();
-        let step = &inv_half * (w * (&inv_half * scores.column(c)));
+        let widen = |h: f64| {
+            let h = h.max(0.0);
+            // ((1 - h)^-1/2 - 1) / h, its limit 1/2 + 3h/8 where h is too small to divide by.
+            if h < 1e-8 {
+                0.5 + 0.375 * h
+            } else {
+                ((1.0 - h).powf(-0.5) - 1.0) / h
+            }
+        };
+        let fx = &ex.eigenvectors
+            * DMatrix::from_diagonal(&ex.eigenvalues.map(widen))
+            * ex.eigenvectors.transpose();
+        let step = &inv * (s + f.transpose() * (fx * (&fa * s)));
         v += &step * step.transpose();
     }
     v.iter().all(|x| x.is_finite()).then_some(v)
+}
+
+/// F (k x p) with F^T F = `gram` (symmetric, positive semi-definite), k its numerical rank: a
+/// Cholesky factor with diagonal pivoting that stops where what remains is below 1e-13 of the
+/// largest diagonal (rounding in the sums of a pose's few rows).
+fn low_rank_factor(gram: &DMatrix<f64>) -> DMatrix<f64> {
+    let p = gram.nrows();
+    let mut d: Vec<f64> = (0..p).map(|i| gram[(i, i)]).collect();
+    let floor = 1e-13 * d.iter().copied().fold(0.0, f64::max);
+    let mut rows: Vec<Vec<f64>> = Vec::new();
+    while rows.len() < p {
+        let (j, &dj) = d
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .expect("p > 0");
+        if !(dj > floor) {
+            break;
+        }
+        let root = dj.sqrt();
+        let row: Vec<f64> = (0..p)
+            .map(|i| {
+                let done: f64 = rows.iter().map(|r| r[i] * r[j]).sum();
+                (gram[(i, j)] - done) / root
+            })
+            .collect();
+        for (di, ri) in d.iter_mut().zip(&row) {
+            *di -= ri * ri;
+        }
+        d[j] = 0.0;
+        rows.push(row);
+    }
+    DMatrix::from_fn(rows.len(), p, |r, c| rows[r][c])
 }
 
 /// The runs of one cluster: (first row, end, cluster).
@@ -450,6 +506,54 @@ mod tests {
         // One axis only: the two-sided normal quantile.
         let q1 = norm_quantile_95(&Matrix3::from_diagonal(&Vector3::new(1.0, 0.0, 0.0)));
         assert!((q1 - Z_975).abs() < 0.03, "{q1}");
+    }
+
+    /// The leverage correction through each pose's low-rank factor against the same through
+    /// A^-1/2 and a p x p eigen-decomposition per pose (its first form), on poses of two to
+    /// eight rows, one of them rank-deficient.
+    #[test]
+    fn the_low_rank_leverage_correction_is_the_eigen_one() {
+        let p = 11;
+        // Rows of scattered values (a sine's fractional digits), full rank together.
+        let value = |i: usize, c: usize| {
+            let v = ((i * p + c) as f64 * 12.9898).sin() * 43758.5453;
+            v - v.floor() - 0.5
+        };
+        let (mut grams, mut scores) = (Vec::new(), Vec::new());
+        let mut a = DMatrix::zeros(p, p);
+        let mut i = 0;
+        for k in [2, 4, 4, 3, 8, 4, 2, 4, 5, 4, 4, 4, 4, 6, 4, 4] {
+            let j = DMatrix::from_fn(k, p, |r, c| value(i + r, c));
+            // A pose seen twice alike: rank below its rows.
+            let j = if k == 6 {
+                DMatrix::from_fn(k, p, |r, c| j[(r % 3, c)])
+            } else {
+                j
+            };
+            i += k;
+            let r = DVector::from_fn(k, |r, _| ((i + r) as f64 * 1.3).cos() * 1e-3);
+            let gc = j.transpose() * &j;
+            a += &gc;
+            scores.push(j.transpose() * r);
+            grams.push(gc);
+        }
+        let scores = DMatrix::from_columns(&scores);
+        let fast = leverage_adjusted(&a, &grams, &scores).expect("no pose alone");
+        let ea = SymmetricEigen::new(a.clone());
+        let inv_half = &ea.eigenvectors
+            * DMatrix::from_diagonal(&ea.eigenvalues.map(|l| 1.0 / l.sqrt()))
+            * ea.eigenvectors.transpose();
+        let mut v = DMatrix::zeros(p, p);
+        for (c, gc) in grams.iter().enumerate() {
+            let m = &inv_half * gc * &inv_half;
+            let em = SymmetricEigen::new((&m + m.transpose()) * 0.5);
+            let w = &em.eigenvectors
+                * DMatrix::from_diagonal(&em.eigenvalues.map(|h| 1.0 / (1.0 - h.max(0.0)).sqrt()))
+                * em.eigenvectors.transpose();
+            let step = &inv_half * (w * (&inv_half * scores.column(c)));
+            v += &step * step.transpose();
+        }
+        assert!((&fast - &v).amax() <= 1e-10 * v.amax(), "{fast} vs {v}");
     }
 
     #[test]
