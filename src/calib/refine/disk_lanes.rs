@@ -4,20 +4,20 @@
 //! Row by row (`Model::eval`, then `Sums::of`) each end costs two Jacobian rows formed through
 //! 3 x 3 products, written across eleven columns of a tall J, and a cluster number per row.
 //! Here each end's two rows come from its pose's F_R R, F_R and origin in lanes of eight ends,
-//! straight into a block of columns in the first-level cache that `add_block` sums, and each
-//! pose's score is added per end. The same sums as the rows' to rounding
+//! straight into a block in the first-level cache that `add_rows` sums pair of columns by pair
+//! of columns (as `add_block`, four pairs side by side), and each pose's score is added per run
+//! of its ends. The same sums as the rows' to rounding
 //! (`tests::lanes_sum_what_the_rows_sum`).
 
 use super::disk::{DiskModel, DiskPose};
-use super::{GRAM_BLOCK, Sums, Transform, add_block, finish, honest, pairs};
+use super::{Sums, Transform, finish, honest, pairs, tiles};
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Vector3};
 
 /// Columns: rotation 3, translation 3, the disk's centre 3 and normal 2.
 const P: usize = 11;
-/// Rows per block: the block, its scaled copy and its ends' chunks take about 70 kB.
-const BLOCK_ROWS: usize = GRAM_BLOCK / 2;
-/// Chunks of eight ends (sixteen rows) per block.
-const BLOCK_CHUNKS: usize = BLOCK_ROWS / 16;
+/// Chunks of eight ends (sixteen rows) per block: their inputs and rows, about 36 kB, stay in
+/// the first-level cache while every pair of columns is summed over them.
+const BLOCK_CHUNKS: usize = 8;
 
 /// Eight ends: their poses' F_R R and F_R (row-major), F (R t) + F_t, the end (x, z) in the
 /// sensor, its weight on the rim residual and 1 (0: a lane past the last end).
@@ -40,12 +40,14 @@ struct Disk {
     radius: f64,
 }
 
-/// Eight ends' two rows each: Jacobian (column-major over the lanes) and residuals.
+/// Eight ends' two rows each (0: the plane rows, 1: the rim rows), their Jacobian column by
+/// column over the lanes, the same scaled by the residuals, and the residuals: a block is a run
+/// of these, read pair of columns by pair of columns by `add_rows`.
+#[derive(Clone, Copy)]
 struct Rows {
-    plane: [[f64; 8]; P],
-    rim: [[f64; 8]; P],
-    r_plane: [f64; 8],
-    r_rim: [f64; 8],
+    j: [[[f64; 8]; P]; 2],
+    scaled: [[[f64; 8]; P]; 2],
+    r: [[f64; 8]; 2],
 }
 
 /// `Model::sums` of `m` when it holds chord ends alone and more poses than keep their grams
@@ -71,9 +73,14 @@ pub(super) fn sums(m: &DiskModel, x: &Transform, s: &DiskPose) -> Option<Sums> {
     let (mut ata, mut meat) = (vec![[0.0; 8]; pairs.len()], vec![[0.0; 8]; pairs.len()]);
     let (mut atr, mut rss) = ([[0.0; 8]; P], [0.0; 8]);
     let mut scores = vec![0.0; P * g];
-    let rows_max = (2 * m.ends.len()).next_multiple_of(16).min(BLOCK_ROWS);
-    let (mut jb, mut sb) = (vec![0.0; P * rows_max], vec![0.0; P * rows_max]);
-    let mut block = vec![Chunk::default(); rows_max / 16];
+    let chunks_max = m.ends.len().div_ceil(8).min(BLOCK_CHUNKS);
+    let mut block = vec![Chunk::default(); chunks_max];
+    let empty = Rows {
+        j: [[[0.0; 8]; P]; 2],
+        scaled: [[[0.0; 8]; P]; 2],
+        r: [[0.0; 8]; 2],
+    };
+    let mut rows = vec![empty; chunks_max];
     let mut poses = Poses { x, last: None };
     for first in (0..m.ends.len()).step_by(8 * BLOCK_CHUNKS) {
         let ends = first..(first + 8 * BLOCK_CHUNKS).min(m.ends.len());
@@ -82,20 +89,16 @@ pub(super) fn sums(m: &DiskModel, x: &Transform, s: &DiskPose) -> Option<Sums> {
             let start = ends.start + 8 * k;
             poses.fill(chunk, m, start..(start + 8).min(ends.end));
         }
+        let rows = &mut rows[..chunks];
         sum_block(
             &block[..chunks],
             &disk,
-            (&mut jb, &mut sb, rows_max),
+            rows,
             (&mut atr, &mut rss),
             (&clusters[ends], &mut scores),
         );
-        let rows = 16 * chunks;
-        let (cj, cs) = (
-            block_columns(&jb, rows_max, rows),
-            block_columns(&sb, rows_max, rows),
-        );
-        add_block(&mut ata, &pairs, &cj, &cj);
-        add_block(&mut meat, &pairs, &cs, &cs);
+        add_rows(&mut ata, &pairs, rows, false);
+        add_rows(&mut meat, &pairs, rows, true);
     }
     Some(Sums {
         ata: finish(&ata, &pairs, P, |_, _| 0.0),
@@ -106,11 +109,6 @@ pub(super) fn sums(m: &DiskModel, x: &Transform, s: &DiskPose) -> Option<Sums> {
         rss: rss.iter().sum(),
         n: 2 * m.ends.len(),
     })
-}
-
-/// The first `rows` rows of each column of a block of `stride` rows per column.
-fn block_columns(v: &[f64], stride: usize, rows: usize) -> Vec<&[f64]> {
-    (0..P).map(|c| &v[c * stride..c * stride + rows]).collect()
 }
 
 /// Each end's pose products, formed once per run of ends seen from one pose.
@@ -151,35 +149,26 @@ impl<'a> Poses<'a> {
     }
 }
 
-/// One block's rows into `jb` (J) and `sb` (J scaled by r), column-major with `stride` rows
-/// per column (a chunk's plane rows, then its rim rows); their J^T r and r^T r into the
-/// lanes, and each end's score into its cluster's column.
+/// One block's rows into `rows`; their J^T r and r^T r into the lanes, and each end's score
+/// into its cluster's column.
 #[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
 fn sum_block(
     block: &[Chunk],
     disk: &Disk,
-    (jb, sb, stride): (&mut [f64], &mut [f64], usize),
+    rows: &mut [Rows],
     (atr, rss): (&mut [[f64; 8]; P], &mut [f64; 8]),
     (clusters, scores): (&[u32], &mut [f64]),
 ) {
     let mut run = (clusters[0], [0.0; P]);
-    for (k, chunk) in block.iter().enumerate() {
-        let rows = lanes(chunk, disk);
-        let mut scaled = [[0.0; 8]; 2 * P];
+    for (k, (chunk, o)) in block.iter().zip(rows.iter_mut()).enumerate() {
+        lanes(chunk, disk, o);
         for c in 0..P {
             for l in 0..8 {
-                scaled[c][l] = rows.plane[c][l] * rows.r_plane[l];
-                scaled[P + c][l] = rows.rim[c][l] * rows.r_rim[l];
-                atr[c][l] += scaled[c][l] + scaled[P + c][l];
+                atr[c][l] += o.scaled[0][c][l] + o.scaled[1][c][l];
             }
-            let at = c * stride + 16 * k;
-            jb[at..at + 8].copy_from_slice(&rows.plane[c]);
-            jb[at + 8..at + 16].copy_from_slice(&rows.rim[c]);
-            sb[at..at + 8].copy_from_slice(&scaled[c]);
-            sb[at + 8..at + 16].copy_from_slice(&scaled[P + c]);
         }
         for l in 0..8 {
-            rss[l] += rows.r_plane[l] * rows.r_plane[l] + rows.r_rim[l] * rows.r_rim[l];
+            rss[l] += o.r[0][l] * o.r[0][l] + o.r[1][l] * o.r[1][l];
         }
         // A pose's ends are consecutive as a rule: their scores are summed in registers and
         // added to the pose's column once per run.
@@ -189,11 +178,56 @@ fn sum_block(
                 run = (cl, [0.0; P]);
             }
             for (c, s) in run.1.iter_mut().enumerate() {
-                *s += scaled[c][l] + scaled[P + c][l];
+                *s += o.scaled[0][c][l] + o.scaled[1][c][l];
             }
         }
     }
     add_run(scores, &run);
+}
+
+/// `add_block` over a block of `Rows` (their scaled columns with `scaled`): each chunk's plane
+/// rows, then its rim rows, as a column-major block holds them.
+#[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
+fn add_rows(acc: &mut [[f64; 8]], pairs: &[(usize, usize)], rows: &[Rows], scaled: bool) {
+    for tile in tiles(pairs) {
+        let (i, c) = (tile.start, pairs[tile.start].0);
+        let ds = |t: usize| pairs[i + t].1;
+        let acc = &mut acc[tile.clone()];
+        match (tile.len(), scaled) {
+            (4, false) => rows_tile::<4>(acc, rows, c, std::array::from_fn(ds), |r| &r.j),
+            (4, true) => rows_tile::<4>(acc, rows, c, std::array::from_fn(ds), |r| &r.scaled),
+            (3, false) => rows_tile::<3>(acc, rows, c, std::array::from_fn(ds), |r| &r.j),
+            (3, true) => rows_tile::<3>(acc, rows, c, std::array::from_fn(ds), |r| &r.scaled),
+            (2, false) => rows_tile::<2>(acc, rows, c, std::array::from_fn(ds), |r| &r.j),
+            (2, true) => rows_tile::<2>(acc, rows, c, std::array::from_fn(ds), |r| &r.scaled),
+            (_, false) => rows_tile::<1>(acc, rows, c, std::array::from_fn(ds), |r| &r.j),
+            (_, true) => rows_tile::<1>(acc, rows, c, std::array::from_fn(ds), |r| &r.scaled),
+        }
+    }
+}
+
+/// `T` pairs (c, ds[t]) over a block of `Rows`: eight partial sums each, in row order.
+#[inline(always)]
+fn rows_tile<const T: usize>(
+    acc: &mut [[f64; 8]],
+    rows: &[Rows],
+    c: usize,
+    ds: [usize; T],
+    pick: impl Fn(&Rows) -> &[[[f64; 8]; P]; 2],
+) {
+    let mut sums: [[f64; 8]; T] = std::array::from_fn(|t| acc[t]);
+    for r in rows {
+        for half in pick(r) {
+            let x = &half[c];
+            for t in 0..T {
+                let y = &half[ds[t]];
+                for k in 0..8 {
+                    sums[t][k] += x[k] * y[k];
+                }
+            }
+        }
+    }
+    acc[..T].copy_from_slice(&sums);
 }
 
 /// A run's scores into its cluster's column.
@@ -209,13 +243,7 @@ fn add_run(scores: &mut [f64], (cl, sums): &(u32, [f64; P])) {
 /// q = F_R R p + F (R t) + F_t with p = (x, 0, z): the rotation columns g^T dq/dw =
 /// -(F_R R)^T g x p, written out for p's zero y.
 #[inline(always)]
-fn lanes(c: &Chunk, d: &Disk) -> Rows {
-    let mut o = Rows {
-        plane: [[0.0; 8]; P],
-        rim: [[0.0; 8]; P],
-        r_plane: [0.0; 8],
-        r_rim: [0.0; 8],
-    };
+fn lanes(c: &Chunk, d: &Disk, o: &mut Rows) {
     for l in 0..8 {
         let (x, z) = (c.x[l], c.z[l]);
         let q: [f64; 3] =
@@ -240,21 +268,22 @@ fn lanes(c: &Chunk, d: &Disk) -> Rows {
                 out[6 + k][l] = -g[k];
             }
         };
-        row(&mut o.plane, &d.n);
-        row(&mut o.rim, &g);
+        row(&mut o.j[0], &d.n);
+        row(&mut o.j[1], &g);
         let live = c.live[l];
-        o.plane[9][l] = dot(&v, &d.dn[0]);
-        o.plane[10][l] = dot(&v, &d.dn[1]);
-        o.rim[9][l] = -h * g.dot(&d.dn[0]);
-        o.rim[10][l] = -h * g.dot(&d.dn[1]);
-        o.r_plane[l] = h * live;
-        o.r_rim[l] = c.weight[l] * (wn - d.radius) * live;
-        for k in 0..P {
-            o.plane[k][l] *= live;
-            o.rim[k][l] *= live;
+        o.j[0][9][l] = dot(&v, &d.dn[0]);
+        o.j[0][10][l] = dot(&v, &d.dn[1]);
+        o.j[1][9][l] = -h * g.dot(&d.dn[0]);
+        o.j[1][10][l] = -h * g.dot(&d.dn[1]);
+        o.r[0][l] = h * live;
+        o.r[1][l] = c.weight[l] * (wn - d.radius) * live;
+        for half in 0..2 {
+            for k in 0..P {
+                o.j[half][k][l] *= live;
+                o.scaled[half][k][l] = o.j[half][k][l] * o.r[half][l];
+            }
         }
     }
-    o
 }
 
 #[cfg(test)]

@@ -678,22 +678,31 @@ fn gram(a: &[&[f64]], b: &[&[f64]]) -> DMatrix<f64> {
 /// that column read once. Each pair's sums keep their order, so the bits do not change.
 #[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
 fn add_block(acc: &mut [[f64; 8]], pairs: &[(usize, usize)], a: &[&[f64]], b: &[&[f64]]) {
-    let mut i = 0;
-    while i < pairs.len() {
-        let c = pairs[i].0;
-        let mut end = i + 1;
-        while end < pairs.len() && end - i < TILE && pairs[end].0 == c {
-            end += 1;
-        }
+    for tile in tiles(pairs) {
+        let (i, c) = (tile.start, pairs[tile.start].0);
         let ys = |t: usize| b[pairs[i + t].1];
-        match end - i {
-            4 => add_tile::<4>(&mut acc[i..end], a[c], std::array::from_fn(ys)),
-            3 => add_tile::<3>(&mut acc[i..end], a[c], std::array::from_fn(ys)),
-            2 => add_tile::<2>(&mut acc[i..end], a[c], std::array::from_fn(ys)),
-            _ => add_tile::<1>(&mut acc[i..end], a[c], std::array::from_fn(ys)),
+        let acc = &mut acc[tile.clone()];
+        match tile.len() {
+            4 => add_tile::<4>(acc, a[c], std::array::from_fn(ys)),
+            3 => add_tile::<3>(acc, a[c], std::array::from_fn(ys)),
+            2 => add_tile::<2>(acc, a[c], std::array::from_fn(ys)),
+            _ => add_tile::<1>(acc, a[c], std::array::from_fn(ys)),
         }
-        i = end;
     }
+}
+
+/// Runs of at most `TILE` consecutive pairs that share their first column.
+fn tiles(pairs: &[(usize, usize)]) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
+    let mut i = 0;
+    std::iter::from_fn(move || {
+        let start = i;
+        let c = pairs.get(start)?.0;
+        i += 1;
+        while i < pairs.len() && i - start < TILE && pairs[i].0 == c {
+            i += 1;
+        }
+        Some(start..i)
+    })
 }
 
 /// Pairs summed side by side in `add_block`: four chains cover an add's latency, and their
