@@ -111,10 +111,13 @@ pub(super) fn sums(m: &DiskModel, x: &Transform, s: &DiskPose) -> Option<Sums> {
     })
 }
 
+/// A flange pose with its F_R, F_R R and F (R t) + F_t.
+type PoseProducts<'a> = (&'a Isometry3<f64>, Matrix3<f64>, Matrix3<f64>, Vector3<f64>);
+
 /// Each end's pose products, formed once per run of ends seen from one pose.
 struct Poses<'a> {
     x: &'a Transform,
-    last: Option<(&'a Isometry3<f64>, Matrix3<f64>, Matrix3<f64>, Vector3<f64>)>,
+    last: Option<PoseProducts<'a>>,
 }
 
 impl<'a> Poses<'a> {
@@ -162,13 +165,13 @@ fn sum_block(
     let mut run = (clusters[0], [0.0; P]);
     for (k, (chunk, o)) in block.iter().zip(rows.iter_mut()).enumerate() {
         lanes(chunk, disk, o);
-        for c in 0..P {
-            for l in 0..8 {
-                atr[c][l] += o.scaled[0][c][l] + o.scaled[1][c][l];
+        for (c, lanes) in atr.iter_mut().enumerate() {
+            for (l, a) in lanes.iter_mut().enumerate() {
+                *a += o.scaled[0][c][l] + o.scaled[1][c][l];
             }
         }
-        for l in 0..8 {
-            rss[l] += o.r[0][l] * o.r[0][l] + o.r[1][l] * o.r[1][l];
+        for (l, s) in rss.iter_mut().enumerate() {
+            *s += o.r[0][l] * o.r[0][l] + o.r[1][l] * o.r[1][l];
         }
         // A pose's ends are consecutive as a rule: their scores are summed in registers and
         // added to the pose's column once per run.
