@@ -293,9 +293,10 @@ fn leverage_adjusted(
     let inv = &ea.eigenvectors
         * DMatrix::from_diagonal(&ea.eigenvalues.map(|l| 1.0 / l))
         * ea.eigenvectors.transpose();
+    let scale: Vec<f64> = (0..p).map(|i| a[(i, i)].sqrt()).collect();
     let mut v = DMatrix::zeros(p, p);
     for (c, gc) in grams.iter().enumerate() {
-        let f = low_rank_factor(gc);
+        let f = low_rank_factor(gc, &scale);
         let s = scores.column(c);
         if f.nrows() == 0 {
             // A pose whose rows say nothing: no leverage to correct for.
@@ -328,19 +329,19 @@ fn leverage_adjusted(
 }
 
 /// F (k x p) with F^T F = `gram` (symmetric, positive semi-definite), k its numerical rank: a
-/// Cholesky factor with diagonal pivoting that stops where what remains is below 1e-13 of the
-/// largest diagonal (rounding in the sums of a pose's few rows).
-fn low_rank_factor(gram: &DMatrix<f64>) -> DMatrix<f64> {
+/// Cholesky factor with diagonal pivoting of the gram with each column divided by its `scale`
+/// (the parameters' units differ by orders), stopping where what remains is below 1e-13 of the
+/// largest diagonal (rounding in the sums of a pose's few rows), the columns scaled back.
+fn low_rank_factor(gram: &DMatrix<f64>, scale: &[f64]) -> DMatrix<f64> {
     let p = gram.nrows();
-    let mut d: Vec<f64> = (0..p).map(|i| gram[(i, i)]).collect();
+    let unit = |i: usize, j: usize| gram[(i, j)] / (scale[i] * scale[j]);
+    let mut d: Vec<f64> = (0..p).map(|i| unit(i, i)).collect();
     let floor = 1e-13 * d.iter().copied().fold(0.0, f64::max);
     let mut rows: Vec<Vec<f64>> = Vec::new();
     while rows.len() < p {
-        let (j, &dj) = d
-            .iter()
-            .enumerate()
-            .max_by(|a, b| a.1.total_cmp(b.1))
-            .expect("p > 0");
+        let Some((j, &dj)) = d.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)) else {
+            break;
+        };
         if !(dj > floor) {
             break;
         }
@@ -348,7 +349,7 @@ fn low_rank_factor(gram: &DMatrix<f64>) -> DMatrix<f64> {
         let row: Vec<f64> = (0..p)
             .map(|i| {
                 let done: f64 = rows.iter().map(|r| r[i] * r[j]).sum();
-                (gram[(i, j)] - done) / root
+                (unit(i, j) - done) / root
             })
             .collect();
         for (di, ri) in d.iter_mut().zip(&row) {
@@ -357,7 +358,7 @@ fn low_rank_factor(gram: &DMatrix<f64>) -> DMatrix<f64> {
         d[j] = 0.0;
         rows.push(row);
     }
-    DMatrix::from_fn(rows.len(), p, |r, c| rows[r][c])
+    DMatrix::from_fn(rows.len(), p, |r, c| rows[r][c] * scale[c])
 }
 
 /// The runs of one cluster: (first row, end, cluster).
@@ -510,14 +511,15 @@ mod tests {
 
     /// The leverage correction through each pose's low-rank factor against the same through
     /// A^-1/2 and a p x p eigen-decomposition per pose (its first form), on poses of two to
-    /// eight rows, one of them rank-deficient.
+    /// eight rows, one of them rank-deficient, in columns of very different units.
     #[test]
     fn the_low_rank_leverage_correction_is_the_eigen_one() {
         let p = 11;
-        // Rows of scattered values (a sine's fractional digits), full rank together.
+        // Rows of scattered values (a sine's fractional digits), full rank together, the
+        // columns in units six orders apart (radians and metres of a transform, a clock).
         let value = |i: usize, c: usize| {
             let v = ((i * p + c) as f64 * 12.9898).sin() * 43758.5453;
-            v - v.floor() - 0.5
+            (v - v.floor() - 0.5) * [1e-3, 1.0, 1e3][c % 3]
         };
         let (mut grams, mut scores) = (Vec::new(), Vec::new());
         let mut a = DMatrix::zeros(p, p);
