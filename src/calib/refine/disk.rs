@@ -12,7 +12,7 @@ use super::plane::{moment_rows, row_in_base, weighted_moment_rows};
 use super::{Model, Options, Refined, Transform, exp, frame_with, transform_columns};
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Point3, Rotation3, Vector2, Vector3};
 
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct DiskModel {
     pub radius: f64,
     /// Chord ends (sensor x, z) with the flange pose each was seen from.
@@ -514,11 +514,7 @@ mod tests {
         let t = Transform::from_isometry(&x);
         let mut m = DiskModel {
             radius: 0.05,
-            ends: Vec::new(),
-            face: Vec::new(),
-            rims: Vec::new(),
-            end_weights: Vec::new(),
-            walls: Vec::new(),
+            ..DiskModel::default()
         };
         for k in 0..12 {
             let a = k as f64;

@@ -309,11 +309,7 @@ mod tests {
         );
         let mut m = DiskModel {
             radius: 0.05,
-            ends: Vec::new(),
-            face: Vec::new(),
-            rims: Vec::new(),
-            end_weights: Vec::new(),
-            walls: Vec::new(),
+            ..DiskModel::default()
         };
         for k in 0..83 {
             let a = k as f64;
