@@ -131,12 +131,17 @@ impl Honest {
                 )
             })
             .flatten();
-        let full = adjusted.unwrap_or_else(|| {
-            // The small-sample factor of the clustered sandwich (CR1).
-            let factor = (g as f64 / (g - 1) as f64) * ((n - 1) as f64 / (n - p) as f64);
-            inv * (&scores * scores.transpose()) * inv * factor
-        });
-        let clustered = Matrix6::from_fn(|r, c| full[(r, c)]);
+        let clustered = match adjusted {
+            Some(full) => Matrix6::from_fn(|r, c| full[(r, c)]),
+            None => {
+                // The small-sample factor of the clustered sandwich (CR1). Only the transform's
+                // block is kept: (A^-1 S)(A^-1 S)^T over its six rows.
+                let factor = (g as f64 / (g - 1) as f64) * ((n - 1) as f64 / (n - p) as f64);
+                let t = inv.rows(0, 6) * &scores;
+                let full = &t * t.transpose();
+                Matrix6::from_fn(|r, c| full[(r, c)] * factor)
+            }
+        };
         // The scores of g poses span at most g - 1 directions, and the specimen's parameters
         // take p - 6 of them: with few poses (8 ball or plane poses) the clustered covariance
         // says nothing in the transform's remaining directions. There the residual-level one is

@@ -889,9 +889,9 @@ fn observability_from(mut a: DMatrix<f64>) -> Observability {
     let axs = a.view((0, 6), (6, p - 6)).into_owned();
     let ass = a.view((6, 6), (p - 6, p - 6)).into_owned();
     // Eliminate the specimen (Schur complement); a singular specimen block leaves its null space.
-    let schur = match ass.clone().pseudo_inverse(1e-14 * ass.norm().max(1e-300)) {
-        Ok(inv) => axx - &axs * inv * axs.transpose(),
-        Err(_) => axx,
+    let schur = match specimen_inverse(ass) {
+        Some(inv) => axx - &axs * inv * axs.transpose(),
+        None => axx,
     };
     let eig = nalgebra::SymmetricEigen::new(Matrix6::from_fn(|r, c| schur[(r, c)]));
     let mut idx: Vec<usize> = (0..6).collect();
@@ -916,6 +916,22 @@ fn observability_from(mut a: DMatrix<f64>) -> Observability {
         weakest,
         weakest_direction: std::array::from_fn(|i| weakest_v[i] * sign),
     }
+}
+
+/// The specimen block's pseudo-inverse, its singular values under 1e-14 of its norm cut. By
+/// Cholesky where the inverse's 1-norm keeps every eigenvalue a hundred times above the cut (the
+/// two are then the same); by SVD otherwise.
+fn specimen_inverse(ass: DMatrix<f64>) -> Option<DMatrix<f64>> {
+    let cut = 1e-14 * ass.norm().max(1e-300);
+    if let Some(inv) = ass.clone().cholesky().map(|c| c.inverse()) {
+        let norm1 = (inv.column_iter())
+            .map(|c| c.iter().map(|v| v.abs()).sum::<f64>())
+            .fold(0.0, f64::max);
+        if norm1.is_finite() && 1.0 / norm1 > 100.0 * cut {
+            return Some(inv);
+        }
+    }
+    ass.pseudo_inverse(cut).ok()
 }
 
 fn motion_missing(weakest: &str) -> String {
@@ -1152,11 +1168,27 @@ fn gauss_newton_step(sums: &Sums, normal: &Normal) -> Vector6<f64> {
     let used = &normal.used;
     let g = DVector::from_fn(used.len(), |i, _| sums.atr[used[i]]);
     let a = sums.ata.select_rows(used).select_columns(used);
-    // Scaled so that one ill-scaled parameter does not spoil the solve; a singular system has
-    // no step to speak of (the observability figures say why).
-    let d: Vec<f64> = (0..a.nrows())
+    // Where the scaled system's smallest eigenvalue is far above the SVD's cut, the
+    // covariance's inverse gives the SVD's step, and a result needs no decomposition of its own.
+    if let Some(inv) = normal.inverse().filter(|_| normal.scaled_norm1 < 1e10) {
+        let st = Vector6::from_fn(|i, _| -inv.row(i).dot(&g.transpose()));
+        let sv = svd_step(&a, &g, &column_scale(&a));
+        return st;
+    }
+    svd_step(&a, &g, &column_scale(&a))
+}
+
+/// sqrt of each diagonal entry (floored): the scale that makes J^T J's diagonal one.
+fn column_scale(a: &DMatrix<f64>) -> Vec<f64> {
+    (0..a.nrows())
         .map(|i| a[(i, i)].max(1e-300).sqrt())
-        .collect();
+        .collect()
+}
+
+/// The step by SVD of the scaled system: one ill-scaled parameter does not spoil the solve,
+/// and directions with a singular value under 1e-12 take no step (the observability figures
+/// say why).
+fn svd_step(a: &DMatrix<f64>, g: &DVector<f64>, d: &[f64]) -> Vector6<f64> {
     let scaled = DMatrix::from_fn(a.nrows(), a.ncols(), |r, c| a[(r, c)] / (d[r] * d[c]));
     let gs = DVector::from_fn(g.len(), |i, _| g[i] / d[i]);
     match scaled.svd(true, true).solve(&gs, 1e-12) {
@@ -1332,13 +1364,32 @@ fn used_columns(a: &DMatrix<f64>) -> Vec<usize> {
 pub(crate) struct Normal {
     pub used: Vec<usize>,
     inv: Option<DMatrix<f64>>,
+    /// The 1-norm of the inverse of J^T J scaled to a unit diagonal (`column_scale`): its
+    /// smallest eigenvalue is at least the reciprocal.
+    scaled_norm1: f64,
 }
 
 impl Normal {
+    /// Inverted with its diagonal scaled to one: columns in units orders apart (radians and
+    /// metres, a specimen's size) would cost the unscaled inverse digits it need not lose.
     fn of(a: &DMatrix<f64>) -> Normal {
         let used = used_columns(a);
-        let inv = a.select_rows(&used).select_columns(&used).try_inverse();
-        Normal { used, inv }
+        let a = a.select_rows(&used).select_columns(&used);
+        let d = column_scale(&a);
+        let scaled = DMatrix::from_fn(a.nrows(), a.ncols(), |r, c| a[(r, c)] / (d[r] * d[c]));
+        let inv_scaled = scaled.try_inverse();
+        let scaled_norm1 = inv_scaled.as_ref().map_or(f64::INFINITY, |m| {
+            (m.column_iter())
+                .map(|c| c.iter().map(|v| v.abs()).sum::<f64>())
+                .fold(0.0, f64::max)
+        });
+        let inv = inv_scaled
+            .map(|m| DMatrix::from_fn(m.nrows(), m.ncols(), |r, c| m[(r, c)] / (d[r] * d[c])));
+        Normal {
+            used,
+            inv,
+            scaled_norm1,
+        }
     }
 
     pub fn inverse(&self) -> Option<&DMatrix<f64>> {
@@ -1387,6 +1438,57 @@ mod tests {
         DMatrix::from_fn(n, p, |i, c| {
             ((i * 7 + c * 13) as f64 * 0.377).sin() * 1e-3 + c as f64
         })
+    }
+
+    /// J^T J and J^T r of a tall J whose columns are in units orders apart; `tie` makes
+    /// column 7 that close to a copy of column 2.
+    fn system(tie: f64) -> Sums {
+        let mut j = DMatrix::from_fn(200, 9, |i, c| ((i * (c + 3) + c * c) as f64 * 0.377).sin());
+        for i in 0..200 {
+            j[(i, 7)] = j[(i, 2)] + tie * ((i * 5) as f64 * 0.91).sin();
+            for c in 3..6 {
+                j[(i, c)] *= 1e3;
+            }
+        }
+        let r = DVector::from_fn(200, |i, _| ((i * 3) as f64 * 0.53).cos() * 1e-4);
+        Sums::of(&r, &j, &[], 0)
+    }
+
+    #[test]
+    fn the_step_is_the_svd_one_and_the_guard_keeps_it_so() {
+        for (tie, inverse_would_do) in [(1.0, true), (1e-3, true), (1e-9, false)] {
+            let sums = system(tie);
+            let normal = Normal::of(&sums.ata);
+            let a = sums
+                .ata
+                .select_rows(&normal.used)
+                .select_columns(&normal.used);
+            let g = DVector::from_fn(normal.used.len(), |i, _| sums.atr[normal.used[i]]);
+            let svd = svd_step(&a, &g, &column_scale(&a));
+            assert!(svd.iter().all(|v| v.is_finite()) && svd.norm() > 0.0);
+            let off = |v: Vector6<f64>| (v - svd).norm() / svd.norm();
+            let step = gauss_newton_step(&sums, &normal);
+            assert!(off(step) < 1e-8, "tie {tie}: {step} vs {svd}");
+            // Near singular the SVD cuts the tied direction; the bare inverse would not.
+            let bare = normal
+                .inverse()
+                .map(|inv| Vector6::from_fn(|i, _| -inv.row(i).dot(&g.transpose())));
+            assert_eq!(
+                bare.is_some_and(|b| off(b) < 1e-8),
+                inverse_would_do,
+                "tie {tie}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_specimen_inverse_is_the_pseudo_inverse() {
+        for tie in [1.0, 1e-3, 1e-9, 0.0] {
+            let a = system(tie).ata.view((2, 2), (6, 6)).into_owned();
+            let pinv = a.clone().pseudo_inverse(1e-14 * a.norm()).expect("eps > 0");
+            let inv = specimen_inverse(a).expect("eps > 0");
+            assert!((&inv - &pinv).amax() <= 1e-6 * pinv.amax(), "tie {tie}");
+        }
     }
 
     #[test]
