@@ -15,7 +15,7 @@ use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Vector3};
 
 /// Columns: rotation 3, translation 3, the disk's centre 3 and normal 2.
 const P: usize = 11;
-/// Chunks of eight ends (sixteen rows) per block: their inputs and rows, about 36 kB, stay in
+/// Chunks of eight ends (sixteen rows) per block: their inputs and rows, about 25 kB, stay in
 /// the first-level cache while every pair of columns is summed over them.
 const BLOCK_CHUNKS: usize = 8;
 
@@ -41,12 +41,11 @@ struct Disk {
 }
 
 /// Eight ends' two rows each (0: the plane rows, 1: the rim rows), their Jacobian column by
-/// column over the lanes, the same scaled by the residuals, and the residuals: a block is a run
-/// of these, read pair of columns by pair of columns by `add_rows`.
+/// column over the lanes and the residuals: a block is a run of these, read pair of columns by
+/// pair of columns by `add_rows`.
 #[derive(Clone, Copy)]
 struct Rows {
     j: [[[f64; 8]; P]; 2],
-    scaled: [[[f64; 8]; P]; 2],
     r: [[f64; 8]; 2],
 }
 
@@ -77,7 +76,6 @@ pub(super) fn sums(m: &DiskModel, x: &Transform, s: &DiskPose) -> Option<Sums> {
     let mut block = vec![Chunk::default(); chunks_max];
     let empty = Rows {
         j: [[[0.0; 8]; P]; 2],
-        scaled: [[[0.0; 8]; P]; 2],
         r: [[0.0; 8]; 2],
     };
     let mut rows = vec![empty; chunks_max];
@@ -97,8 +95,7 @@ pub(super) fn sums(m: &DiskModel, x: &Transform, s: &DiskPose) -> Option<Sums> {
             (&mut atr, &mut rss),
             (&clusters[ends], &mut scores),
         );
-        add_rows(&mut ata, &pairs, rows, false);
-        add_rows(&mut meat, &pairs, rows, true);
+        add_rows((&mut ata, &mut meat), &pairs, rows);
     }
     Some(Sums {
         ata: finish(&ata, &pairs, P, |_, _| 0.0),
@@ -167,7 +164,7 @@ fn sum_block(
         lanes(chunk, disk, o);
         for (c, lanes) in atr.iter_mut().enumerate() {
             for (l, a) in lanes.iter_mut().enumerate() {
-                *a += o.scaled[0][c][l] + o.scaled[1][c][l];
+                *a += o.j[0][c][l] * o.r[0][l] + o.j[1][c][l] * o.r[1][l];
             }
         }
         for (l, s) in rss.iter_mut().enumerate() {
@@ -181,56 +178,62 @@ fn sum_block(
                 run = (cl, [0.0; P]);
             }
             for (c, s) in run.1.iter_mut().enumerate() {
-                *s += o.scaled[0][c][l] + o.scaled[1][c][l];
+                *s += o.j[0][c][l] * o.r[0][l] + o.j[1][c][l] * o.r[1][l];
             }
         }
     }
     add_run(scores, &run);
 }
 
-/// `add_block` over a block of `Rows` (their scaled columns with `scaled`): each chunk's plane
-/// rows, then its rim rows, as a column-major block holds them.
+/// J^T J and sum r_i^2 J_i^T J_i (`add_block`'s pairs, four side by side) over a block of
+/// `Rows`: each chunk's plane rows, then its rim rows, as a column-major block holds them. One
+/// pass for both: each product of two columns is formed once.
 #[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
-fn add_rows(acc: &mut [[f64; 8]], pairs: &[(usize, usize)], rows: &[Rows], scaled: bool) {
+fn add_rows(
+    (ata, meat): (&mut [[f64; 8]], &mut [[f64; 8]]),
+    pairs: &[(usize, usize)],
+    rows: &[Rows],
+) {
     for tile in tiles(pairs) {
         let (i, c) = (tile.start, pairs[tile.start].0);
         let ds = |t: usize| pairs[i + t].1;
-        let acc = &mut acc[tile.clone()];
-        match (tile.len(), scaled) {
-            (4, false) => rows_tile::<4>(acc, rows, c, std::array::from_fn(ds), |r| &r.j),
-            (4, true) => rows_tile::<4>(acc, rows, c, std::array::from_fn(ds), |r| &r.scaled),
-            (3, false) => rows_tile::<3>(acc, rows, c, std::array::from_fn(ds), |r| &r.j),
-            (3, true) => rows_tile::<3>(acc, rows, c, std::array::from_fn(ds), |r| &r.scaled),
-            (2, false) => rows_tile::<2>(acc, rows, c, std::array::from_fn(ds), |r| &r.j),
-            (2, true) => rows_tile::<2>(acc, rows, c, std::array::from_fn(ds), |r| &r.scaled),
-            (_, false) => rows_tile::<1>(acc, rows, c, std::array::from_fn(ds), |r| &r.j),
-            (_, true) => rows_tile::<1>(acc, rows, c, std::array::from_fn(ds), |r| &r.scaled),
+        let acc = (&mut ata[tile.clone()], &mut meat[tile.clone()]);
+        match tile.len() {
+            4 => rows_tile::<4>(acc, rows, c, std::array::from_fn(ds)),
+            3 => rows_tile::<3>(acc, rows, c, std::array::from_fn(ds)),
+            2 => rows_tile::<2>(acc, rows, c, std::array::from_fn(ds)),
+            _ => rows_tile::<1>(acc, rows, c, std::array::from_fn(ds)),
         }
     }
 }
 
-/// `T` pairs (c, ds[t]) over a block of `Rows`: eight partial sums each, in row order.
+/// `T` pairs (c, ds[t]) over a block of `Rows`: eight partial sums each of the product and of
+/// the product times the row's squared residual, in row order.
 #[inline(always)]
 fn rows_tile<const T: usize>(
-    acc: &mut [[f64; 8]],
+    (ata, meat): (&mut [[f64; 8]], &mut [[f64; 8]]),
     rows: &[Rows],
     c: usize,
     ds: [usize; T],
-    pick: impl Fn(&Rows) -> &[[[f64; 8]; P]; 2],
 ) {
-    let mut sums: [[f64; 8]; T] = std::array::from_fn(|t| acc[t]);
+    let mut a: [[f64; 8]; T] = std::array::from_fn(|t| ata[t]);
+    let mut m: [[f64; 8]; T] = std::array::from_fn(|t| meat[t]);
     for r in rows {
-        for half in pick(r) {
+        for (half, res) in r.j.iter().zip(&r.r) {
             let x = &half[c];
+            let rr: [f64; 8] = std::array::from_fn(|k| res[k] * res[k]);
             for t in 0..T {
                 let y = &half[ds[t]];
                 for k in 0..8 {
-                    sums[t][k] += x[k] * y[k];
+                    let xy = x[k] * y[k];
+                    a[t][k] += xy;
+                    m[t][k] += xy * rr[k];
                 }
             }
         }
     }
-    acc[..T].copy_from_slice(&sums);
+    ata[..T].copy_from_slice(&a);
+    meat[..T].copy_from_slice(&m);
 }
 
 /// A run's scores into its cluster's column.
@@ -283,7 +286,6 @@ fn lanes(c: &Chunk, d: &Disk, o: &mut Rows) {
         for half in 0..2 {
             for k in 0..P {
                 o.j[half][k][l] *= live;
-                o.scaled[half][k][l] = o.j[half][k][l] * o.r[half][l];
             }
         }
     }

@@ -1171,9 +1171,7 @@ fn gauss_newton_step(sums: &Sums, normal: &Normal) -> Vector6<f64> {
     // Where the scaled system's smallest eigenvalue is far above the SVD's cut, the
     // covariance's inverse gives the SVD's step, and a result needs no decomposition of its own.
     if let Some(inv) = normal.inverse().filter(|_| normal.scaled_norm1 < 1e10) {
-        let st = Vector6::from_fn(|i, _| -inv.row(i).dot(&g.transpose()));
-        let sv = svd_step(&a, &g, &column_scale(&a));
-        return st;
+        return Vector6::from_fn(|i, _| -inv.row(i).dot(&g.transpose()));
     }
     svd_step(&a, &g, &column_scale(&a))
 }
