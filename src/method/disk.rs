@@ -404,7 +404,10 @@ impl Plan for DiskPlan {
             form,
         );
         let noisy = !rig.sensor.noise.is_off();
-        let (mut groups, mut profiles) = (Vec::new(), Vec::new());
+        let (mut groups, mut profiles) = (
+            Vec::with_capacity(self.free.len() + self.plans.len()),
+            Vec::with_capacity(self.free.len() + self.plans.iter().map(|p| p.m).sum::<usize>()),
+        );
         let Sim { rng, mover, .. } = sim;
         let mut actual = |f: &Isometry3<f64>| mover.actual(&rig.robot, f);
         for (i, f) in self.free.iter().enumerate() {
@@ -949,8 +952,12 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             last.base_to_flange.translation.vector,
         );
         let span = t1 - t0;
-        let (mut chords, mut ends, mut face, mut beyond) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut chords, mut ends, mut face, mut beyond) = (
+            Vec::with_capacity(ps.len()),
+            Vec::with_capacity(2 * ps.len()),
+            Vec::new(),
+            Vec::with_capacity(ps.len()),
+        );
         let mut report = super::GroupReport::new(g.id);
         for p in &ps {
             let flange = p.base_to_flange;
@@ -995,8 +1002,18 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     }
     // A scan with fewer than 3 chords cannot give its ellipse: left out, if 4 scans remain.
     super::leave_out_thin_groups(&mut reports, 3, 4, Kind::Disk)?;
-    let (mut scans, mut ends, mut face, mut beyond) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let kept = |k: fn(&(DiskScan, Vec<_>, Vec<_>, Vec<_>)) -> usize| {
+        (per_scan.iter().zip(&reports))
+            .filter(|(_, r)| !r.left_out)
+            .map(|(s, _)| k(s))
+            .sum::<usize>()
+    };
+    let (mut scans, mut ends, mut face, mut beyond) = (
+        Vec::with_capacity(per_scan.len()),
+        Vec::with_capacity(kept(|s| s.1.len())),
+        Vec::with_capacity(kept(|s| s.2.len())),
+        Vec::with_capacity(kept(|s| s.3.len())),
+    );
     for ((scan, e, f, b), r) in per_scan.into_iter().zip(&reports) {
         if !r.left_out {
             scans.push(scan);
