@@ -98,7 +98,8 @@ impl Honest {
                     let s = gc.columns(3, 3);
                     m += &s * s.transpose();
                 }
-                let full = inv * m * inv;
+                let inv6 = inv.rows(0, 6);
+                let full = inv6 * m * inv6.transpose();
                 Matrix6::from_fn(|r, c| full[(r, c)])
             }
             _ => Matrix6::zeros(),
@@ -126,13 +127,14 @@ impl Honest {
             .then(|| {
                 leverage_adjusted(
                     &sums.ata.select_rows(used).select_columns(used),
+                    inv,
                     &grams,
                     &scores,
                 )
             })
             .flatten();
         let clustered = match adjusted {
-            Some(full) => Matrix6::from_fn(|r, c| full[(r, c)]),
+            Some(block) => block,
             None => {
                 // The small-sample factor of the clustered sandwich (CR1). Only the transform's
                 // block is kept: (A^-1 S)(A^-1 S)^T over its six rows.
@@ -280,57 +282,77 @@ pub fn grams(j: &DMatrix<f64>, clusters: &[u32], g: usize) -> DMatrix<f64> {
 /// A pose's gram A_c = F^T F has the rank of its rows (a chord's four), so with B = A^-1/2 F^T
 /// the step A^-1/2 (I - B B^T)^-1/2 A^-1/2 s_c is A^-1 (s_c + F^T f(X) F A^-1 s_c), f(x) =
 /// ((1 - x)^-1/2 - 1) / x of X = F A^-1 F^T (k x k, the same leverages): no p x p
-/// decomposition per pose. F comes from `low_rank_factor`.
+/// decomposition per pose. F comes from `low_rank_factor`; A^-1 is the fit's (`inv`). Returns
+/// the transform's 6 x 6 block, the only one the verdict reads.
 fn leverage_adjusted(
     a: &DMatrix<f64>,
+    inv: &DMatrix<f64>,
     grams: &[DMatrix<f64>],
     scores: &DMatrix<f64>,
-) -> Option<DMatrix<f64>> {
+) -> Option<Matrix6<f64>> {
     let g = grams.len();
-    if g < 2 || scores.ncols() != g {
+    if g < 2 || scores.ncols() != g || a.clone().cholesky().is_none() {
         return None;
     }
     let p = a.nrows();
-    let ea = nalgebra::SymmetricEigen::new(a.clone());
-    if !ea.eigenvalues.iter().all(|&l| l > 0.0) {
-        return None;
-    }
-    let inv = &ea.eigenvectors
-        * DMatrix::from_diagonal(&ea.eigenvalues.map(|l| 1.0 / l))
-        * ea.eigenvectors.transpose();
     let scale: Vec<f64> = (0..p).map(|i| a[(i, i)].sqrt()).collect();
-    let mut v = DMatrix::zeros(p, p);
+    // Only the transform's block is wanted: each step through A^-1's first six rows.
+    let inv6 = inv.rows(0, 6);
+    let mut v = Matrix6::zeros();
     for (c, gc) in grams.iter().enumerate() {
         let f = low_rank_factor(gc, &scale);
         let s = scores.column(c);
-        if f.nrows() == 0 {
-            // A pose whose rows say nothing: no leverage to correct for.
-            let step = &inv * s;
-            v += &step * step.transpose();
-            continue;
-        }
-        let fa = &f * &inv;
-        let x = &fa * f.transpose();
-        let ex = nalgebra::SymmetricEigen::new((&x + x.transpose()) * 0.5);
-        if !ex.eigenvalues.iter().all(|&h| h < 1.0 - 1e-9) {
-            return None;
-        }
-        let widen = |h: f64| {
-            let h = h.max(0.0);
-            // ((1 - h)^-1/2 - 1) / h, its limit 1/2 + 3h/8 where h is too small to divide by.
-            if h < 1e-8 {
-                0.5 + 0.375 * h
-            } else {
-                ((1.0 - h).powf(-0.5) - 1.0) / h
-            }
+        // A pose whose rows say nothing has no leverage to correct for.
+        let corrected = if f.nrows() == 0 {
+            s.into_owned()
+        } else {
+            let fa = &f * inv;
+            let fx = widened(&(&fa * f.transpose()))?;
+            s + f.transpose() * (fx * (&fa * s))
         };
-        let fx = &ex.eigenvectors
-            * DMatrix::from_diagonal(&ex.eigenvalues.map(widen))
-            * ex.eigenvectors.transpose();
-        let step = &inv * (s + f.transpose() * (fx * (&fa * s)));
-        v += &step * step.transpose();
+        let step: nalgebra::Vector6<f64> = (inv6 * corrected).fixed_rows::<6>(0).into_owned();
+        v += step * step.transpose();
     }
     v.iter().all(|x| x.is_finite()).then_some(v)
+}
+
+/// f(X) for X = F A^-1 F^T (k x k, symmetrised), f(h) = ((1 - h)^-1/2 - 1) / h on its
+/// eigenvalues; None where one reaches 1 (a pose alone carries a direction). A chord's or a
+/// few points' k <= 4 goes through a fixed-size decomposition (no allocation per pose), the
+/// rest through a dynamic one.
+fn widened(x: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    let k = x.nrows();
+    let widen = |h: f64| {
+        let h = h.max(0.0);
+        // Its limit 1/2 + 3h/8 where h is too small to divide by.
+        if h < 1e-8 {
+            0.5 + 0.375 * h
+        } else {
+            ((1.0 - h).powf(-0.5) - 1.0) / h
+        }
+    };
+    let sym = |r: usize, c: usize| 0.5 * (x[(r, c)] + x[(c, r)]);
+    if k <= 4 {
+        // Padded with zeros: the pad is its own block, and F has no rows there.
+        let m = nalgebra::Matrix4::from_fn(|r, c| if r < k && c < k { sym(r, c) } else { 0.0 });
+        let e = SymmetricEigen::new(m);
+        if !e.eigenvalues.iter().all(|&h| h < 1.0 - 1e-9) {
+            return None;
+        }
+        let fx = e.eigenvectors
+            * nalgebra::Matrix4::from_diagonal(&e.eigenvalues.map(widen))
+            * e.eigenvectors.transpose();
+        return Some(DMatrix::from_fn(k, k, |r, c| fx[(r, c)]));
+    }
+    let e = SymmetricEigen::new(DMatrix::from_fn(k, k, sym));
+    if !e.eigenvalues.iter().all(|&h| h < 1.0 - 1e-9) {
+        return None;
+    }
+    Some(
+        &e.eigenvectors
+            * DMatrix::from_diagonal(&e.eigenvalues.map(widen))
+            * e.eigenvectors.transpose(),
+    )
 }
 
 /// F (k x p) with F^T F = `gram` (symmetric, positive semi-definite), k its numerical rank: a
@@ -545,22 +567,33 @@ mod tests {
             grams.push(gc);
         }
         let scores = DMatrix::from_columns(&scores);
-        let fast = leverage_adjusted(&a, &grams, &scores).expect("no pose alone");
-        let ea = SymmetricEigen::new(a.clone());
-        let inv_half = &ea.eigenvectors
-            * DMatrix::from_diagonal(&ea.eigenvalues.map(|l| 1.0 / l.sqrt()))
-            * ea.eigenvectors.transpose();
+        // The reference in the unit-diagonal scale (A = D S D, S = C C^T), where nothing is
+        // ill-conditioned: A's square root L = D C, M_c = L^-1 A_c L^-T, the step
+        // L^-T (I - M_c)^-1/2 L^-1 s_c (any square root gives the same).
+        let d = DVector::from_fn(p, |i, _| a[(i, i)].sqrt());
+        let unit = DMatrix::from_fn(p, p, |r, c| a[(r, c)] / (d[r] * d[c]));
+        let inv = unit.clone().cholesky().expect("full rank").inverse();
+        let inv = DMatrix::from_fn(p, p, |r, c| inv[(r, c)] / (d[r] * d[c]));
+        let fast = leverage_adjusted(&a, &inv, &grams, &scores).expect("no pose alone");
+        let ci = unit
+            .cholesky()
+            .expect("full rank")
+            .l()
+            .try_inverse()
+            .expect("triangular");
+        let li = &ci * DMatrix::from_diagonal(&d.map(|v| 1.0 / v));
         let mut v = DMatrix::zeros(p, p);
         for (c, gc) in grams.iter().enumerate() {
-            let m = &inv_half * gc * &inv_half;
+            let m = &li * gc * li.transpose();
             let em = SymmetricEigen::new((&m + m.transpose()) * 0.5);
             let w = &em.eigenvectors
                 * DMatrix::from_diagonal(&em.eigenvalues.map(|h| 1.0 / (1.0 - h.max(0.0)).sqrt()))
                 * em.eigenvectors.transpose();
-            let step = &inv_half * (w * (&inv_half * scores.column(c)));
+            let step = li.transpose() * (w * (&li * scores.column(c)));
             v += &step * step.transpose();
         }
-        assert!((&fast - &v).amax() <= 1e-10 * v.amax(), "{fast} vs {v}");
+        let v = Matrix6::from_fn(|r, c| v[(r, c)]);
+        assert!((fast - v).amax() <= 1e-10 * v.amax(), "{fast} vs {v}");
     }
 
     #[test]
