@@ -219,9 +219,20 @@ pub fn point_seed(plan: &SweepPlan, values: &[(String, toml::Value)]) -> u64 {
     )
 }
 
+/// One chunk of a (point, method)'s trials, in trial order; the last one carries what its
+/// summary row is keyed by.
+struct Chunk {
+    rows: Vec<TrialRow>,
+    end: Option<(usize, Vec<(String, toml::Value)>, MethodId)>,
+}
+
 /// Run the sweep: for each grid point (in order) build the experiment once, run this shard's trials
 /// in parallel chunks, and hand each chunk's rows, in trial order, to `sink`. `progress` is told
 /// how many trials are done.
+///
+/// The trials are computed on a thread of their own (rayon's pool under it) while this one
+/// hands the previous chunk to `sink`: writing rows no longer leaves a core idle between grid
+/// points. The rows and their order are the same.
 pub fn run(
     plan: &SweepPlan,
     file: &str,
@@ -229,17 +240,54 @@ pub fn run(
     mut sink: impl FnMut(&[TrialRow]) -> Result<(), Error>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Vec<SummaryRow>, Error> {
-    const CHUNK: usize = 512;
-    let mut summary = Vec::new();
-    let mut done = 0;
     let mine: Vec<usize> = (0..plan.trials).filter(|t| shard.owns(*t)).collect();
+    std::thread::scope(|s| {
+        // Two chunks ahead at most: a slow sink holds the trials back, not memory.
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Result<Chunk, Error>>(2);
+        s.spawn(move || {
+            if let Err(e) = produce(plan, file, &mine, &tx) {
+                // The receiver may be gone already (the sink failed first).
+                let _ = tx.send(Err(e));
+            }
+        });
+        let (mut summary, mut acc, mut done) = (Vec::new(), Accumulator::new(), 0);
+        for chunk in rx {
+            let chunk = chunk?;
+            for r in &chunk.rows {
+                let m = r.outcome.result.as_ref().map(|s| s.metrics);
+                acc.add(m.is_ok(), &m.unwrap_or_default());
+            }
+            if !chunk.rows.is_empty() {
+                sink(&chunk.rows)?;
+                done += chunk.rows.len();
+                progress(done);
+            }
+            if let Some((point, values, method)) = chunk.end {
+                let finished = std::mem::replace(&mut acc, Accumulator::new());
+                summary.push(finished.finish(point, values, method));
+            }
+        }
+        Ok(summary)
+    })
+}
+
+/// Every (point, method)'s trials of `mine` in chunks, in order, into `tx`; stops early when
+/// the receiver is gone.
+fn produce(
+    plan: &SweepPlan,
+    file: &str,
+    mine: &[usize],
+    tx: &std::sync::mpsc::SyncSender<Result<Chunk, Error>>,
+) -> Result<(), Error> {
+    const CHUNK: usize = 512;
     for point in plan.sf.points() {
         let point = point?;
         let setup = point.scenario.build(file)?;
         let seed = point_seed(plan, &point.values);
         for &method in &point.scenario.methods {
-            let mut acc = Accumulator::new();
-            for chunk in mine.chunks(CHUNK) {
+            let n = mine.len().div_ceil(CHUNK).max(1);
+            for k in 0..n {
+                let chunk = &mine[(k * CHUNK).min(mine.len())..((k + 1) * CHUNK).min(mine.len())];
                 let rows: Vec<TrialRow> = chunk
                     .par_iter()
                     .map(|&t| TrialRow {
@@ -248,18 +296,14 @@ pub fn run(
                         outcome: run_trial(&setup, method, seed, t as u64),
                     })
                     .collect();
-                for r in &rows {
-                    let m = r.outcome.result.as_ref().map(|s| s.metrics);
-                    acc.add(m.is_ok(), &m.unwrap_or_default());
+                let end = (k + 1 == n).then(|| (point.index, point.values.clone(), method));
+                if tx.send(Ok(Chunk { rows, end })).is_err() {
+                    return Ok(());
                 }
-                sink(&rows)?;
-                done += rows.len();
-                progress(done);
             }
-            summary.push(acc.finish(point.index, point.values.clone(), method));
         }
     }
-    Ok(summary)
+    Ok(())
 }
 
 /// The per-trial numbers a summary needs (what trials.csv holds).

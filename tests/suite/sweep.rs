@@ -324,3 +324,34 @@ fn summary_columns_hold_numbers() {
         );
     }
 }
+
+/// The trials run on a thread of their own while the sink writes: a sink that fails stops the
+/// sweep with its error, after no further chunk reaches it.
+#[test]
+fn a_failing_sink_stops_the_sweep_with_its_error() {
+    let text = format!(
+        "{}\n[sweep]\ntrials = 4\n[sweep.grid]\n\"disk.sigma_mm\" = [0.1, 0.2, 0.3, 0.4, 0.5]\n",
+        base()
+    );
+    let sf = ScenarioFile::parse(&text, "reduced.toml").unwrap();
+    let plan = SweepPlan::new(&sf, None, None);
+    let mut calls = 0;
+    let result = sweep::run(
+        &plan,
+        &sf.file,
+        Shard::ALL,
+        |_| {
+            calls += 1;
+            if calls == 2 {
+                return Err(lasercal::error::Error::NoPlan {
+                    method: lasercal::id::Kind::Edge,
+                });
+            }
+            Ok(())
+        },
+        &|_| {},
+    );
+    let err = result.expect_err("the sink's error");
+    assert!(err.to_string().contains("no edge plan"), "{err}");
+    assert_eq!(calls, 2);
+}
