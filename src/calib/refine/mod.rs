@@ -1167,12 +1167,12 @@ pub fn assess(p: &dyn Refinable, x: &Isometry3<f64>, status: Status) -> (Refined
 fn gauss_newton_step(sums: &Sums, normal: &Normal) -> Vector6<f64> {
     let used = &normal.used;
     let g = DVector::from_fn(used.len(), |i, _| sums.atr[used[i]]);
-    let a = sums.ata.select_rows(used).select_columns(used);
     // Where the scaled system's smallest eigenvalue is far above the SVD's cut, the
     // covariance's inverse gives the SVD's step, and a result needs no decomposition of its own.
     if let Some(inv) = normal.inverse().filter(|_| normal.scaled_norm1 < 1e10) {
         return Vector6::from_fn(|i, _| -inv.row(i).dot(&g.transpose()));
     }
+    let a = sums.ata.select_rows(used).select_columns(used);
     svd_step(&a, &g, &column_scale(&a))
 }
 
