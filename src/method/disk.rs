@@ -469,8 +469,11 @@ impl Plan for DiskPlan {
                     &mut |f, _| actual(f),
                 );
                 mostly_in_view(rig, &scan, i, p)?;
+                // `flange_pose`'s rotation, once per scan.
+                let r_tcp = nalgebra::UnitQuaternion::from_rotation_matrix(&p.r_tcp);
                 for ch in scan.chords {
-                    let f = flange_pose(&p.r_tcp, &(p.t_start + (p.t_end - p.t_start) * ch.u));
+                    let t = p.t_start + (p.t_end - p.t_start) * ch.u;
+                    let f = Isometry3::from_parts(t.into(), r_tcp);
                     profiles.push(CaptureProfile {
                         group: i,
                         base_to_flange: f,

@@ -5,7 +5,7 @@ use super::{PlanError, Rig, check_reachable, flange_pose};
 use crate::calib::disk::{DiskChord, DiskScan};
 
 use crate::rng::gauss;
-use nalgebra::{Isometry3, Point3, Rotation3, Unit, Vector2, Vector3};
+use nalgebra::{Isometry3, Point3, Rotation3, Unit, UnitQuaternion, Vector2, Vector3};
 
 /// The disk as the simulator knows it (base frame, metres).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -251,26 +251,67 @@ pub fn exact_chord(
     base_to_sensor: &Isometry3<f64>,
     disk: &DiskTarget,
 ) -> Option<(Vector2<f64>, Vector2<f64>)> {
-    let q = base_to_sensor.inverse_transform_point(&disk.centre).coords;
-    let n = base_to_sensor.inverse_transform_vector(&disk.normal);
-    let d = Vector3::y().cross(&n);
-    if d.norm() < 1e-12 {
-        return None;
+    ChordFrame::of(base_to_sensor, disk)?.chord(base_to_sensor, disk)
+}
+
+/// What of `exact_chord` the sensor's orientation alone fixes: the disk's normal in the sensor,
+/// the chord's direction and the in-plane direction across it. A scan at one orientation forms
+/// it once (the same bits as per profile).
+#[derive(Debug, Clone, Copy)]
+struct ChordFrame {
+    d: Vector3<f64>,
+    w: Vector3<f64>,
+}
+
+impl ChordFrame {
+    /// None where the laser plane is parallel to the disk's.
+    fn of(base_to_sensor: &Isometry3<f64>, disk: &DiskTarget) -> Option<ChordFrame> {
+        let n = base_to_sensor.inverse_transform_vector(&disk.normal);
+        let d = Vector3::y().cross(&n);
+        if d.norm() < 1e-12 {
+            return None;
+        }
+        let d = d.normalize();
+        let w = n.cross(&d);
+        (w.y.abs() >= 1e-15).then_some(ChordFrame { d, w })
     }
-    let d = d.normalize();
-    let w = n.cross(&d);
-    if w.y.abs() < 1e-15 {
-        return None;
+
+    fn chord(
+        &self,
+        base_to_sensor: &Isometry3<f64>,
+        disk: &DiskTarget,
+    ) -> Option<(Vector2<f64>, Vector2<f64>)> {
+        let (d, w) = (self.d, self.w);
+        let q = base_to_sensor.inverse_transform_point(&disk.centre).coords;
+        let lambda = -q.y / w.y;
+        if lambda.abs() >= disk.radius {
+            return None;
+        }
+        let p0 = q + w * lambda;
+        let h = (disk.radius * disk.radius - lambda * lambda).sqrt();
+        let (e1, e2) = (p0 - d * h, p0 + d * h);
+        let (a, b) = if e1.x <= e2.x { (e1, e2) } else { (e2, e1) };
+        Some((Vector2::new(a.x, a.z), Vector2::new(b.x, b.z)))
     }
-    let lambda = -q.y / w.y;
-    if lambda.abs() >= disk.radius {
-        return None;
-    }
-    let p0 = q + w * lambda;
-    let h = (disk.radius * disk.radius - lambda * lambda).sqrt();
-    let (e1, e2) = (p0 - d * h, p0 + d * h);
-    let (a, b) = if e1.x <= e2.x { (e1, e2) } else { (e2, e1) };
-    Some((Vector2::new(a.x, a.z), Vector2::new(b.x, b.z)))
+}
+
+/// `exact_chord` through a frame kept from the last pose while the sensor's orientation stays
+/// the same bit for bit (a scan's straight move).
+fn chord_cached(
+    last: &mut Option<(UnitQuaternion<f64>, Option<ChordFrame>)>,
+    base_to_sensor: &Isometry3<f64>,
+    disk: &DiskTarget,
+) -> Option<(Vector2<f64>, Vector2<f64>)> {
+    let rot = base_to_sensor.rotation;
+    let frame = match last {
+        Some((r, f)) if r.coords == rot.coords => *f,
+        _ => {
+            let f = ChordFrame::of(base_to_sensor, disk);
+            *last = Some((rot, f));
+            f
+        }
+    };
+    frame?.chord(base_to_sensor, disk)
 }
 
 /// `exact_chord` on a disk with a form error (`base_to_specimen`: the disk's frame): each end is
@@ -281,7 +322,23 @@ pub fn exact_chord_formed(
     base_to_specimen: &Isometry3<f64>,
     form: &crate::scene::FormError,
 ) -> Option<(Vector2<f64>, Vector2<f64>)> {
-    let (a, b) = exact_chord(base_to_sensor, disk)?;
+    warped(
+        exact_chord(base_to_sensor, disk)?,
+        base_to_sensor,
+        disk,
+        base_to_specimen,
+        form,
+    )
+}
+
+/// The flat rim's chord `(a, b)` moved onto the rim `form` warps.
+fn warped(
+    (a, b): (Vector2<f64>, Vector2<f64>),
+    base_to_sensor: &Isometry3<f64>,
+    disk: &DiskTarget,
+    base_to_specimen: &Isometry3<f64>,
+    form: &crate::scene::FormError,
+) -> Option<(Vector2<f64>, Vector2<f64>)> {
     if form.is_none() {
         return Some((a, b));
     }
@@ -324,13 +381,18 @@ pub fn analytic_scan_with(
     actual: &mut dyn FnMut(&Isometry3<f64>, usize) -> Isometry3<f64>,
 ) -> DiskScan {
     let mut chords = Vec::with_capacity(p.m);
+    // `flange_pose`'s rotation, once per scan.
+    let r_tcp = UnitQuaternion::from_rotation_matrix(&p.r_tcp);
+    let mut last = None;
     for j in 0..p.m {
-        let pose = rig.base_to_sensor(&actual(&flange_pose(&p.r_tcp, &p.tcp(j)), j));
+        let flange = Isometry3::from_parts(p.tcp(j).into(), r_tcp);
+        let pose = rig.base_to_sensor(&actual(&flange, j));
         // Draw both noises for every profile so streams stay aligned.
         let (t1, t2) = (gauss(rng) * sigma, gauss(rng) * sigma);
+        let flat = chord_cached(&mut last, &pose, disk);
         let chord = match form {
-            Some((frame, f)) => exact_chord_formed(&pose, disk, frame, f),
-            None => exact_chord(&pose, disk),
+            Some((frame, f)) => flat.and_then(|c| warped(c, &pose, disk, frame, f)),
+            None => flat,
         };
         if let Some((a, b)) = chord {
             let len = (b - a).norm();
