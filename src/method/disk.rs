@@ -784,6 +784,9 @@ impl Found {
 }
 
 /// The chord of one capture: given, or extracted from the raw profile.
+// Inlined: its nested result, returned through memory, stalled the caller's loads on every
+// profile (a store-forwarding failure, 3 % of the Fig. 15 sweep).
+#[inline(always)]
 fn chord_of(
     c: &Captures,
     g: &Group,
