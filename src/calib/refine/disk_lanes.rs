@@ -101,7 +101,7 @@ pub(super) fn sums(m: &DiskModel, x: &Transform, s: &DiskPose) -> Option<Sums> {
         ata: finish(&ata, &pairs, P, |_, _| 0.0),
         atr: DVector::from_fn(P, |k, _| atr[k].iter().sum()),
         meat: finish(&meat, &pairs, P, |_, _| 0.0),
-        scores: DMatrix::from_column_slice(P, g, &scores),
+        scores: DMatrix::from_vec(P, g, scores),
         grams: DMatrix::zeros(P, 0),
         rss: rss.iter().sum(),
         n: 2 * m.ends.len(),

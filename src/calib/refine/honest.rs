@@ -228,7 +228,7 @@ pub fn scores(r: &DVector<f64>, j: &DMatrix<f64>, clusters: &[u32], g: usize) ->
             };
         }
     }
-    DMatrix::from_column_slice(p, g, &sums)
+    DMatrix::from_vec(p, g, sums)
 }
 
 /// The transform's directions the scatter between `g` poses measures when the fit has `p`
@@ -267,7 +267,7 @@ pub fn grams(j: &DMatrix<f64>, clusters: &[u32], g: usize) -> DMatrix<f64> {
             }
         }
     }
-    DMatrix::from_column_slice(p, p * g, &sums)
+    DMatrix::from_vec(p, p * g, sums)
 }
 
 /// The clustered sandwich with each pose's score corrected for its leverage (CR2, Bell and
