@@ -78,15 +78,33 @@ impl Ellipse {
         if !(scale > 0.0) {
             return Err(EllipseFitError::NotAnEllipse("all points coincide".into()));
         }
-        let (mut s1, mut s2, mut s3) = (Matrix3::zeros(), Matrix3::zeros(), Matrix3::zeros());
+        // The scatter matrices' distinct entries only (S1, S3 symmetric; S3's last column and
+        // S2's are sums of d1 and q): the same sums, in the same order, as the full products.
+        let (mut s1, mut s2, mut s3) = ([0.0; 6], [0.0; 9], [0.0; 5]);
         for p in pts {
             let q = (p - mean) / scale;
-            let d1 = Vector3::new(q.x * q.x, q.x * q.y, q.y * q.y);
-            let d2 = Vector3::new(q.x, q.y, 1.0);
-            s1 += d1 * d1.transpose();
-            s2 += d1 * d2.transpose();
-            s3 += d2 * d2.transpose();
+            let d1 = [q.x * q.x, q.x * q.y, q.y * q.y];
+            let d2 = [q.x, q.y, 1.0];
+            for (k, (i, j)) in [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
+                .iter()
+                .enumerate()
+            {
+                s1[k] += d1[*i] * d1[*j];
+            }
+            for i in 0..3 {
+                for j in 0..3 {
+                    s2[3 * i + j] += d1[i] * d2[j];
+                }
+            }
+            for (k, (i, j)) in [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2)].iter().enumerate() {
+                s3[k] += d2[*i] * d2[*j];
+            }
         }
+        let s1 = Matrix3::new(
+            s1[0], s1[1], s1[2], s1[1], s1[3], s1[4], s1[2], s1[4], s1[5],
+        );
+        let s2 = Matrix3::from_row_slice(&s2);
+        let s3 = Matrix3::new(s3[0], s3[1], s3[2], s3[1], s3[3], s3[4], s3[2], s3[4], n);
         let s3_inv = s3
             .try_inverse()
             .ok_or_else(|| EllipseFitError::NotAnEllipse("collinear points".into()))?;
