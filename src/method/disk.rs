@@ -687,25 +687,9 @@ fn plane_normal(
     flange_to_sensor: &Isometry3<f64>,
     apex: &Point3<f64>,
 ) -> Vector3<f64> {
-    // Rotation matrices, the flange's once per run of its ends (a chord's two): a third of the
-    // quaternion products per end.
-    let to_flange = flange_to_sensor.rotation.to_rotation_matrix();
-    let mut last: Option<(&Isometry3<f64>, nalgebra::Rotation3<f64>)> = None;
     let pts: Vec<Vector3<f64>> = ends
         .iter()
-        .map(|(f, p)| {
-            let r = match last {
-                Some((g, r)) if std::ptr::eq(g, f) || g == f => r,
-                _ => {
-                    let r = f.rotation.to_rotation_matrix();
-                    last = Some((f, r));
-                    r
-                }
-            };
-            let in_flange =
-                to_flange * Vector3::new(p.x, 0.0, p.y) + flange_to_sensor.translation.vector;
-            r * in_flange + f.translation.vector
-        })
+        .map(|(f, p)| (f * (flange_to_sensor * Point3::new(p.x, 0.0, p.y))).coords)
         .collect();
     let mean = pts.iter().sum::<Vector3<f64>>() / pts.len().max(1) as f64;
     let cov = pts
