@@ -162,27 +162,52 @@ fn sum_block(
     let mut run = (clusters[0], [0.0; P]);
     for (k, (chunk, o)) in block.iter().zip(rows.iter_mut()).enumerate() {
         lanes(chunk, disk, o);
-        for (c, lanes) in atr.iter_mut().enumerate() {
-            for (l, a) in lanes.iter_mut().enumerate() {
-                *a += o.j[0][c][l] * o.r[0][l] + o.j[1][c][l] * o.r[1][l];
+        // Each end's J^T r, for J^T r and for its pose's score.
+        let t: [[f64; 8]; P] = std::array::from_fn(|c| {
+            std::array::from_fn(|l| o.j[0][c][l] * o.r[0][l] + o.j[1][c][l] * o.r[1][l])
+        });
+        for (a, t) in atr.iter_mut().zip(&t) {
+            for (a, t) in a.iter_mut().zip(t) {
+                *a += t;
             }
         }
         for (l, s) in rss.iter_mut().enumerate() {
             *s += o.r[0][l] * o.r[0][l] + o.r[1][l] * o.r[1][l];
         }
-        // A pose's ends are consecutive as a rule: their scores are summed in registers and
-        // added to the pose's column once per run.
-        for (l, &cl) in clusters.iter().skip(8 * k).take(8).enumerate() {
+        let cl = &clusters[(8 * k).min(clusters.len())..(8 * k + 8).min(clusters.len())];
+        // The rule (a chord's two ends per pose, a pose per chord): lane pairs summed side by
+        // side, four poses' scores added at once; the same sums as by runs.
+        if cl.len() == 8 && cl[0] != run.0 && pairs_of_ends(cl) {
+            add_run(scores, &run);
+            let pair: [[f64; 8]; P] =
+                std::array::from_fn(|c| std::array::from_fn(|l| t[c][l] + t[c][l ^ 1]));
+            for p in 0..4 {
+                let at = cl[2 * p] as usize * P;
+                for (c, s) in scores[at..at + P].iter_mut().enumerate() {
+                    *s += pair[c][2 * p];
+                }
+            }
+            run = (cl[7], [0.0; P]);
+            continue;
+        }
+        // Otherwise a pose's ends are summed in registers and added to its column once per run.
+        for (l, &cl) in cl.iter().enumerate() {
             if run.0 != cl {
                 add_run(scores, &run);
                 run = (cl, [0.0; P]);
             }
-            for (c, s) in run.1.iter_mut().enumerate() {
-                *s += o.j[0][c][l] * o.r[0][l] + o.j[1][c][l] * o.r[1][l];
+            for (s, t) in run.1.iter_mut().zip(&t) {
+                *s += t[l];
             }
         }
     }
     add_run(scores, &run);
+}
+
+/// Eight ends' clusters in four runs of two.
+#[inline(always)]
+fn pairs_of_ends(cl: &[u32]) -> bool {
+    (0..4).all(|p| cl[2 * p] == cl[2 * p + 1]) && (0..3).all(|p| cl[2 * p + 1] != cl[2 * p + 2])
 }
 
 /// J^T J and sum r_i^2 J_i^T J_i (`add_block`'s pairs, four side by side) over a block of
