@@ -78,8 +78,8 @@ impl Ellipse {
         if !(scale > 0.0) {
             return Err(EllipseFitError::NotAnEllipse("all points coincide".into()));
         }
-        // The scatter matrices' distinct entries only (S1, S3 symmetric; S3's last column and
-        // S2's are sums of d1 and q): the same sums, in the same order, as the full products.
+        // The scatter matrices' distinct entries only (S1 and S3 symmetric, S3's corner the
+        // count): the same sums, in the same order, as the full outer products.
         let (mut s1, mut s2, mut s3) = ([0.0; 6], [0.0; 9], [0.0; 5]);
         for p in pts {
             let q = (p - mean) / scale;

@@ -176,8 +176,9 @@ fn sum_block(
         }
         let cl = &clusters[(8 * k).min(clusters.len())..(8 * k + 8).min(clusters.len())];
         // The rule (a chord's two ends per pose, a pose per chord): lane pairs summed side by
-        // side, four poses' scores added at once; the same sums as by runs.
-        if cl.len() == 8 && cl[0] != run.0 && pairs_of_ends(cl) {
+        // side, four poses' scores added at once; the same sums as by runs. Not while the run
+        // before goes on into this chunk (a block's first run has nothing summed yet).
+        if cl.len() == 8 && (k == 0 || cl[0] != run.0) && pairs_of_ends(cl) {
             add_run(scores, &run);
             let pair: [[f64; 8]; P] =
                 std::array::from_fn(|c| std::array::from_fn(|l| t[c][l] + t[c][l ^ 1]));
