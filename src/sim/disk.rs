@@ -295,23 +295,40 @@ impl ChordFrame {
     }
 }
 
-/// `exact_chord` through a frame kept from the last pose while the sensor's orientation stays
-/// the same bit for bit (a scan's straight move).
-fn chord_cached(
-    last: &mut Option<(UnitQuaternion<f64>, Option<ChordFrame>)>,
-    base_to_sensor: &Isometry3<f64>,
+/// What a scan's straight move keeps from profile to profile while the flange's orientation
+/// stays the same bit for bit: the sensor's orientation, the mounting's offset turned into the
+/// base frame, and the chord frame. The sensor's pose from them is `Rig::base_to_sensor`'s, bit
+/// for bit (nalgebra adds the turned offset to the flange's translation the same way).
+struct Kept {
+    flange: UnitQuaternion<f64>,
+    sensor: UnitQuaternion<f64>,
+    offset: Vector3<f64>,
+    frame: Option<ChordFrame>,
+}
+
+/// The sensor's pose at flange pose `f` and its chord frame, through `kept`.
+fn sensor_at(
+    kept: &mut Option<Kept>,
+    rig: &Rig,
+    f: &Isometry3<f64>,
     disk: &DiskTarget,
-) -> Option<(Vector2<f64>, Vector2<f64>)> {
-    let rot = base_to_sensor.rotation;
-    let frame = match last {
-        Some((r, f)) if r.coords == rot.coords => *f,
-        _ => {
-            let f = ChordFrame::of(base_to_sensor, disk);
-            *last = Some((rot, f));
-            f
-        }
-    };
-    frame?.chord(base_to_sensor, disk)
+) -> (Isometry3<f64>, Option<ChordFrame>) {
+    if let Some(k) = kept
+        .as_ref()
+        .filter(|k| k.flange.coords == f.rotation.coords)
+    {
+        let t = f.translation.vector + k.offset;
+        return (Isometry3::from_parts(t.into(), k.sensor), k.frame);
+    }
+    let pose = rig.base_to_sensor(f);
+    let frame = ChordFrame::of(&pose, disk);
+    *kept = Some(Kept {
+        flange: f.rotation,
+        sensor: pose.rotation,
+        offset: f.rotation * rig.flange_to_sensor.translation.vector,
+        frame,
+    });
+    (pose, frame)
 }
 
 /// `exact_chord` on a disk with a form error (`base_to_specimen`: the disk's frame): each end is
@@ -383,13 +400,13 @@ pub fn analytic_scan_with(
     let mut chords = Vec::with_capacity(p.m);
     // `flange_pose`'s rotation, once per scan.
     let r_tcp = UnitQuaternion::from_rotation_matrix(&p.r_tcp);
-    let mut last = None;
+    let mut kept = None;
     for j in 0..p.m {
         let flange = Isometry3::from_parts(p.tcp(j).into(), r_tcp);
-        let pose = rig.base_to_sensor(&actual(&flange, j));
+        let (pose, frame) = sensor_at(&mut kept, rig, &actual(&flange, j), disk);
         // Draw both noises for every profile so streams stay aligned.
         let (t1, t2) = (gauss(rng) * sigma, gauss(rng) * sigma);
-        let flat = chord_cached(&mut last, &pose, disk);
+        let flat = frame.and_then(|f| f.chord(&pose, disk));
         let chord = match form {
             Some((frame, f)) => flat.and_then(|c| warped(c, &pose, disk, frame, f)),
             None => flat,
