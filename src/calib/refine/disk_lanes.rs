@@ -62,6 +62,10 @@ pub(super) fn sums(m: &DiskModel, x: &Transform, s: &DiskPose) -> Option<Sums> {
     if g <= honest::MAX_JACKKNIFE {
         return None;
     }
+    let runs = super::disk_scans::orientation_runs(&m.ends);
+    if m.ends.len() >= super::disk_scans::SCAN_MIN_ENDS * runs.len() {
+        return Some(super::disk_scans::sums(m, x, s, &clusters, g, &runs));
+    }
     let disk = Disk {
         centre: s.centre,
         n: s.q * Vector3::z(),

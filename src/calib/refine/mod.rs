@@ -13,6 +13,7 @@ pub mod ball;
 pub mod bar;
 pub mod disk;
 mod disk_lanes;
+mod disk_scans;
 pub mod edge;
 pub mod faces;
 pub mod honest;

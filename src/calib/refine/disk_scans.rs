@@ -1,0 +1,437 @@
+//! The verdict's sums of a disk model of chord ends alone, scan by scan.
+//!
+//! A straight scan keeps its flange's orientation bit for bit. Within it, an end's plane row is
+//! a fixed 11 x 5 matrix of the scan (`plane_matrix`) times u = (x, z, v.X, v.Y, 1), and its rim
+//! row a fixed 11 x 8 matrix (`rim_matrix`) times the rim direction's two coordinates in the
+//! disk's plane (g = g1 X + g2 Y) times (1, x, z, h), where p = (x, 0, z) is the end in the
+//! sensor, v = q - c its offset from the centre in the base and h = v.n. So J^T J over a scan is
+//! A (sum u u^T) A^T + B (sum w w^T) B^T: 15 + 36 products per end instead of 2 x 66 over the
+//! rows' eleven columns, and the same for the sandwich's middle term and each pose's score. The
+//! same sums as the rows' to rounding (`tests::scans_sum_what_the_rows_sum`).
+
+use super::Sums;
+use super::Transform;
+use super::disk::{DiskModel, DiskPose};
+use nalgebra::{DMatrix, DVector, Isometry3, SMatrix, SVector, Vector2, Vector3};
+
+
+/// Columns: rotation 3, translation 3, the disk's centre 3 and normal 2.
+const P: usize = 11;
+/// A plane row's short vector: (x, z, v.X, v.Y, 1).
+const UP: usize = 5;
+/// A rim row's: (g1, g2) times (1, x, z, h).
+const UR: usize = 8;
+
+/// Ends per run of one flange orientation, on average, from which the scans' way is taken: a
+/// run's matrices and their products (about 2,000 multiplications) then cost less than the
+/// products its ends save.
+pub(super) const SCAN_MIN_ENDS: usize = 16;
+
+/// The runs of ends seen with one flange orientation: (first, end).
+pub(super) fn orientation_runs(ends: &[(Isometry3<f64>, Vector2<f64>)]) -> Vec<(usize, usize)> {
+    let mut runs = Vec::new();
+    let mut start = 0;
+    for i in 1..=ends.len() {
+        if i == ends.len() || ends[i].0.rotation != ends[start].0.rotation {
+            runs.push((start, i));
+            start = i;
+        }
+    }
+    runs
+}
+
+/// The disk's axes at the estimate: normal n = Q z and the plane's X = Q x, Y = Q y (the
+/// normal's derivatives are -Y and X).
+struct Axes {
+    n: Vector3<f64>,
+    x: Vector3<f64>,
+    y: Vector3<f64>,
+}
+
+/// A scan's products: (F_R R)^T and F_R^T applied to the disk's axes n, X, Y, and
+/// F_R t - c on each axis (an end's offset from the centre less its flange's position).
+struct Scan {
+    frr_t: [Vector3<f64>; 3],
+    fr_t: [Vector3<f64>; 3],
+    offset: [f64; 3],
+}
+
+impl Scan {
+    fn of(flange: &Isometry3<f64>, x: &Transform, centre: &Vector3<f64>, a: &Axes) -> Scan {
+        let fr = *flange.rotation.to_rotation_matrix().matrix();
+        let frr = fr * x.rot.matrix();
+        let d = fr * x.t - centre;
+        Scan {
+            frr_t: [a.n, a.x, a.y].map(|v| frr.tr_mul(&v)),
+            fr_t: [a.n, a.x, a.y].map(|v| fr.tr_mul(&v)),
+            offset: [a.n, a.x, a.y].map(|v| d.dot(&v)),
+        }
+    }
+
+    /// A in J_plane = A u (11 x 5).
+    fn plane_matrix(&self, a: &Axes) -> SMatrix<f64, P, UP> {
+        let (an, bn) = (self.frr_t[0], self.fr_t[0]);
+        let mut m = SMatrix::<f64, P, UP>::zeros();
+        // The rotation columns -(F_R R)^T n x p with p = (x, 0, z).
+        m[(0, 1)] = -an[1];
+        m[(1, 0)] = -an[2];
+        m[(1, 1)] = an[0];
+        m[(2, 0)] = an[1];
+        for k in 0..3 {
+            m[(3 + k, 4)] = bn[k];
+            m[(6 + k, 4)] = -a.n[k];
+        }
+        // The normal's columns v.dn: dn = (-Y, X).
+        m[(9, 3)] = -1.0;
+        m[(10, 2)] = 1.0;
+        m
+    }
+
+    /// B in J_rim = B w, w = (g1, g2, x g1, x g2, z g1, z g2, h g1, h g2) (11 x 8).
+    fn rim_matrix(&self, a: &Axes) -> SMatrix<f64, P, UR> {
+        let [_, ax, ay] = self.frr_t;
+        let [_, bx, by] = self.fr_t;
+        let mut m = SMatrix::<f64, P, UR>::zeros();
+        m[(0, 4)] = -ax[1];
+        m[(0, 5)] = -ay[1];
+        m[(1, 4)] = ax[0];
+        m[(1, 5)] = ay[0];
+        m[(1, 2)] = -ax[2];
+        m[(1, 3)] = -ay[2];
+        m[(2, 2)] = ax[1];
+        m[(2, 3)] = ay[1];
+        for k in 0..3 {
+            m[(3 + k, 0)] = bx[k];
+            m[(3 + k, 1)] = by[k];
+            m[(6 + k, 0)] = -a.x[k];
+            m[(6 + k, 1)] = -a.y[k];
+        }
+        // -h g.dn: g.(-Y) = -g2, g.X = g1.
+        m[(9, 7)] = 1.0;
+        m[(10, 6)] = -1.0;
+        m
+    }
+}
+
+/// A scan's sums in lanes of eight ends: the short vectors' products, unweighted and weighted
+/// by the squared residual (pairs i <= j row by row), J^T r and the squared residuals.
+struct Lanes {
+    plane: [[f64; 8]; 15],
+    plane_meat: [[f64; 8]; 15],
+    rim: [[f64; 8]; 36],
+    rim_meat: [[f64; 8]; 36],
+    atr: [[f64; 8]; P],
+    rss: [f64; 8],
+}
+
+/// Eight ends' inputs: the end (x, z), its weight on the rim residual, 1 (0: a lane past the
+/// run's last end) and its flange's position F_t.
+#[derive(Default)]
+struct Chunk {
+    x: [f64; 8],
+    z: [f64; 8],
+    weight: [f64; 8],
+    live: [f64; 8],
+    t: [[f64; 8]; 3],
+}
+
+/// `Model::sums` of `m` by scans; `clusters` one per end, `g` of them.
+pub(super) fn sums(
+    m: &DiskModel,
+    x: &Transform,
+    s: &DiskPose,
+    clusters: &[u32],
+    g: usize,
+    runs: &[(usize, usize)],
+) -> Sums {
+    let axes = Axes {
+        n: s.q * Vector3::z(),
+        x: s.q * Vector3::x(),
+        y: s.q * Vector3::y(),
+    };
+    let mut ata = SMatrix::<f64, P, P>::zeros();
+    let mut meat = SMatrix::<f64, P, P>::zeros();
+    let mut atr = SVector::<f64, P>::zeros();
+    let mut rss = 0.0;
+    let mut scores = vec![0.0; P * g];
+    let mut chunk = Chunk::default();
+    for &(first, end) in runs {
+        let scan = Scan::of(&m.ends[first].0, x, &s.centre, &axes);
+        let a = scan.plane_matrix(&axes);
+        let b = scan.rim_matrix(&axes);
+        let mut lanes = Lanes {
+            plane: [[0.0; 8]; 15],
+            plane_meat: [[0.0; 8]; 15],
+            rim: [[0.0; 8]; 36],
+            rim_meat: [[0.0; 8]; 36],
+            atr: [[0.0; 8]; P],
+            rss: [0.0; 8],
+        };
+        let mut run = (clusters[first], [0.0; P]);
+        for start in (first..end).step_by(8) {
+            let stop = (start + 8).min(end);
+            fill(&mut chunk, m, start..stop);
+            let score = add_chunk(&mut lanes, &chunk, (&scan, &axes, &a, &b), m.radius);
+            let cl = &clusters[start..stop];
+            // The rule (a chord's two ends per pose, a pose per chord): lane pairs summed
+            // side by side, four poses' scores added at once. Not while the run before goes
+            // on into this chunk.
+            if cl.len() == 8 && (start == first || cl[0] != run.0) && pairs_of_ends(cl) {
+                add_run(&mut scores, &run);
+                for p in 0..4 {
+                    let at = cl[2 * p] as usize * P;
+                    for (c, o) in scores[at..at + P].iter_mut().enumerate() {
+                        *o += score[c][2 * p] + score[c][2 * p + 1];
+                    }
+                }
+                run = (cl[7], [0.0; P]);
+                continue;
+            }
+            for (l, &cl) in cl.iter().enumerate() {
+                if run.0 != cl {
+                    add_run(&mut scores, &run);
+                    run = (cl, [0.0; P]);
+                }
+                for (o, s) in run.1.iter_mut().zip(&score) {
+                    *o += s[l];
+                }
+            }
+        }
+        add_run(&mut scores, &run);
+        let su = symmetric::<UP>(&lanes.plane);
+        let mu = symmetric::<UP>(&lanes.plane_meat);
+        let sw = symmetric::<UR>(&lanes.rim);
+        let mw = symmetric::<UR>(&lanes.rim_meat);
+        ata += a * su * a.transpose() + b * sw * b.transpose();
+        meat += a * mu * a.transpose() + b * mw * b.transpose();
+        atr += SVector::<f64, P>::from_fn(|c, _| lanes.atr[c].iter().sum());
+        rss += lanes.rss.iter().sum::<f64>();
+    }
+    Sums {
+        ata: DMatrix::from_column_slice(P, P, ata.as_slice()),
+        atr: DVector::from_column_slice(atr.as_slice()),
+        meat: DMatrix::from_column_slice(P, P, meat.as_slice()),
+        scores: DMatrix::from_vec(P, g, scores),
+        grams: DMatrix::zeros(P, 0),
+        rss,
+        n: 2 * m.ends.len(),
+    }
+}
+
+/// The K x K symmetric matrix of lanes of sums over the pairs i <= j, row by row.
+fn symmetric<const K: usize>(acc: &[[f64; 8]]) -> SMatrix<f64, K, K> {
+    let mut out = SMatrix::<f64, K, K>::zeros();
+    let mut k = 0;
+    for i in 0..K {
+        for j in i..K {
+            let v: f64 = acc[k].iter().sum();
+            out[(i, j)] = v;
+            out[(j, i)] = v;
+            k += 1;
+        }
+    }
+    out
+}
+
+/// Eight ends' clusters in four runs of two.
+#[inline(always)]
+fn pairs_of_ends(cl: &[u32]) -> bool {
+    (0..4).all(|p| cl[2 * p] == cl[2 * p + 1]) && (0..3).all(|p| cl[2 * p + 1] != cl[2 * p + 2])
+}
+
+/// A run's score into its cluster's column.
+#[inline(always)]
+fn add_run(scores: &mut [f64], (cl, sums): &(u32, [f64; P])) {
+    let at = *cl as usize * P;
+    for (o, s) in scores[at..at + P].iter_mut().zip(sums) {
+        *o += s;
+    }
+}
+
+/// Ends `ends` (at most eight, one scan) into `c`; spare lanes dead.
+fn fill(c: &mut Chunk, m: &DiskModel, ends: std::ops::Range<usize>) {
+    *c = Chunk::default();
+    for (l, e) in ends.enumerate() {
+        let (f, p) = &m.ends[e];
+        for k in 0..3 {
+            c.t[k][l] = f.translation.vector[k];
+        }
+        c.x[l] = p.x;
+        c.z[l] = p.y;
+        c.weight[l] = m.end_weights.get(e).copied().unwrap_or(1.0);
+        c.live[l] = 1.0;
+    }
+}
+
+/// Eight ends' short vectors into the scan's sums; returns each end's J^T r (its share of its
+/// pose's score), [A B] times its short vectors weighted by their residuals.
+#[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
+fn add_chunk(
+    o: &mut Lanes,
+    c: &Chunk,
+    (scan, axes, a, b): (&Scan, &Axes, &SMatrix<f64, P, UP>, &SMatrix<f64, P, UR>),
+    radius: f64,
+) -> [[f64; 8]; P] {
+    let [an, ax, ay] = scan.frr_t;
+    let mut up = [[0.0; 8]; UP];
+    let mut ur = [[0.0; 8]; UR];
+    let (mut r0, mut r1) = ([0.0; 8], [0.0; 8]);
+    for l in 0..8 {
+        let (x, z, live) = (c.x[l], c.z[l], c.live[l]);
+        // v = F_R R p + F_R t + F_t - c on n, X and Y.
+        let on = |v: &Vector3<f64>| c.t[0][l] * v[0] + c.t[1][l] * v[1] + c.t[2][l] * v[2];
+        let h = x * an[0] + z * an[2] + (on(&axes.n) + scan.offset[0]);
+        let vx = x * ax[0] + z * ax[2] + (on(&axes.x) + scan.offset[1]);
+        let vy = x * ay[0] + z * ay[2] + (on(&axes.y) + scan.offset[2]);
+        let wn = (vx * vx + vy * vy).sqrt();
+        let scale = if wn > 0.0 { c.weight[l] / wn } else { 0.0 } * live;
+        let (g1, g2) = (vx * scale, vy * scale);
+        let u = [x, z, vx, vy, 1.0];
+        for k in 0..UP {
+            up[k][l] = u[k] * live;
+        }
+        let w = [g1, g2, x * g1, x * g2, z * g1, z * g2, h * g1, h * g2];
+        for k in 0..UR {
+            ur[k][l] = w[k];
+        }
+        r0[l] = h * live;
+        r1[l] = c.weight[l] * (wn - radius) * live;
+    }
+    let rr0: [f64; 8] = std::array::from_fn(|l| r0[l] * r0[l]);
+    let rr1: [f64; 8] = std::array::from_fn(|l| r1[l] * r1[l]);
+    for l in 0..8 {
+        o.rss[l] += rr0[l] + rr1[l];
+    }
+    let mut k = 0;
+    for i in 0..UP {
+        for j in i..UP {
+            for l in 0..8 {
+                let v = up[i][l] * up[j][l];
+                o.plane[k][l] += v;
+                o.plane_meat[k][l] += v * rr0[l];
+            }
+            k += 1;
+        }
+    }
+    let mut k = 0;
+    for i in 0..UR {
+        for j in i..UR {
+            for l in 0..8 {
+                let v = ur[i][l] * ur[j][l];
+                o.rim[k][l] += v;
+                o.rim_meat[k][l] += v * rr1[l];
+            }
+            k += 1;
+        }
+    }
+    // Each end's J^T r = A (r0 u) + B (r1 w), over the matrices' nonzero entries.
+    let tp: [[f64; 8]; UP] = std::array::from_fn(|k| std::array::from_fn(|l| up[k][l] * r0[l]));
+    let tr: [[f64; 8]; UR] = std::array::from_fn(|k| std::array::from_fn(|l| ur[k][l] * r1[l]));
+    let mut score = [[0.0; 8]; P];
+    for (row, s) in score.iter_mut().enumerate() {
+        for k in 0..UP {
+            let e = a[(row, k)];
+            if e != 0.0 {
+                for l in 0..8 {
+                    s[l] += e * tp[k][l];
+                }
+            }
+        }
+        for k in 0..UR {
+            let e = b[(row, k)];
+            if e != 0.0 {
+                for l in 0..8 {
+                    s[l] += e * tr[k][l];
+                }
+            }
+        }
+    }
+    for (t, s) in o.atr.iter_mut().zip(&score) {
+        for l in 0..8 {
+            t[l] += s[l];
+        }
+    }
+    score
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{Model, eval, testing};
+    use super::*;
+    use nalgebra::{Point3, UnitQuaternion};
+
+    /// Four straight scans of 21 poses (more than keep their grams), two ends each, one pose of
+    /// three and one scan's last pose seen again at its start (a cluster revisited), odd
+    /// weights: 170 ends, the runs' last chunks part dead.
+    fn model() -> (DiskModel, Transform, DiskPose) {
+        let x = Transform::from_isometry(&Isometry3::new(
+            Vector3::new(0.006, 0.054, 0.364),
+            Vector3::new(3.1, -0.02, 0.1),
+        ));
+        let disk = DiskPose::new(
+            Point3::new(-0.32, -0.30, 0.01),
+            &Vector3::new(0.1, -0.2, 1.0),
+        );
+        let mut m = DiskModel {
+            radius: 0.05,
+            ..DiskModel::default()
+        };
+        for scan in 0..4 {
+            let b = scan as f64;
+            let turn = UnitQuaternion::from_euler_angles(3.0 + 0.1 * b, 0.2 - 0.05 * b, -2.0 + b);
+            let pose = |k: usize| {
+                let a = k as f64;
+                Isometry3::from_parts(
+                    Vector3::new(-0.2 + 0.001 * a, -0.3 + 0.002 * b, 0.36 + 0.0004 * a).into(),
+                    turn,
+                )
+            };
+            let mut order: Vec<usize> = (0..21).collect();
+            if scan == 2 {
+                order.insert(0, 20);
+            }
+            for (i, &k) in order.iter().enumerate() {
+                let a = k as f64;
+                for e in 0..if scan == 1 && k == 7 { 3 } else { 2 } {
+                    let side = if e % 2 == 0 { -1.0 } else { 1.0 };
+                    m.ends.push((
+                        pose(k),
+                        Vector2::new(
+                            side * (0.04 + 0.001 * (a * 1.7 + b).cos()),
+                            0.3 + 0.002 * (a + i as f64).sin(),
+                        ),
+                    ));
+                    m.end_weights.push(1.0 + 0.1 * (a + e as f64 + b).cos());
+                }
+            }
+        }
+        (m, x, disk)
+    }
+
+    #[test]
+    fn scans_sum_what_the_rows_sum() {
+        let (m, x, disk) = model();
+        let runs = orientation_runs(&m.ends);
+        assert_eq!(runs.len(), 4);
+        assert!(m.ends.len() >= SCAN_MIN_ENDS * runs.len());
+        // The lanes' entry takes this way for these ends.
+        let fast = super::super::disk_lanes::sums(&m, &x, &disk).expect("ends alone, 84 poses");
+        let clusters = m.clusters();
+        let g = clusters.iter().map(|&k| k as usize + 1).max().unwrap();
+        let (r, j) = eval(&m, &x, &disk, &[], true);
+        let rows = Sums::of(&r, &j, &clusters, g);
+        assert_eq!((g, fast.scores.ncols(), fast.n), (84, 84, 2 * 171));
+        testing::same_sums(&fast, &rows);
+    }
+
+    #[test]
+    fn a_pose_per_orientation_goes_the_lanes_way() {
+        let (mut m, _, _) = model();
+        assert_eq!(orientation_runs(&m.ends).len(), 4);
+        for (k, (f, _)) in m.ends.iter_mut().enumerate() {
+            f.rotation = UnitQuaternion::from_euler_angles(0.001 * (k / 2) as f64, 0.2, 0.3);
+        }
+        let runs = orientation_runs(&m.ends);
+        assert!(m.ends.len() < SCAN_MIN_ENDS * runs.len(), "{}", runs.len());
+    }
+}
