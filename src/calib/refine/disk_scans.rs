@@ -154,7 +154,7 @@ pub(super) fn sums(
     let mut atr = SVector::<f64, P>::zeros();
     let mut rss = 0.0;
     let mut scores = vec![0.0; P * g];
-    let mut chunk = Chunk::default();
+    let mut chunks: Vec<Chunk> = Vec::new();
     for &(first, end) in runs {
         let scan = Scan::of(&m.ends[first].0, x, &s.centre, &axes);
         let a = scan.plane_matrix(&axes);
@@ -167,11 +167,18 @@ pub(super) fn sums(
             atr: [[0.0; 8]; P],
             rss: [0.0; 8],
         };
-        let mut run = (clusters[first], [0.0; P]);
+        // The run's inputs first: a chunk written lane by lane and read at once stalls the
+        // loads (no store-to-load forwarding from eight narrow stores to one wide load).
+        chunks.clear();
         for start in (first..end).step_by(8) {
+            let mut c = Chunk::default();
+            fill(&mut c, m, start..(start + 8).min(end));
+            chunks.push(c);
+        }
+        let mut run = (clusters[first], [0.0; P]);
+        for (start, chunk) in (first..end).step_by(8).zip(&chunks) {
             let stop = (start + 8).min(end);
-            fill(&mut chunk, m, start..stop);
-            let score = add_chunk(&mut lanes, &chunk, (&scan, &axes, &a, &b), m.radius);
+            let score = add_chunk(&mut lanes, chunk, (&scan, &axes, &a, &b), m.radius);
             let cl = &clusters[start..stop];
             // The rule (a chord's two ends per pose, a pose per chord): lane pairs summed
             // side by side, four poses' scores added at once. Not while the run before goes
@@ -248,9 +255,8 @@ fn add_run(scores: &mut [f64], (cl, sums): &(u32, [f64; P])) {
     }
 }
 
-/// Ends `ends` (at most eight, one scan) into `c`; spare lanes dead.
+/// Ends `ends` (at most eight, one scan) into `c` (all zero); spare lanes stay dead.
 fn fill(c: &mut Chunk, m: &DiskModel, ends: std::ops::Range<usize>) {
-    *c = Chunk::default();
     for (l, e) in ends.enumerate() {
         let (f, p) = &m.ends[e];
         for k in 0..3 {
@@ -324,27 +330,26 @@ fn add_chunk(
             k += 1;
         }
     }
-    // Each end's J^T r = A (r0 u) + B (r1 w), over the matrices' nonzero entries.
+    // Each end's J^T r = A (r0 u) + B (r1 w), over the entries `plane_matrix` and
+    // `rim_matrix` set (the rest are zero).
     let tp: [[f64; 8]; UP] = std::array::from_fn(|k| std::array::from_fn(|l| up[k][l] * r0[l]));
     let tr: [[f64; 8]; UR] = std::array::from_fn(|k| std::array::from_fn(|l| ur[k][l] * r1[l]));
     let mut score = [[0.0; 8]; P];
-    for (row, s) in score.iter_mut().enumerate() {
-        for k in 0..UP {
-            let e = a[(row, k)];
-            if e != 0.0 {
-                for l in 0..8 {
-                    s[l] += e * tp[k][l];
-                }
-            }
+    for l in 0..8 {
+        score[0][l] = a[(0, 1)] * tp[1][l] + b[(0, 4)] * tr[4][l] + b[(0, 5)] * tr[5][l];
+        score[1][l] = a[(1, 0)] * tp[0][l]
+            + a[(1, 1)] * tp[1][l]
+            + b[(1, 2)] * tr[2][l]
+            + b[(1, 3)] * tr[3][l]
+            + b[(1, 4)] * tr[4][l]
+            + b[(1, 5)] * tr[5][l];
+        score[2][l] = a[(2, 0)] * tp[0][l] + b[(2, 2)] * tr[2][l] + b[(2, 3)] * tr[3][l];
+        for row in 3..9 {
+            score[row][l] =
+                a[(row, 4)] * tp[4][l] + b[(row, 0)] * tr[0][l] + b[(row, 1)] * tr[1][l];
         }
-        for k in 0..UR {
-            let e = b[(row, k)];
-            if e != 0.0 {
-                for l in 0..8 {
-                    s[l] += e * tr[k][l];
-                }
-            }
-        }
+        score[9][l] = a[(9, 3)] * tp[3][l] + b[(9, 7)] * tr[7][l];
+        score[10][l] = a[(10, 2)] * tp[2][l] + b[(10, 6)] * tr[6][l];
     }
     for (t, s) in o.atr.iter_mut().zip(&score) {
         for l in 0..8 {
