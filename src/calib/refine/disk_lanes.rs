@@ -56,14 +56,21 @@ pub(super) fn sums(m: &DiskModel, x: &Transform, s: &DiskPose) -> Option<Sums> {
     if !ends_only || m.ends.is_empty() {
         return None;
     }
-    let flanges: Vec<&Isometry3<f64>> = m.ends.iter().map(|(f, _)| f).collect();
-    let clusters = honest::clusters(&flanges, flanges.len());
+    let runs = super::disk_scans::orientation_runs(&m.ends);
+    let by_scans = m.ends.len() >= super::disk_scans::SCAN_MIN_ENDS * runs.len();
+    let clusters = match by_scans {
+        true => super::disk_scans::clusters(&m.ends, &runs),
+        false => None,
+    }
+    .unwrap_or_else(|| {
+        let flanges: Vec<&Isometry3<f64>> = m.ends.iter().map(|(f, _)| f).collect();
+        honest::clusters(&flanges, flanges.len())
+    });
     let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
     if g <= honest::MAX_JACKKNIFE {
         return None;
     }
-    let runs = super::disk_scans::orientation_runs(&m.ends);
-    if m.ends.len() >= super::disk_scans::SCAN_MIN_ENDS * runs.len() {
+    if by_scans {
         return Some(super::disk_scans::sums(m, x, s, &clusters, g, &runs));
     }
     let disk = Disk {

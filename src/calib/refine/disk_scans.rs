@@ -40,6 +40,52 @@ pub(super) fn orientation_runs(ends: &[(Isometry3<f64>, Vector2<f64>)]) -> Vec<(
     runs
 }
 
+/// Most runs whose orientations `clusters` compares pairwise.
+const MAX_RUNS_COMPARED: usize = 64;
+
+/// `honest::clusters` of ends in `runs` without its table, where the data show that no pose
+/// comes back: each run's poses (consecutive ends with one flange) move strictly forward along
+/// the run's first-to-last translation, and no two runs share an orientation. The poses are
+/// then numbered in order of first sight, as the table numbers them. None otherwise.
+pub(super) fn clusters(
+    ends: &[(Isometry3<f64>, Vector2<f64>)],
+    runs: &[(usize, usize)],
+) -> Option<Vec<u32>> {
+    if runs.len() > MAX_RUNS_COMPARED {
+        return None;
+    }
+    for (i, &(a, _)) in runs.iter().enumerate() {
+        if runs[i + 1..].iter().any(|&(b, _)| ends[b].0.rotation == ends[a].0.rotation) {
+            return None;
+        }
+    }
+    let mut out = Vec::with_capacity(ends.len());
+    let mut id = 0u32;
+    for &(first, end) in runs {
+        let t = |e: usize| ends[e].0.translation.vector;
+        let along = t(end - 1) - t(first);
+        let mut last = (super::honest::pose_key(&ends[first].0), f64::NEG_INFINITY);
+        for e in first..end {
+            let key = super::honest::pose_key(&ends[e].0);
+            // Bit for bit, word by word (an array's `!=` calls `memcmp`).
+            let moved = key.iter().zip(&last.0).fold(0, |d, (a, b)| d | (a ^ b)) != 0;
+            if e == first || moved {
+                let s = t(e).dot(&along);
+                if !(s > last.1) {
+                    return None;
+                }
+                if e != first {
+                    id += 1;
+                }
+                last = (key, s);
+            }
+            out.push(id);
+        }
+        id += 1;
+    }
+    Some(out)
+}
+
 /// The disk's axes at the estimate: normal n = Q z and the plane's X = Q x, Y = Q y (the
 /// normal's derivatives are -Y and X).
 struct Axes {
@@ -427,6 +473,35 @@ mod tests {
         let rows = Sums::of(&r, &j, &clusters, g);
         assert_eq!((g, fast.scores.ncols(), fast.n), (84, 84, 2 * 171));
         testing::same_sums(&fast, &rows);
+    }
+
+    #[test]
+    fn scans_number_their_poses_as_the_table_does() {
+        let (m, _, _) = model();
+        let table = |m: &DiskModel| {
+            let flanges: Vec<&Isometry3<f64>> = m.ends.iter().map(|(f, _)| f).collect();
+            super::super::honest::clusters(&flanges, flanges.len())
+        };
+        // Scan 2 comes back to its last pose: the table alone can tell.
+        assert_eq!(clusters(&m.ends, &orientation_runs(&m.ends)), None);
+        let mut once = m.clone();
+        once.ends.remove(2 * 21 + 1 + 2 * 21);
+        once.ends.remove(2 * 21 + 1 + 2 * 21);
+        let runs = orientation_runs(&once.ends);
+        let fast = clusters(&once.ends, &runs).expect("no pose comes back");
+        assert_eq!(fast, table(&once));
+        assert_eq!(fast.last(), Some(&83));
+        // A scan that steps back, or two scans of one orientation, go to the table.
+        let mut back = once.clone();
+        back.ends.swap(10, 12);
+        back.ends.swap(11, 13);
+        assert_eq!(clusters(&back.ends, &orientation_runs(&back.ends)), None);
+        let mut same = once.clone();
+        let turn = same.ends[0].0.rotation;
+        for (f, _) in same.ends.iter_mut().skip(2 * 21 + 1 + 2 * 21) {
+            f.rotation = turn;
+        }
+        assert_eq!(clusters(&same.ends, &orientation_runs(&same.ends)), None);
     }
 
     #[test]
