@@ -28,11 +28,14 @@ const UR: usize = 8;
 pub(super) const SCAN_MIN_ENDS: usize = 16;
 
 /// The runs of ends seen with one flange orientation: (first, end).
+/// Orientations compare bit for bit, word by word: one branch per end, not four.
 pub(super) fn orientation_runs(ends: &[(Isometry3<f64>, Vector2<f64>)]) -> Vec<(usize, usize)> {
+    let bits = |e: usize| ends[e].0.rotation.coords.map(f64::to_bits);
     let mut runs = Vec::new();
     let mut start = 0;
     for i in 1..=ends.len() {
-        if i == ends.len() || ends[i].0.rotation != ends[start].0.rotation {
+        if i == ends.len() || bits(i).iter().zip(&bits(start)).fold(0, |d, (a, b)| d | (a ^ b)) != 0
+        {
             runs.push((start, i));
             start = i;
         }
@@ -216,10 +219,9 @@ pub(super) fn sums(
         // The run's inputs first: a chunk written lane by lane and read at once stalls the
         // loads (no store-to-load forwarding from eight narrow stores to one wide load).
         chunks.clear();
-        for start in (first..end).step_by(8) {
-            let mut c = Chunk::default();
-            fill(&mut c, m, start..(start + 8).min(end));
-            chunks.push(c);
+        chunks.resize_with((end - first).div_ceil(8), Chunk::default);
+        for (start, c) in (first..end).step_by(8).zip(chunks.iter_mut()) {
+            fill(c, m, start..(start + 8).min(end));
         }
         let mut run = (clusters[first], [0.0; P]);
         for (start, chunk) in (first..end).step_by(8).zip(&chunks) {
