@@ -14,7 +14,6 @@ use super::Transform;
 use super::disk::{DiskModel, DiskPose};
 use nalgebra::{DMatrix, DVector, Isometry3, SMatrix, SVector, Vector2, Vector3};
 
-
 /// Columns: rotation 3, translation 3, the disk's centre 3 and normal 2.
 const P: usize = 11;
 /// A plane row's short vector: (x, z, v.X, v.Y, 1).
@@ -34,7 +33,12 @@ pub(super) fn orientation_runs(ends: &[(Isometry3<f64>, Vector2<f64>)]) -> Vec<(
     let mut runs = Vec::new();
     let mut start = 0;
     for i in 1..=ends.len() {
-        if i == ends.len() || bits(i).iter().zip(&bits(start)).fold(0, |d, (a, b)| d | (a ^ b)) != 0
+        if i == ends.len()
+            || bits(i)
+                .iter()
+                .zip(&bits(start))
+                .fold(0, |d, (a, b)| d | (a ^ b))
+                != 0
         {
             runs.push((start, i));
             start = i;
@@ -58,7 +62,10 @@ pub(super) fn clusters(
         return None;
     }
     for (i, &(a, _)) in runs.iter().enumerate() {
-        if runs[i + 1..].iter().any(|&(b, _)| ends[b].0.rotation == ends[a].0.rotation) {
+        if runs[i + 1..]
+            .iter()
+            .any(|&(b, _)| ends[b].0.rotation == ends[a].0.rotation)
+        {
             return None;
         }
     }

@@ -470,18 +470,25 @@ fn clusters_by_key(flanges: &[&Isometry3<f64>], n_residuals: usize) -> Vec<u32> 
 /// a = S S, the eigenvalues of S^-1 b S^-1 are raised to at least 1. When `b` is estimated in
 /// only `informative` (< 6) directions, every eigenvalue is raised to at least the mean of the
 /// largest `informative` ones. Returns it and the square root of the largest raised eigenvalue
-/// (at least 1). Falls back to a + b where `a` is singular.
+/// (at least 1). Falls back to a + b where `a` is singular (a pivot of its Cholesky factor at
+/// most 1e-24 of its largest diagonal entry).
+///
+/// Any factor a = L L^T gives the same matrix: L = S Q with Q orthogonal, so L^-1 b L^-T =
+/// Q^T (S^-1 b S^-1) Q has the same eigenvalues, its eigenvectors turned by Q^T, and Q cancels
+/// in L W D W^T L^T. The Cholesky factor costs less than S's eigen decomposition.
 fn larger_of(a: &Matrix6<f64>, b: &Matrix6<f64>, informative: usize) -> (Matrix6<f64>, f64) {
-    let ea = SymmetricEigen::new(*a);
-    let top = ea.eigenvalues.max();
-    if !(top > 0.0) || ea.eigenvalues.iter().any(|&l| !(l > 1e-24 * top)) {
+    let top = a.diagonal().max();
+    let Some(l) = a.cholesky().map(|c| c.l()) else {
+        return (a + b, f64::NAN);
+    };
+    if !(top > 0.0) || l.diagonal().iter().any(|&d| !(d * d > 1e-24 * top)) {
         return (a + b, f64::NAN);
     }
-    let u = ea.eigenvectors;
-    let half = u * Matrix6::from_diagonal(&ea.eigenvalues.map(f64::sqrt)) * u.transpose();
-    let inv_half =
-        u * Matrix6::from_diagonal(&ea.eigenvalues.map(|l| 1.0 / l.sqrt())) * u.transpose();
-    let m = inv_half * b * inv_half;
+    // L^-1 b L^-T by two triangular solves (b symmetric).
+    let lb = l.solve_lower_triangular(b).expect("a positive diagonal");
+    let m = l
+        .solve_lower_triangular(&lb.transpose())
+        .expect("a positive diagonal");
     let em = SymmetricEigen::new((m + m.transpose()) * 0.5);
     let floor = if (1..6).contains(&informative) {
         let mut l: Vec<f64> = em.eigenvalues.iter().copied().collect();
@@ -492,7 +499,7 @@ fn larger_of(a: &Matrix6<f64>, b: &Matrix6<f64>, informative: usize) -> (Matrix6
     };
     let raised = em.eigenvalues.map(|l| l.max(floor));
     let mid = em.eigenvectors * Matrix6::from_diagonal(&raised) * em.eigenvectors.transpose();
-    (half * mid * half, raised.max().sqrt())
+    (l * mid * l.transpose(), raised.max().sqrt())
 }
 
 /// The 95 % quantile of |e| for e ~ N(0, c), c 3x3: |e|^2 is a weighted sum of chi-square(1)
@@ -642,6 +649,48 @@ mod tests {
         // Where b is within a, a itself.
         let (c, f) = larger_of(&a, &(a * 0.5), 6);
         assert!((c - a).norm() < 1e-12 && f == 1.0);
+    }
+
+    #[test]
+    fn the_larger_of_is_the_symmetric_square_roots_one() {
+        // Any factor of a gives the matrix a's symmetric square root gives.
+        let f = Matrix6::from_fn(|r, c| {
+            ((r * 7 + c * 3) as f64).sin() + if r == c { 3.0 } else { 0.0 }
+        });
+        let g = Matrix6::from_fn(|r, c| ((r * 5 + c * 11) as f64).cos());
+        let (a, b) = (f * f.transpose() * 1e-6, g * g.transpose() * 2e-6);
+        for informative in [6, 3] {
+            let e = SymmetricEigen::new(a);
+            let u = e.eigenvectors;
+            let half = u * Matrix6::from_diagonal(&e.eigenvalues.map(f64::sqrt)) * u.transpose();
+            let inv_half = half.try_inverse().unwrap();
+            let m = inv_half * b * inv_half;
+            let em = SymmetricEigen::new((m + m.transpose()) * 0.5);
+            let mut l: Vec<f64> = em.eigenvalues.iter().copied().collect();
+            l.sort_by(|x, y| y.total_cmp(x));
+            let floor = if informative < 6 {
+                (l[..informative].iter().sum::<f64>() / informative as f64).max(1.0)
+            } else {
+                1.0
+            };
+            let raised = em.eigenvalues.map(|l| l.max(floor));
+            let want = half
+                * (em.eigenvectors * Matrix6::from_diagonal(&raised) * em.eigenvectors.transpose())
+                * half;
+            let (got, top) = larger_of(&a, &b, informative);
+            assert!(
+                (got - want).amax() <= 1e-10 * want.amax(),
+                "{got} vs {want}"
+            );
+            assert!((top - raised.max().sqrt()).abs() < 1e-10 * top);
+            assert!(top > 1.0);
+        }
+        // A singular a: the sum.
+        let mut s = a;
+        s.row_mut(2).fill(0.0);
+        s.column_mut(2).fill(0.0);
+        let (c, top) = larger_of(&s, &b, 6);
+        assert!(top.is_nan() && c == s + b);
     }
 
     #[test]
