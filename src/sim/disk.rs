@@ -401,14 +401,23 @@ pub fn analytic_scan_with(
     // `flange_pose`'s rotation, once per scan.
     let r_tcp = UnitQuaternion::from_rotation_matrix(&p.r_tcp);
     let mut kept = None;
-    for j in 0..p.m {
-        let flange = Isometry3::from_parts(p.tcp(j).into(), r_tcp);
-        let (pose, frame) = sensor_at(&mut kept, rig, &actual(&flange, j), disk);
-        // Draw both noises for every profile so streams stay aligned.
-        let (t1, t2) = (gauss(rng) * sigma, gauss(rng) * sigma);
-        let flat = frame.and_then(|f| f.chord(&pose, disk));
+    // The poses, then the noises, then the chords: each chord's chain of a division and two
+    // square roots then overlaps its neighbours' (no call between them), and each stream is
+    // drawn in the same order as before (the robot's pose error has its own).
+    let poses: Vec<(Isometry3<f64>, Option<ChordFrame>)> = (0..p.m)
+        .map(|j| {
+            let flange = Isometry3::from_parts(p.tcp(j).into(), r_tcp);
+            sensor_at(&mut kept, rig, &actual(&flange, j), disk)
+        })
+        .collect();
+    // Draw both noises for every profile so streams stay aligned.
+    let noise: Vec<(f64, f64)> = (0..p.m)
+        .map(|_| (gauss(rng) * sigma, gauss(rng) * sigma))
+        .collect();
+    for (j, ((pose, frame), &(t1, t2))) in poses.iter().zip(&noise).enumerate() {
+        let flat = frame.and_then(|f| f.chord(pose, disk));
         let chord = match form {
-            Some((frame, f)) => flat.and_then(|c| warped(c, &pose, disk, frame, f)),
+            Some((frame, f)) => flat.and_then(|c| warped(c, pose, disk, frame, f)),
             None => flat,
         };
         if let Some((a, b)) = chord {
