@@ -505,8 +505,15 @@ fn larger_of(a: &Matrix6<f64>, b: &Matrix6<f64>, informative: usize) -> (Matrix6
 /// The 95 % quantile of |e| for e ~ N(0, c), c 3x3: |e|^2 is a weighted sum of chi-square(1)
 /// variables, taken as a scaled chi-square with the same mean and variance (Satterthwaite).
 fn norm_quantile_95(c: &Matrix3<f64>) -> f64 {
-    let l = SymmetricEigen::new(*c).eigenvalues.map(|v| v.max(0.0));
-    let (s1, s2) = (l.sum(), l.norm_squared());
+    // Only the eigenvalues' sum and sum of squares are wanted: for a covariance (symmetric,
+    // positive semi-definite) c's trace and squared Frobenius norm, with no decomposition. A
+    // negative variance is no covariance: its eigenvalues, clamped at zero.
+    let (s1, s2) = if c.diagonal().iter().all(|&d| d >= 0.0) {
+        (c.trace(), c.norm_squared())
+    } else {
+        let l = SymmetricEigen::new(*c).eigenvalues.map(|v| v.max(0.0));
+        (l.sum(), l.norm_squared())
+    };
     if !(s1 > 0.0) || !s1.is_finite() {
         return if s1 == 0.0 { 0.0 } else { f64::INFINITY };
     }
@@ -691,6 +698,17 @@ mod tests {
         s.column_mut(2).fill(0.0);
         let (c, top) = larger_of(&s, &b, 6);
         assert!(top.is_nan() && c == s + b);
+    }
+
+    #[test]
+    fn the_norm_quantile_needs_no_decomposition() {
+        // A covariance's trace and Frobenius norm are its eigenvalues' sum and root sum of squares.
+        let f = Matrix3::new(0.3, -0.1, 0.05, 0.2, 0.4, -0.3, 0.0, 0.1, 0.2);
+        let c = f * f.transpose();
+        let l = SymmetricEigen::new(c).eigenvalues;
+        let (s1, s2): (f64, f64) = (l.sum(), l.norm_squared());
+        let want = (s2 / s1 * chi_square_95(s1 * s1 / s2)).sqrt();
+        assert!((norm_quantile_95(&c) - want).abs() < 1e-12 * want);
     }
 
     #[test]
