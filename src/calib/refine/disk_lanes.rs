@@ -186,34 +186,46 @@ fn sum_block(
             *s += o.r[0][l] * o.r[0][l] + o.r[1][l] * o.r[1][l];
         }
         let cl = &clusters[(8 * k).min(clusters.len())..(8 * k + 8).min(clusters.len())];
-        // The rule (a chord's two ends per pose, a pose per chord): lane pairs summed side by
-        // side, four poses' scores added at once; the same sums as by runs. Not while the run
-        // before goes on into this chunk (a block's first run has nothing summed yet).
-        if cl.len() == 8 && (k == 0 || cl[0] != run.0) && pairs_of_ends(cl) {
-            add_run(scores, &run);
-            let pair: [[f64; 8]; P] =
-                std::array::from_fn(|c| std::array::from_fn(|l| t[c][l] + t[c][l ^ 1]));
-            for p in 0..4 {
-                let at = cl[2 * p] as usize * P;
-                for (c, s) in scores[at..at + P].iter_mut().enumerate() {
-                    *s += pair[c][2 * p];
-                }
-            }
-            run = (cl[7], [0.0; P]);
-            continue;
-        }
-        // Otherwise a pose's ends are summed in registers and added to its column once per run.
-        for (l, &cl) in cl.iter().enumerate() {
-            if run.0 != cl {
-                add_run(scores, &run);
-                run = (cl, [0.0; P]);
-            }
-            for (s, t) in run.1.iter_mut().zip(&t) {
-                *s += t[l];
-            }
-        }
+        add_scores(scores, &mut run, cl, &t, k == 0);
     }
     add_run(scores, &run);
+}
+
+/// Up to eight ends' J^T r `t` (clusters `cl`) into their poses' columns of `scores`, the pose
+/// whose ends may go on into the next chunk held in `run` (`fresh`: nothing summed in it yet).
+/// The rule (a chord's two ends per pose, a pose per chord): lane pairs summed side by side,
+/// four poses' scores added at once; the same sums as by runs. Otherwise a pose's ends are
+/// summed in registers and added to its column once per run. Shared by `disk_scans`.
+#[inline(always)]
+pub(super) fn add_scores(
+    scores: &mut [f64],
+    run: &mut (u32, [f64; P]),
+    cl: &[u32],
+    t: &[[f64; 8]; P],
+    fresh: bool,
+) {
+    if cl.len() == 8 && (fresh || cl[0] != run.0) && pairs_of_ends(cl) {
+        add_run(scores, run);
+        let pair: [[f64; 8]; P] =
+            std::array::from_fn(|c| std::array::from_fn(|l| t[c][l] + t[c][l ^ 1]));
+        for p in 0..4 {
+            let at = cl[2 * p] as usize * P;
+            for (c, s) in scores[at..at + P].iter_mut().enumerate() {
+                *s += pair[c][2 * p];
+            }
+        }
+        *run = (cl[7], [0.0; P]);
+        return;
+    }
+    for (l, &cl) in cl.iter().enumerate() {
+        if run.0 != cl {
+            add_run(scores, run);
+            *run = (cl, [0.0; P]);
+        }
+        for (s, t) in run.1.iter_mut().zip(t) {
+            *s += t[l];
+        }
+    }
 }
 
 /// Eight ends' clusters in four runs of two.
@@ -275,7 +287,7 @@ fn rows_tile<const T: usize>(
 
 /// A run's scores into its cluster's column.
 #[inline(always)]
-fn add_run(scores: &mut [f64], (cl, sums): &(u32, [f64; P])) {
+pub(super) fn add_run(scores: &mut [f64], (cl, sums): &(u32, [f64; P])) {
     let at = *cl as usize * P;
     for (o, s) in scores[at..at + P].iter_mut().zip(sums) {
         *o += s;
@@ -332,24 +344,13 @@ fn lanes(c: &Chunk, d: &Disk, o: &mut Rows) {
 mod tests {
     use super::super::{Model, Sums, eval, testing};
     use super::*;
-    use nalgebra::{Point3, UnitQuaternion, Vector2};
+    use nalgebra::{UnitQuaternion, Vector2};
 
     /// 83 poses (more than keep their grams) of two ends each, one pose of three, odd weights:
     /// 167 ends, the last chunk part dead; the ends anywhere near the rim (the sums need no
     /// consistent geometry).
     fn model() -> (DiskModel, Transform, DiskPose) {
-        let x = Transform::from_isometry(&Isometry3::new(
-            Vector3::new(0.006, 0.054, 0.364),
-            Vector3::new(3.1, -0.02, 0.1),
-        ));
-        let disk = DiskPose::new(
-            Point3::new(-0.32, -0.30, 0.01),
-            &Vector3::new(0.1, -0.2, 1.0),
-        );
-        let mut m = DiskModel {
-            radius: 0.05,
-            ..DiskModel::default()
-        };
+        let (mut m, x, disk) = testing::disk_rig();
         for k in 0..83 {
             let a = k as f64;
             let f = Isometry3::from_parts(

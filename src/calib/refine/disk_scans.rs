@@ -12,6 +12,7 @@
 use super::Sums;
 use super::Transform;
 use super::disk::{DiskModel, DiskPose};
+use super::disk_lanes::{add_run, add_scores};
 use nalgebra::{DMatrix, DVector, Isometry3, SMatrix, SVector, Vector2, Vector3};
 
 /// Columns: rotation 3, translation 3, the disk's centre 3 and normal 2.
@@ -234,30 +235,13 @@ pub(super) fn sums(
         for (start, chunk) in (first..end).step_by(8).zip(&chunks) {
             let stop = (start + 8).min(end);
             let score = add_chunk(&mut lanes, chunk, (&scan, &axes, &a, &b), m.radius);
-            let cl = &clusters[start..stop];
-            // The rule (a chord's two ends per pose, a pose per chord): lane pairs summed
-            // side by side, four poses' scores added at once. Not while the run before goes
-            // on into this chunk.
-            if cl.len() == 8 && (start == first || cl[0] != run.0) && pairs_of_ends(cl) {
-                add_run(&mut scores, &run);
-                for p in 0..4 {
-                    let at = cl[2 * p] as usize * P;
-                    for (c, o) in scores[at..at + P].iter_mut().enumerate() {
-                        *o += score[c][2 * p] + score[c][2 * p + 1];
-                    }
-                }
-                run = (cl[7], [0.0; P]);
-                continue;
-            }
-            for (l, &cl) in cl.iter().enumerate() {
-                if run.0 != cl {
-                    add_run(&mut scores, &run);
-                    run = (cl, [0.0; P]);
-                }
-                for (o, s) in run.1.iter_mut().zip(&score) {
-                    *o += s[l];
-                }
-            }
+            add_scores(
+                &mut scores,
+                &mut run,
+                &clusters[start..stop],
+                &score,
+                start == first,
+            );
         }
         add_run(&mut scores, &run);
         let su = symmetric::<UP>(&lanes.plane);
@@ -293,21 +277,6 @@ fn symmetric<const K: usize>(acc: &[[f64; 8]]) -> SMatrix<f64, K, K> {
         }
     }
     out
-}
-
-/// Eight ends' clusters in four runs of two.
-#[inline(always)]
-fn pairs_of_ends(cl: &[u32]) -> bool {
-    (0..4).all(|p| cl[2 * p] == cl[2 * p + 1]) && (0..3).all(|p| cl[2 * p + 1] != cl[2 * p + 2])
-}
-
-/// A run's score into its cluster's column.
-#[inline(always)]
-fn add_run(scores: &mut [f64], (cl, sums): &(u32, [f64; P])) {
-    let at = *cl as usize * P;
-    for (o, s) in scores[at..at + P].iter_mut().zip(sums) {
-        *o += s;
-    }
 }
 
 /// Ends `ends` (at most eight, one scan) into `c` (all zero); spare lanes stay dead.
@@ -418,24 +387,13 @@ fn add_chunk(
 mod tests {
     use super::super::{Model, eval, testing};
     use super::*;
-    use nalgebra::{Point3, UnitQuaternion};
+    use nalgebra::UnitQuaternion;
 
     /// Four straight scans of 21 poses (more than keep their grams), two ends each, one pose of
     /// three and one scan's last pose seen again at its start (a cluster revisited), odd
     /// weights: 170 ends, the runs' last chunks part dead.
     fn model() -> (DiskModel, Transform, DiskPose) {
-        let x = Transform::from_isometry(&Isometry3::new(
-            Vector3::new(0.006, 0.054, 0.364),
-            Vector3::new(3.1, -0.02, 0.1),
-        ));
-        let disk = DiskPose::new(
-            Point3::new(-0.32, -0.30, 0.01),
-            &Vector3::new(0.1, -0.2, 1.0),
-        );
-        let mut m = DiskModel {
-            radius: 0.05,
-            ..DiskModel::default()
-        };
+        let (mut m, x, disk) = testing::disk_rig();
         for scan in 0..4 {
             let b = scan as f64;
             let turn = UnitQuaternion::from_euler_angles(3.0 + 0.1 * b, 0.2 - 0.05 * b, -2.0 + b);

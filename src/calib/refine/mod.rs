@@ -1556,7 +1556,27 @@ mod tests {
 #[cfg(test)]
 pub(crate) mod testing {
     use super::Sums;
-    use nalgebra::{DMatrix, DVector};
+    use super::Transform;
+    use super::disk::{DiskModel, DiskPose};
+    use nalgebra::{DMatrix, DVector, Isometry3, Point3, Vector3};
+
+    /// A mounting, a disk's pose and an empty model of a 50 mm disk, for the disk's sums tests
+    /// (which need no consistent geometry: ends anywhere near the rim).
+    pub fn disk_rig() -> (DiskModel, Transform, DiskPose) {
+        let x = Transform::from_isometry(&Isometry3::new(
+            Vector3::new(0.006, 0.054, 0.364),
+            Vector3::new(3.1, -0.02, 0.1),
+        ));
+        let disk = DiskPose::new(
+            Point3::new(-0.32, -0.30, 0.01),
+            &Vector3::new(0.1, -0.2, 1.0),
+        );
+        let m = DiskModel {
+            radius: 0.05,
+            ..DiskModel::default()
+        };
+        (m, x, disk)
+    }
 
     /// Asserts that a model's own sums (`Model::sums`) are the sums of its rows (`Sums::of` of
     /// `eval`'s residuals and Jacobian) to 1e-12 relative to each one's largest entry.
