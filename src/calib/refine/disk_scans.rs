@@ -264,6 +264,28 @@ pub(super) fn sums(
     }
 }
 
+/// Eight ends' short vectors `v` (K each): every product v_i v_j (i <= j, row by row) into
+/// `sums`, and weighted by the squared residuals `rr` into `meat`.
+#[inline(always)]
+fn add_products<const K: usize>(
+    sums: &mut [[f64; 8]],
+    meat: &mut [[f64; 8]],
+    v: &[[f64; 8]; K],
+    rr: &[f64; 8],
+) {
+    let mut k = 0;
+    for i in 0..K {
+        for j in i..K {
+            for l in 0..8 {
+                let p = v[i][l] * v[j][l];
+                sums[k][l] += p;
+                meat[k][l] += p * rr[l];
+            }
+            k += 1;
+        }
+    }
+}
+
 /// The K x K symmetric matrix of lanes of sums over the pairs i <= j, row by row.
 fn symmetric<const K: usize>(acc: &[[f64; 8]]) -> SMatrix<f64, K, K> {
     let mut out = SMatrix::<f64, K, K>::zeros();
@@ -332,28 +354,8 @@ fn add_chunk(
     for l in 0..8 {
         o.rss[l] += rr0[l] + rr1[l];
     }
-    let mut k = 0;
-    for i in 0..UP {
-        for j in i..UP {
-            for l in 0..8 {
-                let v = up[i][l] * up[j][l];
-                o.plane[k][l] += v;
-                o.plane_meat[k][l] += v * rr0[l];
-            }
-            k += 1;
-        }
-    }
-    let mut k = 0;
-    for i in 0..UR {
-        for j in i..UR {
-            for l in 0..8 {
-                let v = ur[i][l] * ur[j][l];
-                o.rim[k][l] += v;
-                o.rim_meat[k][l] += v * rr1[l];
-            }
-            k += 1;
-        }
-    }
+    add_products(&mut o.plane, &mut o.plane_meat, &up, &rr0);
+    add_products(&mut o.rim, &mut o.rim_meat, &ur, &rr1);
     // Each end's J^T r = A (r0 u) + B (r1 w), over the entries `plane_matrix` and
     // `rim_matrix` set (the rest are zero).
     let tp: [[f64; 8]; UP] = std::array::from_fn(|k| std::array::from_fn(|l| up[k][l] * r0[l]));
