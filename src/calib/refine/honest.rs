@@ -119,29 +119,25 @@ impl Honest {
         let Some(inv) = inv else {
             return alone;
         };
-        let scores = sums.scores.select_rows(used);
         let informative = pose_directions(g, p);
         // With fewer poses than directions to see, some direction rests on one pose (leverage
         // near 1) and the correction blows up: the few-pose widening below holds those sets.
-        let adjusted = (informative == 6)
+        let adjusted = (informative == 6 && !grams.is_empty())
             .then(|| {
                 leverage_adjusted(
                     &sums.ata.select_rows(used).select_columns(used),
                     inv,
                     &grams,
-                    &scores,
+                    &sums.scores.select_rows(used),
                 )
             })
             .flatten();
         let clustered = match adjusted {
             Some(block) => block,
             None => {
-                // The small-sample factor of the clustered sandwich (CR1). Only the transform's
-                // block is kept: (A^-1 S)(A^-1 S)^T over its six rows.
+                // The small-sample factor of the clustered sandwich (CR1).
                 let factor = (g as f64 / (g - 1) as f64) * ((n - 1) as f64 / (n - p) as f64);
-                let t = inv.rows(0, 6) * &scores;
-                let full = &t * t.transpose();
-                Matrix6::from_fn(|r, c| full[(r, c)] * factor)
+                scores_spread(inv, &sums.scores, used) * factor
             }
         };
         // The scores of g poses span at most g - 1 directions, and the specimen's parameters
@@ -386,6 +382,39 @@ fn low_rank_factor(gram: &DMatrix<f64>, scale: &[f64]) -> DMatrix<f64> {
         rows.push(row);
     }
     DMatrix::from_fn(rows.len(), p, |r, c| rows[r][c] * scale[c])
+}
+
+/// sum_c (A^-1 s_c)(A^-1 s_c)^T over the transform's six rows (A^-1: `inv`, over the columns
+/// `used`; s_c: column c of `scores`, over every column). By hand, cluster by cluster in lanes
+/// of eight, rather than as two matrix products: a sweep's thousands of clusters per fit made
+/// the products' packing and the copy of the used rows the verdict's largest cost after its
+/// sums.
+fn scores_spread(inv: &DMatrix<f64>, scores: &DMatrix<f64>, used: &[usize]) -> Matrix6<f64> {
+    let inv6: Vec<[f64; 8]> = (0..used.len())
+        .map(|k| std::array::from_fn(|r| if r < 6 { inv[(r, k)] } else { 0.0 }))
+        .collect();
+    let v = spread(&inv6, used, scores.as_slice(), scores.nrows());
+    Matrix6::from_fn(|r, c| v[c][r])
+}
+
+#[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
+fn spread(inv6: &[[f64; 8]], used: &[usize], scores: &[f64], rows: usize) -> [[f64; 8]; 6] {
+    let mut v = [[0.0; 8]; 6];
+    for s in scores.chunks_exact(rows.max(1)) {
+        let mut t = [0.0; 8];
+        for (col, &u) in inv6.iter().zip(used) {
+            let sk = s[u];
+            for r in 0..8 {
+                t[r] += col[r] * sk;
+            }
+        }
+        for (j, vj) in v.iter_mut().enumerate() {
+            for r in 0..8 {
+                vj[r] += t[r] * t[j];
+            }
+        }
+    }
+    v
 }
 
 /// The runs of one cluster: (first row, end, cluster).
@@ -638,6 +667,32 @@ mod tests {
         }
         let v = Matrix6::from_fn(|r, c| v[(r, c)]);
         assert!((fast - v).amax() <= 1e-10 * v.amax(), "{fast} vs {v}");
+    }
+
+    /// The spread of the scores by hand is the two products it replaces, over the used
+    /// columns only (one column of the scores left out, as a fit's fixed parameter is).
+    #[test]
+    fn the_scores_spread_is_the_products_one() {
+        let (pj, g) = (9, 70);
+        let value = |i: usize| {
+            let v = (i as f64 * 12.9898).sin() * 43758.5453;
+            v - v.floor() - 0.5
+        };
+        let scores = DMatrix::from_fn(pj, g, |r, c| value(r * g + c) * [1e-3, 1.0][r % 2]);
+        let used = [0, 1, 2, 3, 4, 5, 6, 8];
+        let inv = DMatrix::from_fn(8, 8, |r, c| value(1000 + r.min(c) * 8 + r.max(c)));
+        let t = inv.rows(0, 6) * scores.select_rows(&used);
+        let full = &t * t.transpose();
+        let want = Matrix6::from_fn(|r, c| full[(r, c)]);
+        let got = scores_spread(&inv, &scores, &used);
+        assert!(
+            (got - want).amax() <= 1e-13 * want.amax(),
+            "{got} vs {want}"
+        );
+        // The left-out row counts for nothing.
+        let mut other = scores.clone();
+        other.row_mut(7).fill(1e6);
+        assert_eq!(scores_spread(&inv, &other, &used), got);
     }
 
     #[test]
