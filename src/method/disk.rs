@@ -687,30 +687,67 @@ fn plane_normal(
     flange_to_sensor: &Isometry3<f64>,
     apex: &Point3<f64>,
 ) -> Vector3<f64> {
-    let pts: Vec<Vector3<f64>> = ends
-        .iter()
-        .map(|(f, p)| (f * (flange_to_sensor * Point3::new(p.x, 0.0, p.y))).coords)
-        .collect();
-    let mean = pts.iter().sum::<Vector3<f64>>() / pts.len().max(1) as f64;
-    let cov = pts
-        .iter()
-        .map(|p| (p - mean) * (p - mean).transpose())
-        .sum::<nalgebra::Matrix3<f64>>();
-    let eig = nalgebra::SymmetricEigen::new(cov);
+    let Some((first, _)) = ends.first() else {
+        return Vector3::z();
+    };
+    let apex_in_flange = (flange_to_sensor * apex).coords;
+    // Within a run of one flange orientation an end (x, z) lies at M (x, z) + R t + t_f in the
+    // base (M: the first and third columns of R R_x, R the flange's rotation, t R_x's offset):
+    // a sweep's millions of ends then cost a product each, not two transforms. The moments are
+    // taken about the first pose's origin, near every end (no cancellation against the base's
+    // metres).
+    let origin = first.translation.vector;
+    type Run = (
+        nalgebra::Vector4<f64>,
+        nalgebra::Matrix3x2<f64>,
+        Vector3<f64>,
+        Vector3<f64>,
+    );
+    let mut run: Option<Run> = None;
+    let (mut sum, mut second) = (Vector3::zeros(), [0.0; 6]);
+    let mut apexes = Vec::new();
+    // Pose by pose (a chord's two ends share theirs).
+    for pose in ends.chunk_by(|a, b| a.0 == b.0) {
+        let f = &pose[0].0;
+        let (m, offset, apex) = match run {
+            Some((q, m, offset, apex)) if q == f.rotation.coords => (m, offset, apex),
+            _ => {
+                let r = (f.rotation * flange_to_sensor.rotation).to_rotation_matrix();
+                let m = nalgebra::Matrix3x2::from_columns(&[
+                    r.matrix().column(0).into_owned(),
+                    r.matrix().column(2).into_owned(),
+                ]);
+                let offset = f.rotation * flange_to_sensor.translation.vector;
+                let apex = f.rotation * apex_in_flange;
+                run = Some((f.rotation.coords, m, offset, apex));
+                (m, offset, apex)
+            }
+        };
+        let t = f.translation.vector - origin;
+        let c = offset + t;
+        for (_, p) in pose {
+            let q = m * p + c;
+            sum += q;
+            for (k, (a, b)) in [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
+                .into_iter()
+                .enumerate()
+            {
+                second[k] += q[a] * q[b];
+            }
+        }
+        // Only the side the sensors are on is wanted.
+        apexes.push(apex + t);
+    }
+    let second = nalgebra::Matrix3::new(
+        second[0], second[1], second[2], second[1], second[3], second[4], second[2], second[4],
+        second[5],
+    );
+    let count = ends.len() as f64;
+    let mean = sum / count;
+    let cov = second - mean * sum.transpose();
+    let eig = nalgebra::SymmetricEigen::new(0.5 * (cov + cov.transpose()));
     let k = eig.eigenvalues.imin();
-    // Each pose once: only the side the sensors are on is wanted.
-    let poses = ends
-        .iter()
-        .enumerate()
-        .filter(|(i, (f, _))| *i == 0 || ends[i - 1].0 != *f)
-        .map(|(_, (f, _))| *f);
-    super::toward_sensors(
-        eig.eigenvectors.column(k).into_owned(),
-        &mean,
-        poses,
-        flange_to_sensor,
-        apex,
-    )
+    super::toward_points(eig.eigenvectors.column(k).into_owned(), &mean, apexes)
 }
 
 /// The full-profile refinement's rim and its weights (residuals scaled to the face points' noise).

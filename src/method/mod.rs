@@ -610,7 +610,17 @@ fn toward_sensors(
 ) -> Vector3<f64> {
     // The apex in the flange frame once; each pose then moves a point, not a transform.
     let apex = flange_to_sensor * apex;
-    let side: f64 = flanges.map(|f| n.dot(&((f * apex).coords - on_face))).sum();
+    toward_points(n, on_face, flanges.map(|f| (f * apex).coords))
+}
+
+/// `n` or `-n`, whichever points from `on_face` towards the sensor's apexes (`apexes`, one per
+/// pose) on the whole.
+fn toward_points(
+    n: Vector3<f64>,
+    on_face: &Vector3<f64>,
+    apexes: impl IntoIterator<Item = Vector3<f64>>,
+) -> Vector3<f64> {
+    let side: f64 = apexes.into_iter().map(|a| n.dot(&(a - on_face))).sum();
     if side < 0.0 { -n } else { n }
 }
 
