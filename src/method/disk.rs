@@ -471,15 +471,16 @@ impl Plan for DiskPlan {
                 mostly_in_view(rig, &scan, i, p)?;
                 // `flange_pose`'s rotation, once per scan.
                 let r_tcp = nalgebra::UnitQuaternion::from_rotation_matrix(&p.r_tcp);
-                for ch in scan.chords {
-                    let t = p.t_start + (p.t_end - p.t_start) * ch.u;
-                    let f = Isometry3::from_parts(t.into(), r_tcp);
-                    profiles.push(CaptureProfile {
-                        group: i,
-                        base_to_flange: f,
-                        data: ProfileData::Chord { a: ch.a, b: ch.b },
-                    });
-                }
+                // Written in place by `extend` (a pushed profile, built on the stack and copied,
+                // stalled its loads on its own stores).
+                profiles.extend(scan.chords.iter().map(|ch| CaptureProfile {
+                    group: i,
+                    base_to_flange: Isometry3::from_parts(
+                        (p.t_start + (p.t_end - p.t_start) * ch.u).into(),
+                        r_tcp,
+                    ),
+                    data: ProfileData::Chord { a: ch.a, b: ch.b },
+                }));
             }
         }
         let timing = self.timing(&profiles);
@@ -965,6 +966,22 @@ fn inferred_scans(c: &Captures, sensor: &SensorModel) -> Result<Captures, Error>
     Ok(out)
 }
 
+/// A chord's two ends seen from `flange`, set in place field by field: a pushed pair is built on
+/// the stack first, and its copy's wide loads straddled the narrower stores that built it (a
+/// store-forwarding stall per end, 4 % of the Fig. 15 sweep).
+fn push_ends(
+    ends: &mut Vec<(Isometry3<f64>, Vector2<f64>)>,
+    flange: &Isometry3<f64>,
+    chord: [&Vector2<f64>; 2],
+) {
+    let n = ends.len();
+    ends.resize(n + 2, (Isometry3::identity(), Vector2::zeros()));
+    for (e, q) in ends[n..].iter_mut().zip(chord) {
+        e.0 = *flange;
+        e.1 = *q;
+    }
+}
+
 /// Chords from every scan, the disk paper's transformation solution, and the refinement problem.
 fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
     let inferred;
@@ -979,9 +996,12 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     let radius = c
         .specimen_radius
         .ok_or(CaptureError::MissingRadius { method: Kind::Disk })?;
-    // Per scan: its chords and their ends, and what became of its profiles.
-    let mut per_scan = Vec::new();
-    let mut reports = Vec::new();
+    // Every scan's chord ends, face points and wall points in one list each (a scan's share is
+    // its range): no copy per scan, and no empty walls kept for chords that have none.
+    let (mut scans, mut reports, mut spans) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut ends, mut face) = (Vec::with_capacity(2 * c.profiles.len()), Vec::new());
+    // (index of the chord's first end, its walls) where a chord has any.
+    let mut walls: Vec<(usize, [Vec<Vector2<f64>>; 2])> = Vec::new();
     let keep = super::face_points(c.profiles.len());
     for g in &c.groups {
         // A scan's sign not recorded: the closed form needs it, the any-pose estimator does not.
@@ -1001,20 +1021,26 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             last.base_to_flange.translation.vector,
         );
         let span = t1 - t0;
-        let (mut chords, mut ends, mut face, mut beyond) = (
-            Vec::with_capacity(ps.len()),
-            Vec::with_capacity(2 * ps.len()),
-            Vec::new(),
-            Vec::with_capacity(ps.len()),
-        );
+        let mut chords = Vec::with_capacity(ps.len());
+        let (ends_from, face_from) = (ends.len(), face.len());
         let mut report = super::GroupReport::new(g.id);
         for p in &ps {
-            let flange = p.base_to_flange;
+            let flange = &p.base_to_flange;
             let u = if span.norm_squared() > 0.0 {
-                (p.base_to_flange.translation.vector - t0).dot(&span) / span.norm_squared()
+                (flange.translation.vector - t0).dot(&span) / span.norm_squared()
             } else {
                 0.0
             };
+            // A chord as given: none of a raw profile's extraction, face or walls to carry
+            // (their empty lists, moved through the nested result, stalled every profile).
+            if let ProfileData::Chord { a, b } = &p.data
+                && (b - a).norm() > 1e-9 * radius
+            {
+                report.count(&Ok::<(), &str>(()));
+                push_ends(&mut ends, flange, [a, b]);
+                chords.push(DiskChord { u, a: *a, b: *b });
+                continue;
+            }
             let chord = chord_of(c, g, p, sensor, radius, &cfg)?;
             report.count(&chord);
             match chord {
@@ -1023,13 +1049,16 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                     face: points,
                     beyond: past,
                 }) => {
-                    // The full-profile refinement's face points: up to FACE_POINTS per profile, spread
-                    // over the chord (more cost than information beyond that).
-                    let stride = crate::calib::stride_for(points.len(), keep);
-                    face.extend(points.into_iter().step_by(stride).map(|q| (flange, q)));
-                    beyond.push(past);
-                    ends.push((flange, ch.a));
-                    ends.push((flange, ch.b));
+                    if !points.is_empty() {
+                        // The full-profile refinement's face points: up to FACE_POINTS per
+                        // profile, spread over the chord (more cost than information beyond).
+                        let stride = crate::calib::stride_for(points.len(), keep);
+                        face.extend(points.into_iter().step_by(stride).map(|q| (*flange, q)));
+                    }
+                    if past.iter().any(|b| !b.is_empty()) {
+                        walls.push((ends.len(), past));
+                    }
+                    push_ends(&mut ends, flange, [&ch.a, &ch.b]);
                     chords.push(DiskChord {
                         u,
                         a: ch.a,
@@ -1039,36 +1068,66 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                 Err(_) => missed += 1,
             }
         }
-        let scan = DiskScan {
+        scans.push(DiskScan {
             r_tcp: first.base_to_flange.rotation.to_rotation_matrix(),
             t_start: t0,
             t_end: t1,
             s: g.sign,
             chords,
-        };
-        per_scan.push((scan, ends, face, beyond));
+        });
+        spans.push((ends_from..ends.len(), face_from..face.len()));
         reports.push(report);
     }
     // A scan with fewer than 3 chords cannot give its ellipse: left out, if 4 scans remain.
     super::leave_out_thin_groups(&mut reports, 3, 4, Kind::Disk)?;
-    let kept = |k: fn(&(DiskScan, Vec<_>, Vec<_>, Vec<_>)) -> usize| {
-        (per_scan.iter().zip(&reports))
-            .filter(|(_, r)| !r.left_out)
-            .map(|(s, _)| k(s))
-            .sum::<usize>()
-    };
-    let (mut scans, mut ends, mut face, mut beyond) = (
-        Vec::with_capacity(per_scan.len()),
-        Vec::with_capacity(kept(|s| s.1.len())),
-        Vec::with_capacity(kept(|s| s.2.len())),
-        Vec::with_capacity(kept(|s| s.3.len())),
-    );
-    for ((scan, e, f, b), r) in per_scan.into_iter().zip(&reports) {
-        if !r.left_out {
-            scans.push(scan);
-            ends.extend(e);
-            face.extend(f);
-            beyond.extend(b);
+    if reports.iter().any(|r| r.left_out) {
+        let kept = |k: usize| !reports[k].left_out;
+        let end_kept: Vec<bool> = (0..ends.len())
+            .map(|e| {
+                spans
+                    .iter()
+                    .position(|(r, _)| r.contains(&e))
+                    .is_none_or(kept)
+            })
+            .collect();
+        let face_kept: Vec<bool> = (0..face.len())
+            .map(|e| {
+                spans
+                    .iter()
+                    .position(|(_, r)| r.contains(&e))
+                    .is_none_or(kept)
+            })
+            .collect();
+        // A kept chord's walls move back by the ends left out before it.
+        let before: Vec<usize> = end_kept
+            .iter()
+            .scan(0, |gone, &k| {
+                let now = *gone;
+                *gone += usize::from(!k);
+                Some(now)
+            })
+            .collect();
+        walls = std::mem::take(&mut walls)
+            .into_iter()
+            .filter(|(e, _)| end_kept[*e])
+            .map(|(e, w)| (e - before[e], w))
+            .collect();
+        let mut k = end_kept.iter();
+        ends.retain(|_| *k.next().expect("one flag per end"));
+        let mut k = face_kept.iter();
+        face.retain(|_| *k.next().expect("one flag per face point"));
+        scans = std::mem::take(&mut scans)
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| kept(*i))
+            .map(|(_, s)| s)
+            .collect();
+    }
+    let mut beyond = Vec::new();
+    if !face.is_empty() {
+        beyond.resize_with(ends.len() / 2, <[Vec<Vector2<f64>>; 2]>::default);
+        for (e, w) in walls {
+            beyond[e / 2] = w;
         }
     }
     let mut problem = DiskProblem::new(radius, scans);

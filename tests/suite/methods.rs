@@ -346,6 +346,58 @@ fn a_group_that_loses_its_profiles_is_left_out_with_a_note() {
     }
 }
 
+/// A disk scan with too few chords, first among five, is left out: the closed form and the
+/// full-profile refinement (its face points and walls shifted past the scan's) give exactly what
+/// the four other scans give alone.
+#[test]
+fn a_thin_disk_scan_left_out_changes_nothing_else() {
+    let text = std::fs::read_to_string(format!(
+        "{}/scenarios/chen2018-disk-raycast.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap();
+    let sf = ScenarioFile::parse(&text, "chen2018-disk-raycast.toml").unwrap();
+    let s = sf.scenario.build(&sf.file).unwrap();
+    let four = captures(&s, Kind::Disk, 0);
+    // A fifth scan in front: a copy of the first with all but two profiles empty (two chords).
+    let mut five = four.clone();
+    let mut thin = four.groups[0].clone();
+    thin.id = 99;
+    let mut extra: Vec<_> = four
+        .profiles
+        .iter()
+        .filter(|p| p.group == four.groups[0].id)
+        .cloned()
+        .collect();
+    for (i, p) in extra.iter_mut().enumerate() {
+        p.group = 99;
+        if !(40..42).contains(&i) {
+            p.data = ProfileData::Raw(lasercal::sensor::Profile {
+                points: vec![None; s.rig.sensor.columns],
+            });
+        }
+    }
+    five.groups.insert(0, thin);
+    five.profiles.splice(0..0, extra);
+    for estimator in [Estimator::ClosedForm, Estimator::FullProfile] {
+        let id = MethodId::new(Kind::Disk, estimator);
+        let ((ca, ra), (cb, rb)) = (
+            estimate(id, &four, &s.rig.sensor).unwrap(),
+            estimate(id, &five, &s.rig.sensor).unwrap(),
+        );
+        assert_eq!(ca.flange_to_sensor, cb.flange_to_sensor, "{id}");
+        let refined = |r: Option<lasercal::calib::refine::Refined>| r.map(|r| r.flange_to_sensor);
+        let (ra, rb) = (refined(ra), refined(rb));
+        assert!(
+            ra.is_some() == (estimator == Estimator::FullProfile),
+            "{id}"
+        );
+        assert_eq!(ra, rb, "{id}");
+        let r = &cb.groups[0];
+        assert!(r.group == 99 && r.left_out && r.used == 2, "{r:?}");
+    }
+}
+
 #[test]
 fn full_profile_needs_raw_profiles() {
     // The disk paper's analytic chords hold no face points: disk-full says what it needs.
