@@ -164,7 +164,12 @@ impl Default for Judging {
 impl Captures {
     /// The profiles of group `id`, in file order.
     pub fn group_profiles(&self, id: usize) -> Vec<&CaptureProfile> {
-        self.profiles.iter().filter(|p| p.group == id).collect()
+        // Counted first: collected from a filter, the list grew by doubling (a reallocation
+        // every doubling, per group and calibration).
+        let n = self.profiles.iter().filter(|p| p.group == id).count();
+        let mut out = Vec::with_capacity(n);
+        out.extend(self.profiles.iter().filter(|p| p.group == id));
+        out
     }
 }
 

@@ -706,7 +706,9 @@ fn plane_normal(
     );
     let mut run: Option<Run> = None;
     let (mut sum, mut second) = (Vector3::zeros(), [0.0; 6]);
-    let mut apexes = Vec::new();
+    // The sensors' side from the apexes' mean (each pose once): the sign of the sum of their
+    // offsets from the face is that of their mean's.
+    let (mut apex_sum, mut poses) = (Vector3::zeros(), 0usize);
     // Pose by pose (a chord's two ends share theirs).
     for pose in ends.chunk_by(|a, b| a.0 == b.0) {
         let f = &pose[0].0;
@@ -736,8 +738,8 @@ fn plane_normal(
                 second[k] += q[a] * q[b];
             }
         }
-        // Only the side the sensors are on is wanted.
-        apexes.push(apex + t);
+        apex_sum += apex + t;
+        poses += 1;
     }
     let second = nalgebra::Matrix3::new(
         second[0], second[1], second[2], second[1], second[3], second[4], second[2], second[4],
@@ -748,7 +750,8 @@ fn plane_normal(
     let cov = second - mean * sum.transpose();
     let eig = nalgebra::SymmetricEigen::new(0.5 * (cov + cov.transpose()));
     let k = eig.eigenvalues.imin();
-    super::toward_points(eig.eigenvectors.column(k).into_owned(), &mean, apexes)
+    let apexes = apex_sum / poses.max(1) as f64;
+    super::toward_points(eig.eigenvectors.column(k).into_owned(), &mean, [apexes])
 }
 
 /// The full-profile refinement's rim and its weights (residuals scaled to the face points' noise).
