@@ -414,12 +414,19 @@ pub fn analytic_scan_with(
     let noise: Vec<(f64, f64)> = (0..p.m)
         .map(|_| (gauss(rng) * sigma, gauss(rng) * sigma))
         .collect();
-    for (j, ((pose, frame), &(t1, t2))) in poses.iter().zip(&noise).enumerate() {
-        let flat = frame.and_then(|f| f.chord(pose, disk));
-        let chord = match form {
-            Some((frame, f)) => flat.and_then(|c| warped(c, pose, disk, frame, f)),
-            None => flat,
-        };
+    // The exact chords, then their noise: each chord's square root and division then overlap
+    // the next one's rather than wait behind its geometry.
+    let exact: Vec<Option<(Vector2<f64>, Vector2<f64>)>> = poses
+        .iter()
+        .map(|(pose, frame)| {
+            let flat = frame.and_then(|f| f.chord(pose, disk));
+            match form {
+                Some((frame, f)) => flat.and_then(|c| warped(c, pose, disk, frame, f)),
+                None => flat,
+            }
+        })
+        .collect();
+    for (j, (chord, &(t1, t2))) in exact.iter().zip(&noise).enumerate() {
         if let Some((a, b)) = chord {
             let len = (b - a).norm();
             if len > 0.0 {

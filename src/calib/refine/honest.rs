@@ -78,12 +78,7 @@ impl Honest {
         // Each cluster's J_c^T J_c over the columns used, when kept.
         let grams: Vec<DMatrix<f64>> = if g > 0 && sums.grams.ncols() == pj * g {
             (0..g)
-                .map(|c| {
-                    sums.grams
-                        .columns(pj * c, pj)
-                        .select_rows(used)
-                        .select_columns(used)
-                })
+                .map(|c| DMatrix::from_fn(p, p, |r, k| sums.grams[(used[r], pj * c + used[k])]))
                 .collect()
         } else {
             Vec::new()
@@ -93,11 +88,21 @@ impl Honest {
                 // sum_c S_c S_c^T, S_c the cluster's J_c^T J_c over the translation columns: a
                 // shift d_c of pose c's points moves its residuals by J_c,t R^T d_c, and R drops
                 // out of an isotropic shift's covariance.
+                // By hand: a general product per pose of these few columns cost more to set
+                // up than to do.
                 let mut m = DMatrix::zeros(p, p);
                 for gc in &grams {
                     let s = gc.columns(3, 3);
-                    m += &s * s.transpose();
+                    for c in 0..p {
+                        for r in c..p {
+                            let v = s[(r, 0)] * s[(c, 0)]
+                                + s[(r, 1)] * s[(c, 1)]
+                                + s[(r, 2)] * s[(c, 2)];
+                            m[(r, c)] += v;
+                        }
+                    }
                 }
+                m.fill_upper_triangle_with_lower_triangle();
                 let inv6 = inv.rows(0, 6);
                 let full = inv6 * m * inv6.transpose();
                 Matrix6::from_fn(|r, c| full[(r, c)])
