@@ -844,7 +844,7 @@ fn chord_of(
 ) -> Result<Result<Found, features::FeatureError>, CaptureError> {
     Ok(match &p.data {
         // A chord of no length says nothing about the disk (a recording error): left out.
-        ProfileData::Chord { a, b } if (b - a).norm() <= 1e-9 * radius => {
+        ProfileData::Chord { a, b } if no_length(a, b, radius) => {
             Err(features::FeatureError::NoChord {
                 reason: "the chord has zero length".into(),
             })
@@ -969,6 +969,11 @@ fn inferred_scans(c: &Captures, sensor: &SensorModel) -> Result<Captures, Error>
     Ok(out)
 }
 
+/// Whether a given chord has no length next to the disk's `radius` (a recording error).
+fn no_length(a: &Vector2<f64>, b: &Vector2<f64>, radius: f64) -> bool {
+    (b - a).norm() <= 1e-9 * radius
+}
+
 /// A chord's two ends seen from `flange`, set in place field by field: a pushed pair is built on
 /// the stack first, and its copy's wide loads straddled the narrower stores that built it (a
 /// store-forwarding stall per end, 4 % of the Fig. 15 sweep).
@@ -1037,7 +1042,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             // A chord as given: none of a raw profile's extraction, face or walls to carry
             // (their empty lists, moved through the nested result, stalled every profile).
             if let ProfileData::Chord { a, b } = &p.data
-                && (b - a).norm() > 1e-9 * radius
+                && !no_length(a, b, radius)
             {
                 report.count(&Ok::<(), &str>(()));
                 push_ends(&mut ends, flange, [a, b]);
