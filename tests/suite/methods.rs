@@ -346,6 +346,30 @@ fn a_group_that_loses_its_profiles_is_left_out_with_a_note() {
     }
 }
 
+/// A given chord of no length is a recording error: that profile is rejected and said so, the
+/// rest calibrate as before, and one of ordinary length is used.
+#[test]
+fn a_chord_of_no_length_is_rejected_and_named() {
+    let s = setup(Kind::Disk, "chen2018-disk", 0.0);
+    let mut caps = captures(&s, Kind::Disk, 0);
+    let (group, i) = (caps.groups[2].id, 10);
+    let k = (caps.profiles.iter().enumerate())
+        .filter(|(_, p)| p.group == group)
+        .nth(i)
+        .map(|(k, _)| k)
+        .unwrap();
+    let ProfileData::Chord { a, .. } = caps.profiles[k].data.clone() else {
+        panic!("the paper's chords");
+    };
+    caps.profiles[k].data = ProfileData::Chord { a, b: a };
+    let cal = calibrate(&caps, &s.rig.sensor).unwrap();
+    let r = cal.groups.iter().find(|g| g.group == group).unwrap();
+    assert_eq!((r.used + 1, cal.missed), (r.profiles, 1), "{r:?}");
+    assert!(r.describe().contains("zero length"), "{}", r.describe());
+    let (rot, tra) = error_of(&cal.flange_to_sensor, &s);
+    assert!(rot < 1e-6 && tra < 1e-6, "{rot} deg {tra} mm");
+}
+
 /// A disk scan with too few chords, first among five, is left out: the closed form and the
 /// full-profile refinement (its face points and walls shifted past the scan's) give exactly what
 /// the four other scans give alone.
