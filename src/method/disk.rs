@@ -1120,10 +1120,15 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             .filter(|(e, _)| end_kept[*e])
             .map(|(e, w)| (e - before[e], w))
             .collect();
-        let mut k = end_kept.iter();
-        ends.retain(|_| *k.next().expect("one flag per end"));
-        let mut k = face_kept.iter();
-        face.retain(|_| *k.next().expect("one flag per face point"));
+        let kept_of = |v: Vec<_>, flags: &[bool]| -> Vec<_> {
+            v.into_iter()
+                .zip(flags)
+                .filter(|(_, k)| **k)
+                .map(|(e, _)| e)
+                .collect()
+        };
+        ends = kept_of(ends, &end_kept);
+        face = kept_of(face, &face_kept);
         scans = std::mem::take(&mut scans)
             .into_iter()
             .enumerate()
