@@ -990,6 +990,59 @@ fn push_ends(
     }
 }
 
+/// A flange pose and a point in the sensor's x-z plane.
+type SeenPoint = (Isometry3<f64>, Vector2<f64>);
+/// A chord's wall points beyond each end.
+type Walls = [Vec<Vector2<f64>>; 2];
+/// A scan's range of ends and of face points in the closed form's lists.
+type Span = (std::ops::Range<usize>, std::ops::Range<usize>);
+/// The closed form's scans, chord ends, face points and walls (by a chord's first end).
+type Lists = (
+    Vec<DiskScan>,
+    Vec<SeenPoint>,
+    Vec<SeenPoint>,
+    Vec<(usize, Walls)>,
+);
+
+/// The closed form's lists without the scans `left_out` (`spans`: each scan's range of ends and
+/// of face points, in scan order); a kept chord's walls (index of its first end) move back by
+/// the ends dropped before it.
+fn without_scans(left_out: &[bool], spans: &[Span], lists: Lists) -> Lists {
+    let (scans, ends, face, walls) = lists;
+    let kept = |list: Vec<SeenPoint>, range: fn(&Span) -> &std::ops::Range<usize>| {
+        let mut out = Vec::with_capacity(list.len());
+        for (span, &dropped) in spans.iter().zip(left_out) {
+            if !dropped {
+                out.extend_from_slice(&list[range(span).clone()]);
+            }
+        }
+        out
+    };
+    // Ends dropped before each scan's first end.
+    let mut gone = 0;
+    let shift: Vec<usize> = spans
+        .iter()
+        .zip(left_out)
+        .map(|((e, _), &dropped)| {
+            let before = gone;
+            gone += if dropped { e.len() } else { 0 };
+            before
+        })
+        .collect();
+    let walls = walls
+        .into_iter()
+        .filter_map(|(e, w)| {
+            let k = spans.iter().position(|(r, _)| r.contains(&e))?;
+            (!left_out[k]).then(|| (e - shift[k], w))
+        })
+        .collect();
+    let scans = (scans.into_iter().zip(left_out))
+        .filter(|(_, dropped)| !**dropped)
+        .map(|(s, _)| s)
+        .collect();
+    (scans, kept(ends, |s| &s.0), kept(face, |s| &s.1), walls)
+}
+
 /// Chords from every scan, the disk paper's transformation solution, and the refinement problem.
 fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
     let inferred;
@@ -1089,52 +1142,8 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     // A scan with fewer than 3 chords cannot give its ellipse: left out, if 4 scans remain.
     super::leave_out_thin_groups(&mut reports, 3, 4, Kind::Disk)?;
     if reports.iter().any(|r| r.left_out) {
-        let kept = |k: usize| !reports[k].left_out;
-        let end_kept: Vec<bool> = (0..ends.len())
-            .map(|e| {
-                spans
-                    .iter()
-                    .position(|(r, _)| r.contains(&e))
-                    .is_none_or(kept)
-            })
-            .collect();
-        let face_kept: Vec<bool> = (0..face.len())
-            .map(|e| {
-                spans
-                    .iter()
-                    .position(|(_, r)| r.contains(&e))
-                    .is_none_or(kept)
-            })
-            .collect();
-        // A kept chord's walls move back by the ends left out before it.
-        let before: Vec<usize> = end_kept
-            .iter()
-            .scan(0, |gone, &k| {
-                let now = *gone;
-                *gone += usize::from(!k);
-                Some(now)
-            })
-            .collect();
-        walls = std::mem::take(&mut walls)
-            .into_iter()
-            .filter(|(e, _)| end_kept[*e])
-            .map(|(e, w)| (e - before[e], w))
-            .collect();
-        let kept_of = |v: Vec<_>, flags: &[bool]| -> Vec<_> {
-            v.into_iter()
-                .zip(flags)
-                .filter(|(_, k)| **k)
-                .map(|(e, _)| e)
-                .collect()
-        };
-        ends = kept_of(ends, &end_kept);
-        face = kept_of(face, &face_kept);
-        scans = std::mem::take(&mut scans)
-            .into_iter()
-            .enumerate()
-            .filter(|(i, _)| kept(*i))
-            .map(|(_, s)| s)
-            .collect();
+        let left_out: Vec<bool> = reports.iter().map(|r| r.left_out).collect();
+        (scans, ends, face, walls) = without_scans(&left_out, &spans, (scans, ends, face, walls));
     }
     let mut beyond = Vec::new();
     if !face.is_empty() {
