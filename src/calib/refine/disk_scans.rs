@@ -192,6 +192,20 @@ struct Chunk {
     t: [[f64; 8]; 3],
 }
 
+/// Eight ends' short vectors (K each) and squared residuals: what a run's products need.
+#[derive(Clone, Copy)]
+struct Short<const K: usize> {
+    v: [[f64; 8]; K],
+    rr: [f64; 8],
+}
+
+impl<const K: usize> Short<K> {
+    const ZERO: Short<K> = Short {
+        v: [[0.0; 8]; K],
+        rr: [0.0; 8],
+    };
+}
+
 /// `Model::sums` of `m` by scans; `clusters` one per end, `g` of them.
 pub(super) fn sums(
     m: &DiskModel,
@@ -212,6 +226,8 @@ pub(super) fn sums(
     let mut rss = 0.0;
     let mut scores = vec![0.0; P * g];
     let mut chunks: Vec<Chunk> = Vec::new();
+    let mut plane: Vec<Short<UP>> = Vec::new();
+    let mut rim: Vec<Short<UR>> = Vec::new();
     for &(first, end) in runs {
         let scan = Scan::of(&m.ends[first].0, x, &s.centre, &axes);
         let a = scan.plane_matrix(&axes);
@@ -232,9 +248,13 @@ pub(super) fn sums(
             fill(c, m, start..(start + 8).min(end));
         }
         let mut run = (clusters[first], [0.0; P]);
-        for (start, chunk) in (first..end).step_by(8).zip(&chunks) {
+        // Written in place: returned, each chunk's short vectors were copied twice.
+        plane.resize(chunks.len(), Short::ZERO);
+        rim.resize(chunks.len(), Short::ZERO);
+        for (k, (start, chunk)) in (first..end).step_by(8).zip(&chunks).enumerate() {
             let stop = (start + 8).min(end);
-            let score = add_chunk(&mut lanes, chunk, (&scan, &axes, &a, &b), m.radius);
+            let shorts = (&mut plane[k], &mut rim[k]);
+            let score = add_chunk(&mut lanes, chunk, (&scan, &axes, &a, &b), m.radius, shorts);
             add_scores(
                 &mut scores,
                 &mut run,
@@ -244,6 +264,7 @@ pub(super) fn sums(
             );
         }
         add_run(&mut scores, &run);
+        add_run_products(&mut lanes, &plane[..chunks.len()], &rim[..chunks.len()]);
         let su = symmetric::<UP>(&lanes.plane);
         let mu = symmetric::<UP>(&lanes.plane_meat);
         let sw = symmetric::<UR>(&lanes.rim);
@@ -264,26 +285,54 @@ pub(super) fn sums(
     }
 }
 
-/// Eight ends' short vectors `v` (K each): every product v_i v_j (i <= j, row by row) into
-/// `sums`, and weighted by the squared residuals `rr` into `meat`.
-#[inline(always)]
-fn add_products<const K: usize>(
-    sums: &mut [[f64; 8]],
-    meat: &mut [[f64; 8]],
-    v: &[[f64; 8]; K],
-    rr: &[f64; 8],
-) {
-    let mut k = 0;
-    for i in 0..K {
-        for j in i..K {
-            for l in 0..8 {
-                let p = v[i][l] * v[j][l];
-                sums[k][l] += p;
-                meat[k][l] += p * rr[l];
-            }
-            k += 1;
+/// A run's short-vector products v_i v_j over the pairs listed (row by row from `$at` of the
+/// lanes), unweighted into `$sums` and weighted by the squared residuals into `$meat`. The
+/// block's sums stay in registers over the run's chunks (summed chunk by chunk into memory,
+/// each product cost two stores); the pairs are spelled out so that each is a fixed lane
+/// operation (from a table, the compiler gathered across pairs instead).
+macro_rules! add_block {
+    ($sums:expr, $meat:expr, $at:expr, $shorts:expr, $n:literal; $(($i:literal, $j:literal)),+) => {{
+        let mut s = [[0.0f64; 8]; $n];
+        let mut m = [[0.0f64; 8]; $n];
+        for c in $shorts {
+            let mut k = 0;
+            $(
+                for l in 0..8 {
+                    let p = c.v[$i][l] * c.v[$j][l];
+                    s[k][l] += p;
+                    m[k][l] += p * c.rr[l];
+                }
+                k += 1;
+            )+
+            debug_assert_eq!(k, $n);
         }
-    }
+        for k in 0..$n {
+            for l in 0..8 {
+                $sums[$at + k][l] += s[k][l];
+                $meat[$at + k][l] += m[k][l];
+            }
+        }
+    }};
+}
+
+/// Every product of a run's plane and rim short vectors into the scan's lanes (pairs i <= j,
+/// row by row, as `symmetric` reads them), in blocks small enough for their sums to stay in
+/// registers.
+#[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
+fn add_run_products(o: &mut Lanes, plane: &[Short<UP>], rim: &[Short<UR>]) {
+    add_block!(o.plane, o.plane_meat, 0, plane, 8;
+        (0, 0), (0, 1), (0, 2), (0, 3), (0, 4), (1, 1), (1, 2), (1, 3));
+    add_block!(o.plane, o.plane_meat, 8, plane, 7;
+        (1, 4), (2, 2), (2, 3), (2, 4), (3, 3), (3, 4), (4, 4));
+    add_block!(o.rim, o.rim_meat, 0, rim, 12;
+        (0, 0), (0, 1), (0, 2), (0, 3), (0, 4), (0, 5), (0, 6), (0, 7),
+        (1, 1), (1, 2), (1, 3), (1, 4));
+    add_block!(o.rim, o.rim_meat, 12, rim, 12;
+        (1, 5), (1, 6), (1, 7), (2, 2), (2, 3), (2, 4), (2, 5), (2, 6), (2, 7),
+        (3, 3), (3, 4), (3, 5));
+    add_block!(o.rim, o.rim_meat, 24, rim, 12;
+        (3, 6), (3, 7), (4, 4), (4, 5), (4, 6), (4, 7), (5, 5), (5, 6), (5, 7),
+        (6, 6), (6, 7), (7, 7));
 }
 
 /// The K x K symmetric matrix of lanes of sums over the pairs i <= j, row by row.
@@ -315,14 +364,16 @@ fn fill(c: &mut Chunk, m: &DiskModel, ends: std::ops::Range<usize>) {
     }
 }
 
-/// Eight ends' short vectors into the scan's sums; returns each end's J^T r (its share of its
-/// pose's score), [A B] times its short vectors weighted by their residuals.
+/// Eight ends' J^T r and squared residuals into the scan's sums; returns their short vectors
+/// (for `add_run_products`) and each end's J^T r (its share of its pose's score), [A B] times
+/// its short vectors weighted by their residuals.
 #[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
 fn add_chunk(
     o: &mut Lanes,
     c: &Chunk,
     (scan, axes, a, b): (&Scan, &Axes, &SMatrix<f64, P, UP>, &SMatrix<f64, P, UR>),
     radius: f64,
+    (plane, rim): (&mut Short<UP>, &mut Short<UR>),
 ) -> [[f64; 8]; P] {
     let [an, ax, ay] = scan.frr_t;
     let mut up = [[0.0; 8]; UP];
@@ -354,12 +405,11 @@ fn add_chunk(
     for l in 0..8 {
         o.rss[l] += rr0[l] + rr1[l];
     }
-    add_products(&mut o.plane, &mut o.plane_meat, &up, &rr0);
-    add_products(&mut o.rim, &mut o.rim_meat, &ur, &rr1);
     // Each end's J^T r = A (r0 u) + B (r1 w), over the entries `plane_matrix` and
     // `rim_matrix` set (the rest are zero).
     let tp: [[f64; 8]; UP] = std::array::from_fn(|k| std::array::from_fn(|l| up[k][l] * r0[l]));
     let tr: [[f64; 8]; UR] = std::array::from_fn(|k| std::array::from_fn(|l| ur[k][l] * r1[l]));
+    (plane.v, plane.rr, rim.v, rim.rr) = (up, rr0, ur, rr1);
     let mut score = [[0.0; 8]; P];
     for l in 0..8 {
         score[0][l] = a[(0, 1)] * tp[1][l] + b[(0, 4)] * tr[4][l] + b[(0, 5)] * tr[5][l];
