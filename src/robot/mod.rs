@@ -49,10 +49,18 @@ impl Robot {
     /// Load by short name (`irb120`, `irb2600`, also the file stem such as `irb120_3_58`) or by path
     /// to a `.urdf` file.
     pub fn resolve(name_or_path: &str) -> Result<Robot, RobotError> {
-        for (short, file, text) in BUILTIN {
+        // A built-in arm is parsed once per process: a sweep resolves it at every grid point,
+        // on the one thread that feeds the trials.
+        static PARSED: [std::sync::OnceLock<Robot>; BUILTIN.len()] =
+            [const { std::sync::OnceLock::new() }; BUILTIN.len()];
+        for ((short, file, text), parsed) in BUILTIN.iter().zip(&PARSED) {
             let stem = file.trim_start_matches("robots/").trim_end_matches(".urdf");
             if name_or_path == *short || name_or_path == stem || name_or_path == *file {
-                return Robot::from_urdf_str(text, file);
+                if let Some(robot) = parsed.get() {
+                    return Ok(robot.clone());
+                }
+                let robot = Robot::from_urdf_str(text, file)?;
+                return Ok(parsed.get_or_init(|| robot).clone());
             }
         }
         let path = std::path::Path::new(name_or_path);
