@@ -510,6 +510,8 @@ mod tests {
         let fast = clusters(&once.ends, &runs).expect("no pose comes back");
         assert_eq!(fast, table(&once));
         assert_eq!(fast.last(), Some(&83));
+        // `disk_lanes::sums` counts the poses from the last number.
+        assert_eq!(fast.iter().max(), fast.last());
         // A scan that steps back, or two scans of one orientation, go to the table.
         let mut back = once.clone();
         back.ends.swap(10, 12);
