@@ -116,7 +116,7 @@ impl Model for BallModel {
             ata: DMatrix::zeros(P, P),
             atr: DVector::zeros(P),
             meat: DMatrix::zeros(P, P),
-            scores: DMatrix::zeros(P, if clustered { g } else { 0 }),
+            scores: DMatrix::zeros(if clustered { g } else { 0 }, P),
             grams: DMatrix::zeros(P, if gram_clusters { P * g } else { 0 }),
             rss: 0.0,
             n: self.n,
@@ -141,8 +141,8 @@ impl Model for BallModel {
             sums.atr += &score;
             if clustered {
                 let cl = cl as usize;
-                let mut col = sums.scores.column_mut(cl);
-                col += &score;
+                let mut row = sums.scores.row_mut(cl);
+                row += score.transpose();
                 if gram_clusters {
                     let mut block = sums.grams.columns_mut(P * cl, P);
                     block += &gram;

@@ -115,7 +115,7 @@ pub(super) fn sums(m: &DiskModel, x: &Transform, s: &DiskPose) -> Option<Sums> {
         ata: finish(&ata, &pairs, P, |_, _| 0.0),
         atr: DVector::from_fn(P, |k, _| atr[k].iter().sum()),
         meat: finish(&meat, &pairs, P, |_, _| 0.0),
-        scores: DMatrix::from_vec(P, g, scores),
+        scores: DMatrix::from_vec(g, P, scores),
         grams: DMatrix::zeros(P, 0),
         rss: rss.iter().sum(),
         n: 2 * m.ends.len(),
@@ -164,7 +164,7 @@ impl<'a> Poses<'a> {
 }
 
 /// One block's rows into `rows`; their J^T r and r^T r into the lanes, and each end's score
-/// into its cluster's column.
+/// into its cluster's row.
 #[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
 fn sum_block(
     block: &[Chunk],
@@ -194,11 +194,11 @@ fn sum_block(
     add_run(scores, &run);
 }
 
-/// Up to eight ends' J^T r `t` (clusters `cl`) into their poses' columns of `scores`, the pose
+/// Up to eight ends' J^T r `t` (clusters `cl`) into their poses' rows of `scores`, the pose
 /// whose ends may go on into the next chunk held in `run` (`fresh`: nothing summed in it yet).
 /// The rule (a chord's two ends per pose, a pose per chord): lane pairs summed side by side,
 /// four poses' scores added at once; the same sums as by runs. Otherwise a pose's ends are
-/// summed in registers and added to its column once per run. Shared by `disk_scans`.
+/// summed in registers and added to its row once per run. Shared by `disk_scans`.
 #[inline(always)]
 pub(super) fn add_scores(
     scores: &mut [f64],
@@ -211,10 +211,20 @@ pub(super) fn add_scores(
         add_run(scores, run);
         let pair: [[f64; 8]; P] =
             std::array::from_fn(|c| std::array::from_fn(|l| t[c][l] + t[c][l ^ 1]));
-        for p in 0..4 {
-            let at = cl[2 * p] as usize * P;
-            for (c, s) in scores[at..at + P].iter_mut().enumerate() {
-                *s += pair[c][2 * p];
+        let g = scores.len() / P;
+        let first = cl[0] as usize;
+        // Four poses numbered in a row (a scan's chords, as a rule): side by side in each column.
+        if (0..4).all(|p| cl[2 * p] as usize == first + p) && first + 4 <= g {
+            for (c, column) in scores.chunks_exact_mut(g.max(1)).enumerate() {
+                for (p, s) in column[first..first + 4].iter_mut().enumerate() {
+                    *s += pair[c][2 * p];
+                }
+            }
+        } else {
+            for (c, column) in scores.chunks_exact_mut(g.max(1)).enumerate() {
+                for p in 0..4 {
+                    column[cl[2 * p] as usize] += pair[c][2 * p];
+                }
             }
         }
         *run = (cl[7], [0.0; P]);
@@ -288,12 +298,12 @@ fn rows_tile<const T: usize>(
     meat[..T].copy_from_slice(&m);
 }
 
-/// A run's scores into its cluster's column.
+/// A run's scores into its cluster's row (`scores`: g x P, column-major).
 #[inline(always)]
 pub(super) fn add_run(scores: &mut [f64], (cl, sums): &(u32, [f64; P])) {
-    let at = *cl as usize * P;
-    for (o, s) in scores[at..at + P].iter_mut().zip(sums) {
-        *o += s;
+    let g = scores.len() / P;
+    for (column, s) in scores.chunks_exact_mut(g.max(1)).zip(sums) {
+        column[*cl as usize] += s;
     }
 }
 
@@ -387,7 +397,7 @@ mod tests {
         let g = clusters.iter().map(|&k| k as usize + 1).max().unwrap();
         let (r, j) = eval(&m, &x, &disk, &[], true);
         let rows = Sums::of(&r, &j, &clusters, g);
-        assert_eq!((g, fast.scores.ncols(), fast.n), (83, 83, 2 * 167));
+        assert_eq!((g, fast.scores.nrows(), fast.n), (83, 83, 2 * 167));
         testing::same_sums(&fast, &rows);
     }
 

@@ -278,7 +278,7 @@ pub(super) fn sums(
         ata: DMatrix::from_column_slice(P, P, ata.as_slice()),
         atr: DVector::from_column_slice(atr.as_slice()),
         meat: DMatrix::from_column_slice(P, P, meat.as_slice()),
-        scores: DMatrix::from_vec(P, g, scores),
+        scores: DMatrix::from_vec(g, P, scores),
         grams: DMatrix::zeros(P, 0),
         rss,
         n: 2 * m.ends.len(),
@@ -490,7 +490,7 @@ mod tests {
         let g = clusters.iter().map(|&k| k as usize + 1).max().unwrap();
         let (r, j) = eval(&m, &x, &disk, &[], true);
         let rows = Sums::of(&r, &j, &clusters, g);
-        assert_eq!((g, fast.scores.ncols(), fast.n), (84, 84, 2 * 171));
+        assert_eq!((g, fast.scores.nrows(), fast.n), (84, 84, 2 * 171));
         testing::same_sums(&fast, &rows);
     }
 

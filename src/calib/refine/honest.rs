@@ -73,7 +73,7 @@ impl Honest {
         used: &[usize],
         cov: &Matrix6<f64>,
     ) -> Honest {
-        let (n, p, g) = (sums.n, used.len(), sums.scores.ncols());
+        let (n, p, g) = (sums.n, used.len(), sums.scores.nrows());
         let pj = sums.ata.nrows();
         // Each cluster's J_c^T J_c over the columns used, when kept.
         let grams: Vec<DMatrix<f64>> = if g > 0 && sums.grams.ncols() == pj * g {
@@ -133,7 +133,7 @@ impl Honest {
                     &sums.ata.select_rows(used).select_columns(used),
                     inv,
                     &grams,
-                    &sums.scores.select_rows(used),
+                    &sums.scores.select_columns(used),
                 )
             })
             .flatten();
@@ -204,13 +204,13 @@ impl Honest {
     }
 }
 
-/// Each cluster's score J_c^T r_c over every column of J (p x `g`): summed over runs of one
-/// cluster (a pose's residuals are consecutive as a rule), each run in row order. No clusters
-/// (`clusters` not one per residual): p x 0.
+/// Each cluster's score J_c^T r_c over every column of J, one row per cluster (`g` x p): summed
+/// over runs of one cluster (a pose's residuals are consecutive as a rule), each run in row
+/// order. No clusters (`clusters` not one per residual): 0 x p.
 pub fn scores(r: &DVector<f64>, j: &DMatrix<f64>, clusters: &[u32], g: usize) -> DMatrix<f64> {
     let (n, p) = (r.len(), j.ncols());
     if clusters.len() != n || n == 0 {
-        return DMatrix::zeros(p, 0);
+        return DMatrix::zeros(0, p);
     }
     let runs = runs(clusters);
     let mut sums = vec![0.0; p * g];
@@ -222,14 +222,14 @@ pub fn scores(r: &DVector<f64>, j: &DMatrix<f64>, clusters: &[u32], g: usize) ->
             // (the same bits as `dot`, which sums fewer than eight rows so); a long one (an
             // arc's points) with `dot`'s eight partial sums.
             let (x, y) = (&col[a..b], &rs[a..b]);
-            sums[cl * p + k] += if x.len() < 8 {
+            sums[k * g + cl] += if x.len() < 8 {
                 x.iter().zip(y).fold(0.0, |s, (x, y)| s + x * y)
             } else {
                 super::dot(x, y)
             };
         }
     }
-    DMatrix::from_vec(p, g, sums)
+    DMatrix::from_vec(g, p, sums)
 }
 
 /// The transform's directions the scatter between `g` poses measures when the fit has `p`
@@ -292,7 +292,7 @@ fn leverage_adjusted(
     scores: &DMatrix<f64>,
 ) -> Option<Matrix6<f64>> {
     let g = grams.len();
-    if g < 2 || scores.ncols() != g || a.clone().cholesky().is_none() {
+    if g < 2 || scores.nrows() != g || a.clone().cholesky().is_none() {
         return None;
     }
     let p = a.nrows();
@@ -302,14 +302,14 @@ fn leverage_adjusted(
     let mut v = Matrix6::zeros();
     for (c, gc) in grams.iter().enumerate() {
         let f = low_rank_factor(gc, &scale);
-        let s = scores.column(c);
+        let s: DVector<f64> = scores.row(c).transpose();
         // A pose whose rows say nothing has no leverage to correct for.
         let corrected = if f.nrows() == 0 {
-            s.into_owned()
+            s
         } else {
             let fa = &f * inv;
             let fx = widened(&(&fa * f.transpose()))?;
-            s + f.transpose() * (fx * (&fa * s))
+            &s + f.transpose() * (fx * (&fa * &s))
         };
         let step: nalgebra::Vector6<f64> = (inv6 * corrected).fixed_rows::<6>(0).into_owned();
         v += step * step.transpose();
@@ -390,32 +390,72 @@ fn low_rank_factor(gram: &DMatrix<f64>, scale: &[f64]) -> DMatrix<f64> {
 }
 
 /// sum_c (A^-1 s_c)(A^-1 s_c)^T over the transform's six rows (A^-1: `inv`, over the columns
-/// `used`; s_c: column c of `scores`, over every column). By hand, cluster by cluster in lanes
-/// of eight, rather than as two matrix products: a sweep's thousands of clusters per fit made
-/// the products' packing and the copy of the used rows the verdict's largest cost after its
-/// sums.
+/// `used`; s_c: row c of `scores`, over every column). By hand rather than as two matrix
+/// products (their packing and the copy of the used columns cost more than the sums, with a
+/// sweep's thousands of clusters per fit): eight clusters at a time, one lane each, share each
+/// of A^-1's entries, which the scores' layout (a column per parameter) makes one load.
 fn scores_spread(inv: &DMatrix<f64>, scores: &DMatrix<f64>, used: &[usize]) -> Matrix6<f64> {
-    let inv6: Vec<[f64; 8]> = (0..used.len())
-        .map(|k| std::array::from_fn(|r| if r < 6 { inv[(r, k)] } else { 0.0 }))
+    let g = scores.nrows();
+    let inv6: Vec<[f64; 6]> = (0..used.len())
+        .map(|k| std::array::from_fn(|r| inv[(r, k)]))
         .collect();
-    let v = spread(&inv6, used, scores.as_slice(), scores.nrows());
-    Matrix6::from_fn(|r, c| v[c][r])
+    let columns: Vec<&[f64]> = used
+        .iter()
+        .map(|&u| &scores.as_slice()[u * g..(u + 1) * g])
+        .collect();
+    let v = spread(&inv6, &columns);
+    let mut out = Matrix6::zeros();
+    for (e, (i, j)) in UPPER6.into_iter().enumerate() {
+        let t: f64 = v[e].iter().sum();
+        out[(i, j)] = t;
+        out[(j, i)] = t;
+    }
+    out
 }
 
+/// The pairs i <= j of six, row by row.
+const UPPER6: [(usize, usize); 21] = {
+    let mut out = [(0, 0); 21];
+    let (mut i, mut e) = (0, 0);
+    while i < 6 {
+        let mut j = i;
+        while j < 6 {
+            out[e] = (i, j);
+            e += 1;
+            j += 1;
+        }
+        i += 1;
+    }
+    out
+};
+
+/// `scores_spread`'s sums in lanes: t = A^-1 s for eight clusters at once (each used column
+/// of the scores, cluster after cluster), then t_i t_j. The last chunk's spare lanes are zero
+/// and add nothing.
 #[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
-fn spread(inv6: &[[f64; 8]], used: &[usize], scores: &[f64], rows: usize) -> [[f64; 8]; 6] {
-    let mut v = [[0.0; 8]; 6];
-    for s in scores.chunks_exact(rows.max(1)) {
-        let mut t = [0.0; 8];
-        for (col, &u) in inv6.iter().zip(used) {
-            let sk = s[u];
-            for r in 0..8 {
-                t[r] += col[r] * sk;
+fn spread(inv6: &[[f64; 6]], columns: &[&[f64]]) -> [[f64; 8]; 21] {
+    let g = columns.first().map_or(0, |c| c.len());
+    let mut v = [[0.0; 8]; 21];
+    for c0 in (0..g).step_by(8) {
+        let mut t = [[0.0; 8]; 6];
+        for (a, col) in inv6.iter().zip(columns) {
+            let s: [f64; 8] = match col.get(c0..c0 + 8).map(<[f64; 8]>::try_from) {
+                Some(Ok(s)) => s,
+                _ => std::array::from_fn(|l| col.get(c0 + l).copied().unwrap_or(0.0)),
+            };
+            for r in 0..6 {
+                for l in 0..8 {
+                    t[r][l] += a[r] * s[l];
+                }
             }
         }
-        for (j, vj) in v.iter_mut().enumerate() {
-            for r in 0..8 {
-                vj[r] += t[r] * t[j];
+        let mut e = 0;
+        for i in 0..6 {
+            for j in i..6 {
+                for l in 0..8 {
+                    v[e][l] += t[i][l] * t[j][l];
+                }
+                e += 1;
             }
         }
     }
@@ -644,7 +684,8 @@ mod tests {
             scores.push(j.transpose() * r);
             grams.push(gc);
         }
-        let scores = DMatrix::from_columns(&scores);
+        // A pose's score per row.
+        let scores = DMatrix::from_columns(&scores).transpose();
         // The reference in the unit-diagonal scale (A = D S D, S = C C^T), where nothing is
         // ill-conditioned: A's square root L = D C, M_c = L^-1 A_c L^-T, the step
         // L^-T (I - M_c)^-1/2 L^-1 s_c (any square root gives the same).
@@ -667,7 +708,7 @@ mod tests {
             let w = &em.eigenvectors
                 * DMatrix::from_diagonal(&em.eigenvalues.map(|h| 1.0 / (1.0 - h.max(0.0)).sqrt()))
                 * em.eigenvectors.transpose();
-            let step = li.transpose() * (w * (&li * scores.column(c)));
+            let step = li.transpose() * (w * (&li * scores.row(c).transpose()));
             v += &step * step.transpose();
         }
         let v = Matrix6::from_fn(|r, c| v[(r, c)]);
@@ -675,7 +716,7 @@ mod tests {
     }
 
     /// The spread of the scores by hand is the two products it replaces, over the used
-    /// columns only (one column of the scores left out, as a fit's fixed parameter is).
+    /// parameters only (one of the scores' columns left out, as a fit's fixed parameter is).
     #[test]
     fn the_scores_spread_is_the_products_one() {
         let (pj, g) = (9, 70);
@@ -689,14 +730,16 @@ mod tests {
         let t = inv.rows(0, 6) * scores.select_rows(&used);
         let full = &t * t.transpose();
         let want = Matrix6::from_fn(|r, c| full[(r, c)]);
-        let got = scores_spread(&inv, &scores, &used);
+        // A pose's score per row; 70 poses leave a part chunk of lanes.
+        let by_pose = scores.transpose();
+        let got = scores_spread(&inv, &by_pose, &used);
         assert!(
             (got - want).amax() <= 1e-13 * want.amax(),
             "{got} vs {want}"
         );
-        // The left-out row counts for nothing.
-        let mut other = scores.clone();
-        other.row_mut(7).fill(1e6);
+        // The left-out column counts for nothing.
+        let mut other = by_pose.clone();
+        other.column_mut(7).fill(1e6);
         assert_eq!(scores_spread(&inv, &other, &used), got);
     }
 

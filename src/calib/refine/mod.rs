@@ -400,7 +400,7 @@ pub struct Sums {
     pub ata: DMatrix<f64>,
     pub atr: DVector<f64>,
     pub meat: DMatrix<f64>,
-    /// p x clusters (0 columns: no clusters).
+    /// clusters x p, a cluster's score per row (0 rows: no clusters).
     pub scores: DMatrix<f64>,
     /// p x p clusters: each cluster's J_c^T J_c (`honest::grams`; 0 columns when there are
     /// more than `honest::MAX_JACKKNIFE` clusters).

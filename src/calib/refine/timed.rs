@@ -456,10 +456,10 @@ fn parameter_figures(index: usize, sums: &super::Sums, normal: &super::Normal) -
     let quad = |m: &DMatrix<f64>| (&row * m * row.transpose())[(0, 0)];
     let meat = sums.meat.select_rows(used).select_columns(used);
     let residual = quad(&meat) * n as f64 / (n - p) as f64;
-    let g = sums.scores.ncols();
+    let g = sums.scores.nrows();
     let clustered = if g >= 2 {
-        let scores = sums.scores.select_rows(used);
-        quad(&(&scores * scores.transpose()))
+        let scores = sums.scores.select_columns(used);
+        quad(&(scores.transpose() * &scores))
             * (g as f64 / (g - 1) as f64)
             * ((n - 1) as f64 / (n - p) as f64)
     } else {
