@@ -209,21 +209,24 @@ pub(super) fn add_scores(
 ) {
     if cl.len() == 8 && (fresh || cl[0] != run.0) && pairs_of_ends(cl) {
         add_run(scores, run);
-        let pair: [[f64; 8]; P] =
-            std::array::from_fn(|c| std::array::from_fn(|l| t[c][l] + t[c][l ^ 1]));
+        // Each pose's two ends, lanes 2p and 2p + 1: one aligned pair each (a lane-swapped
+        // sum of the whole chunk read `t`, which its caller had just stored, at odd offsets
+        // that the stores could not forward).
+        let pair: [[f64; 4]; P] =
+            std::array::from_fn(|c| std::array::from_fn(|p| t[c][2 * p] + t[c][2 * p + 1]));
         let g = scores.len() / P;
         let first = cl[0] as usize;
         // Four poses numbered in a row (a scan's chords, as a rule): side by side in each column.
         if (0..4).all(|p| cl[2 * p] as usize == first + p) && first + 4 <= g {
             for (c, column) in scores.chunks_exact_mut(g.max(1)).enumerate() {
                 for (p, s) in column[first..first + 4].iter_mut().enumerate() {
-                    *s += pair[c][2 * p];
+                    *s += pair[c][p];
                 }
             }
         } else {
             for (c, column) in scores.chunks_exact_mut(g.max(1)).enumerate() {
                 for p in 0..4 {
-                    column[cl[2 * p] as usize] += pair[c][2 * p];
+                    column[cl[2 * p] as usize] += pair[c][p];
                 }
             }
         }
@@ -243,7 +246,7 @@ pub(super) fn add_scores(
 
 /// Eight ends' clusters in four runs of two.
 #[inline(always)]
-fn pairs_of_ends(cl: &[u32]) -> bool {
+pub(super) fn pairs_of_ends(cl: &[u32]) -> bool {
     (0..4).all(|p| cl[2 * p] == cl[2 * p + 1]) && (0..3).all(|p| cl[2 * p + 1] != cl[2 * p + 2])
 }
 

@@ -12,7 +12,7 @@
 use super::Sums;
 use super::Transform;
 use super::disk::{DiskModel, DiskPose};
-use super::disk_lanes::{add_run, add_scores};
+use super::disk_lanes::{add_run, add_scores, pairs_of_ends};
 use nalgebra::{DMatrix, DVector, Isometry3, SMatrix, SVector, Vector2, Vector3};
 
 /// Columns: rotation 3, translation 3, the disk's centre 3 and normal 2.
@@ -254,14 +254,24 @@ pub(super) fn sums(
         for (k, (start, chunk)) in (first..end).step_by(8).zip(&chunks).enumerate() {
             let stop = (start + 8).min(end);
             let shorts = (&mut plane[k], &mut rim[k]);
-            let score = add_chunk(&mut lanes, chunk, (&scan, &axes, &a, &b), m.radius, shorts);
-            add_scores(
-                &mut scores,
-                &mut run,
-                &clusters[start..stop],
-                &score,
-                start == first,
-            );
+            let cl = &clusters[start..stop];
+            // Four new poses numbered in a row, two ends each (a scan's chords, as a rule):
+            // their scores go straight from the chunk's registers into their rows.
+            let at = cl[0] as usize;
+            let direct = cl.len() == 8
+                && (start == first || cl[0] != run.0)
+                && pairs_of_ends(cl)
+                && (0..4).all(|p| cl[2 * p] as usize == at + p)
+                && at + 4 <= g;
+            if direct {
+                add_run(&mut scores, &run);
+                run = (cl[7], [0.0; P]);
+            }
+            let into = direct.then_some((&mut scores[..], at));
+            let score = add_chunk(&mut lanes, chunk, (&scan, &axes, &a, &b), m.radius, shorts, into);
+            if !direct {
+                add_scores(&mut scores, &mut run, cl, &score, start == first);
+            }
         }
         add_run(&mut scores, &run);
         add_run_products(&mut lanes, &plane[..chunks.len()], &rim[..chunks.len()]);
@@ -374,6 +384,7 @@ fn add_chunk(
     (scan, axes, a, b): (&Scan, &Axes, &SMatrix<f64, P, UP>, &SMatrix<f64, P, UR>),
     radius: f64,
     (plane, rim): (&mut Short<UP>, &mut Short<UR>),
+    into: Option<(&mut [f64], usize)>,
 ) -> [[f64; 8]; P] {
     let [an, ax, ay] = scan.frr_t;
     let mut up = [[0.0; 8]; UP];
@@ -430,6 +441,16 @@ fn add_chunk(
     for (t, s) in o.atr.iter_mut().zip(&score) {
         for l in 0..8 {
             t[l] += s[l];
+        }
+    }
+    // Four poses' scores at once into rows `at`.. of `scores` (g x P, column-major), from
+    // registers: stored and read back lane by lane, they stalled (wide stores, narrow loads).
+    if let Some((scores, at)) = into {
+        let g = scores.len() / P;
+        for (c, column) in scores.chunks_exact_mut(g.max(1)).enumerate() {
+            for (p, s) in column[at..at + 4].iter_mut().enumerate() {
+                *s += score[c][2 * p] + score[c][2 * p + 1];
+            }
         }
     }
     score
