@@ -63,13 +63,15 @@ pub(super) fn sums(m: &DiskModel, x: &Transform, s: &DiskPose) -> Option<Sums> {
         false => None,
     };
     // The scans' poses are numbered in order, none seen again: the last is the largest.
-    let g_scanned = scanned.as_ref().map(|c| c.last().map_or(0, |&k| k as usize + 1));
+    let g_scanned = scanned
+        .as_ref()
+        .map(|c| c.last().map_or(0, |&k| k as usize + 1));
     let clusters = scanned.unwrap_or_else(|| {
         let flanges: Vec<&Isometry3<f64>> = m.ends.iter().map(|(f, _)| f).collect();
         honest::clusters(&flanges, flanges.len())
     });
-    let g = g_scanned
-        .unwrap_or_else(|| clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0));
+    let g =
+        g_scanned.unwrap_or_else(|| clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0));
     if g <= honest::MAX_JACKKNIFE {
         return None;
     }

@@ -268,7 +268,14 @@ pub(super) fn sums(
                 run = (cl[7], [0.0; P]);
             }
             let into = direct.then_some((&mut scores[..], at));
-            let score = add_chunk(&mut lanes, chunk, (&scan, &axes, &a, &b), m.radius, shorts, into);
+            let score = add_chunk(
+                &mut lanes,
+                chunk,
+                (&scan, &axes, &a, &b),
+                m.radius,
+                shorts,
+                into,
+            );
             if !direct {
                 add_scores(&mut scores, &mut run, cl, &score, start == first);
             }
