@@ -209,7 +209,7 @@ pub(super) fn add_scores(
     t: &[[f64; 8]; P],
     fresh: bool,
 ) {
-    if cl.len() == 8 && (fresh || cl[0] != run.0) && pairs_of_ends(cl) {
+    if four_new_poses(cl, run, fresh) {
         add_run(scores, run);
         // Each pose's two ends, lanes 2p and 2p + 1: one aligned pair each (a lane-swapped
         // sum of the whole chunk read `t`, which its caller had just stored, at odd offsets
@@ -217,9 +217,8 @@ pub(super) fn add_scores(
         let pair: [[f64; 4]; P] =
             std::array::from_fn(|c| std::array::from_fn(|p| t[c][2 * p] + t[c][2 * p + 1]));
         let g = scores.len() / P;
-        let first = cl[0] as usize;
-        // Four poses numbered in a row (a scan's chords, as a rule): side by side in each column.
-        if (0..4).all(|p| cl[2 * p] as usize == first + p) && first + 4 <= g {
+        // Numbered in a row: side by side in each column.
+        if let Some(first) = in_a_row(cl, g) {
             for (c, column) in scores.chunks_exact_mut(g.max(1)).enumerate() {
                 for (p, s) in column[first..first + 4].iter_mut().enumerate() {
                     *s += pair[c][p];
@@ -246,9 +245,26 @@ pub(super) fn add_scores(
     }
 }
 
+/// Eight ends (`cl`: their clusters) that are four new poses, two ends each (the rule: a
+/// chord's two ends per pose, a pose per chord), the first not the pose `run` holds unless
+/// nothing is summed in it yet (`fresh`).
+#[inline(always)]
+pub(super) fn four_new_poses(cl: &[u32], run: &(u32, [f64; P]), fresh: bool) -> bool {
+    cl.len() == 8 && (fresh || cl[0] != run.0) && pairs_of_ends(cl)
+}
+
+/// Four poses numbered in a row from `cl[0]` (a scan's chords, as a rule), all below `g`: the
+/// first one's number.
+#[inline(always)]
+pub(super) fn in_a_row(cl: &[u32], g: usize) -> Option<usize> {
+    let first = *cl.first()? as usize;
+    let row = (0..4).all(|p| cl.get(2 * p).is_some_and(|&c| c as usize == first + p));
+    (row && first + 4 <= g).then_some(first)
+}
+
 /// Eight ends' clusters in four runs of two.
 #[inline(always)]
-pub(super) fn pairs_of_ends(cl: &[u32]) -> bool {
+fn pairs_of_ends(cl: &[u32]) -> bool {
     (0..4).all(|p| cl[2 * p] == cl[2 * p + 1]) && (0..3).all(|p| cl[2 * p + 1] != cl[2 * p + 2])
 }
 

@@ -12,7 +12,7 @@
 use super::Sums;
 use super::Transform;
 use super::disk::{DiskModel, DiskPose};
-use super::disk_lanes::{add_run, add_scores, pairs_of_ends};
+use super::disk_lanes::{add_run, add_scores, four_new_poses, in_a_row};
 use nalgebra::{DMatrix, DVector, Isometry3, SMatrix, SVector, Vector2, Vector3};
 
 /// Columns: rotation 3, translation 3, the disk's centre 3 and normal 2.
@@ -257,17 +257,14 @@ pub(super) fn sums(
             let cl = &clusters[start..stop];
             // Four new poses numbered in a row, two ends each (a scan's chords, as a rule):
             // their scores go straight from the chunk's registers into their rows.
-            let at = cl[0] as usize;
-            let direct = cl.len() == 8
-                && (start == first || cl[0] != run.0)
-                && pairs_of_ends(cl)
-                && (0..4).all(|p| cl[2 * p] as usize == at + p)
-                && at + 4 <= g;
-            if direct {
+            let direct = four_new_poses(cl, &run, start == first)
+                .then(|| in_a_row(cl, g))
+                .flatten();
+            if direct.is_some() {
                 add_run(&mut scores, &run);
                 run = (cl[7], [0.0; P]);
             }
-            let into = direct.then_some((&mut scores[..], at));
+            let into = direct.map(|at| (&mut scores[..], at));
             let score = add_chunk(
                 &mut lanes,
                 chunk,
@@ -276,7 +273,7 @@ pub(super) fn sums(
                 shorts,
                 into,
             );
-            if !direct {
+            if direct.is_none() {
                 add_scores(&mut scores, &mut run, cl, &score, start == first);
             }
         }
