@@ -378,9 +378,10 @@ fn fill(c: &mut Chunk, m: &DiskModel, ends: std::ops::Range<usize>) {
     }
 }
 
-/// Eight ends' J^T r and squared residuals into the scan's sums; returns their short vectors
-/// (for `add_run_products`) and each end's J^T r (its share of its pose's score), [A B] times
-/// its short vectors weighted by their residuals.
+/// Eight ends' J^T r and squared residuals into the scan's sums, their short vectors into
+/// `plane` and `rim` (for `add_run_products`); returns each end's J^T r (its share of its
+/// pose's score: [A B] times its short vectors weighted by their residuals), and with `into`
+/// (four new poses in a row from `at`) adds them to those poses' rows itself.
 #[multiversion::multiversion(targets("x86_64+avx512f", "x86_64+avx2"))]
 fn add_chunk(
     o: &mut Lanes,
