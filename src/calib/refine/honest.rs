@@ -405,29 +405,14 @@ fn scores_spread(inv: &DMatrix<f64>, scores: &DMatrix<f64>, used: &[usize]) -> M
         .collect();
     let v = spread(&inv6, &columns);
     let mut out = Matrix6::zeros();
-    for (e, (i, j)) in UPPER6.into_iter().enumerate() {
+    // `spread`'s sums are the pairs i <= j row by row, as `pairs` lists them.
+    for (e, (i, j)) in super::pairs(6).into_iter().enumerate() {
         let t: f64 = v[e].iter().sum();
         out[(i, j)] = t;
         out[(j, i)] = t;
     }
     out
 }
-
-/// The pairs i <= j of six, row by row.
-const UPPER6: [(usize, usize); 21] = {
-    let mut out = [(0, 0); 21];
-    let (mut i, mut e) = (0, 0);
-    while i < 6 {
-        let mut j = i;
-        while j < 6 {
-            out[e] = (i, j);
-            e += 1;
-            j += 1;
-        }
-        i += 1;
-    }
-    out
-};
 
 /// `scores_spread`'s sums in lanes: t = A^-1 s for eight clusters at once (each used column
 /// of the scores, cluster after cluster), then t_i t_j. The last chunk's spare lanes are zero
