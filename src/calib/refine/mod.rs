@@ -1325,6 +1325,14 @@ fn minimise<M: Model>(
                 }
                 break;
             }
+            // A step that failed where the quadratic model predicted a gain below the
+            // convergence test's share of the cost: a larger lambda only shortens it, and any
+            // step it finds would end the fit as converged. At a reduced fit's optimum, the
+            // confirmation on every row otherwise raised lambda to 1e16, evaluating every point
+            // 34 times for nothing.
+            if !(-g.dot(&dx) - 0.5 * dx.dot(&(&a * &dx)) > 1e-12 * cost) {
+                break;
+            }
             lambda *= 4.0;
         }
         if !improved {
