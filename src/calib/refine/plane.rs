@@ -342,4 +342,66 @@ mod tests {
         assert_eq!(rows.n_residuals, via.n_residuals);
         assert!((rows.initial_cost - via.initial_cost).abs() <= 1e-10 * rows.initial_cost);
     }
+
+    /// A plane model that counts its evaluations without a Jacobian (the step trials).
+    #[derive(Clone, Debug)]
+    struct Counted(PlaneModel, std::sync::Arc<std::sync::atomic::AtomicUsize>);
+
+    impl Model for Counted {
+        type Specimen = Plane;
+        fn name(&self) -> &'static str {
+            self.0.name()
+        }
+        fn n_specimen_params(&self) -> usize {
+            self.0.n_specimen_params()
+        }
+        fn n_features(&self) -> usize {
+            self.0.n_features()
+        }
+        fn residuals_per_feature(&self) -> usize {
+            self.0.residuals_per_feature()
+        }
+        fn eval(
+            &self,
+            x: &Transform,
+            s: &Plane,
+            labels: &[f64],
+            r: &mut DVector<f64>,
+            j: Option<&mut DMatrix<f64>>,
+        ) {
+            if j.is_none() {
+                self.1.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            }
+            self.0.eval(x, s, labels, r, j)
+        }
+        fn step(&self, s: &Plane, dx: &[f64]) -> Plane {
+            self.0.step(s, dx)
+        }
+        fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Counted {
+            Counted(self.0.without_poses(drop), self.1.clone())
+        }
+        fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> Counted {
+            Counted(self.0.map_poses(to), self.1.clone())
+        }
+    }
+
+    #[test]
+    fn a_fit_started_at_its_optimum_stops_without_a_search() {
+        let (m, x, plane) = model(1e-4);
+        let opts = Options {
+            loss: Loss::Squared,
+            max_iterations: 100,
+        };
+        let (best, s) = refine(&m, &x, &plane, &opts).unwrap();
+        let evals = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+        let counted = Counted(m, evals.clone());
+        let (again, _) = refine_rows(&counted, &best.flange_to_sensor, &s, &opts).unwrap();
+        assert!(matches!(again.status, Status::Converged { iterations: 1 }));
+        let d = best.flange_to_sensor.inverse() * again.flange_to_sensor;
+        assert!(d.translation.vector.norm() < 1e-12 && d.rotation.angle() < 1e-12);
+        // The residuals at the optimum, one step tried and the last residuals: raising lambda
+        // to 1e16 after the tried step had evaluated every point 34 times more.
+        let n = evals.load(std::sync::atomic::Ordering::Relaxed);
+        assert!(n <= 3, "{n} evaluations");
+    }
 }
