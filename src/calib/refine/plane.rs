@@ -343,7 +343,9 @@ mod tests {
         assert!((rows.initial_cost - via.initial_cost).abs() <= 1e-10 * rows.initial_cost);
     }
 
-    /// A plane model that counts its evaluations without a Jacobian (the step trials).
+    /// A plane model that counts its evaluations without a Jacobian (the steps tried) and
+    /// scales their residuals by 1 + 1e-13: a rounding difference between the two evaluations
+    /// (the full rows' against a reduced model's) that makes every step from the optimum fail.
     #[derive(Clone, Debug)]
     struct Counted(PlaneModel, std::sync::Arc<std::sync::atomic::AtomicUsize>);
 
@@ -369,10 +371,12 @@ mod tests {
             r: &mut DVector<f64>,
             j: Option<&mut DMatrix<f64>>,
         ) {
-            if j.is_none() {
+            let tried = j.is_none();
+            self.0.eval(x, s, labels, r, j);
+            if tried {
                 self.1.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                *r *= 1.0 + 1e-13;
             }
-            self.0.eval(x, s, labels, r, j)
         }
         fn step(&self, s: &Plane, dx: &[f64]) -> Plane {
             self.0.step(s, dx)
@@ -396,12 +400,11 @@ mod tests {
         let evals = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
         let counted = Counted(m, evals.clone());
         let (again, _) = refine_rows(&counted, &best.flange_to_sensor, &s, &opts).unwrap();
-        assert!(matches!(again.status, Status::Converged { iterations: 1 }));
-        let d = best.flange_to_sensor.inverse() * again.flange_to_sensor;
-        assert!(d.translation.vector.norm() < 1e-12 && d.rotation.angle() < 1e-12);
-        // The residuals at the optimum, one step tried and the last residuals: raising lambda
-        // to 1e16 after the tried step had evaluated every point 34 times more.
+        // One step tried and the residuals at the end; raising lambda to 1e16 after the failed
+        // step, as the fit did, evaluated every point 33 times more for nothing.
         let n = evals.load(std::sync::atomic::Ordering::Relaxed);
         assert!(n <= 3, "{n} evaluations");
+        assert!(matches!(again.status, Status::Converged { iterations: 1 }));
+        assert_eq!(again.flange_to_sensor, best.flange_to_sensor);
     }
 }
