@@ -171,6 +171,49 @@ impl Captures {
         out.extend(self.profiles.iter().filter(|p| p.group == id));
         out
     }
+
+    /// These captures without group `id`: its entry, its profiles and their time stamps (a
+    /// profile's stamp is found by its index, so the stamps must lose the same entries).
+    pub fn without_group(&self, id: usize) -> Captures {
+        let keep: Vec<bool> = self.profiles.iter().map(|p| p.group != id).collect();
+        let mut c = self.clone_without_profiles();
+        c.groups = self.groups.iter().filter(|g| g.id != id).cloned().collect();
+        c.profiles = (self.profiles.iter().zip(&keep))
+            .filter(|(_, k)| **k)
+            .map(|(p, _)| p.clone())
+            .collect();
+        c.timing = self.timing.as_ref().map(|t| Timing {
+            stamps: match t.stamps.len() == keep.len() {
+                true => (t.stamps.iter().zip(&keep))
+                    .filter(|(_, k)| **k)
+                    .map(|(s, _)| *s)
+                    .collect(),
+                // Not one per profile: nothing to keep aligned (`with_clock` skips them).
+                false => t.stamps.clone(),
+            },
+            ..t.clone()
+        });
+        c
+    }
+
+    /// Everything but the groups, profiles and timing (the caller's to fill: cloning the
+    /// profiles to drop some copied every point of a file's raw profiles).
+    fn clone_without_profiles(&self) -> Captures {
+        Captures {
+            method: self.method,
+            sensor: self.sensor.clone(),
+            specimen_kind: self.specimen_kind,
+            specimen_radius: self.specimen_radius,
+            edge_sense: self.edge_sense,
+            truth: self.truth,
+            groups: Vec::new(),
+            profiles: Vec::new(),
+            orientation_tolerance_deg: self.orientation_tolerance_deg,
+            feature_sigma: self.feature_sigma,
+            judging: self.judging,
+            timing: None,
+        }
+    }
 }
 
 /// Captures that a method cannot use as they are.

@@ -726,9 +726,7 @@ pub fn leave_one_out(a: &Assessed, caps: &Captures, sensor: &SensorModel) -> Opt
         .groups
         .par_iter()
         .map(|g| {
-            let mut c = caps.clone();
-            c.groups.retain(|h| h.id != g.id);
-            c.profiles.retain(|p| p.group != g.id);
+            let c = caps.without_group(g.id);
             without_group(a, caps, g.id, &c, sensor).map(|(cal, refined)| {
                 let q = quality(&cal, refined.as_ref(), &c, sensor);
                 (cal, q)

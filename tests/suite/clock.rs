@@ -277,3 +277,30 @@ fn an_estimate_beyond_the_pose_log_is_held_and_said_so() {
     assert!(text.contains("outside the pose log's span"), "{text}");
     assert!(!text.contains("cannot determine the offset"), "{text}");
 }
+
+/// A group left out (the verdict's leave-one-out runs) takes its profiles' time stamps with it:
+/// a stamp is found by its profile's index, and with every stamp kept the reduced run could not
+/// place its profiles by time (the clock was then not estimated at all).
+#[test]
+fn a_group_left_out_takes_its_time_stamps_with_it() {
+    let s = on_the_move(random_setup(1003, 12, 0, 0.0), 3, 0.01, 0.0, &scanning);
+    let (caps, t) = (&s.caps, s.caps.timing.as_ref().unwrap());
+    assert!(caps.groups.len() >= 3, "{} groups", caps.groups.len());
+    let id = caps.groups[1].id;
+    let c = caps.without_group(id);
+    let ct = c.timing.as_ref().unwrap();
+    let kept: Vec<_> = (caps.profiles.iter().zip(&t.stamps))
+        .filter(|(p, _)| p.group != id)
+        .collect();
+    assert!(kept.len() < caps.profiles.len());
+    assert_eq!(
+        (c.profiles.len(), ct.stamps.len()),
+        (kept.len(), kept.len())
+    );
+    for ((p, stamp), (q, reduced)) in kept.into_iter().zip(c.profiles.iter().zip(&ct.stamps)) {
+        assert_eq!((p, stamp), (q, reduced));
+    }
+    assert!(c.groups.iter().all(|g| g.id != id));
+    assert_eq!(c.groups.len(), caps.groups.len() - 1);
+    assert_eq!((ct.stream.len(), ct.offset_s), (t.stream.len(), t.offset_s));
+}
