@@ -56,10 +56,11 @@ pub(super) fn sums(m: &DiskModel, x: &Transform, s: &DiskPose) -> Option<Sums> {
     if !ends_only || m.ends.is_empty() {
         return None;
     }
-    let runs = super::disk_scans::orientation_runs(&m.ends);
+    let layout = super::disk_scans::layout(&m.ends);
+    let runs = layout.runs.clone();
     let by_scans = m.ends.len() >= super::disk_scans::SCAN_MIN_ENDS * runs.len();
     let scanned = match by_scans {
-        true => super::disk_scans::clusters(&m.ends, &runs),
+        true => super::disk_scans::clusters(&m.ends, layout),
         false => None,
     };
     // The scans' poses are numbered in order, none seen again: the last is the largest.
