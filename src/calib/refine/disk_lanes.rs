@@ -56,11 +56,14 @@ pub(super) fn sums(m: &DiskModel, x: &Transform, s: &DiskPose) -> Option<Sums> {
     if !ends_only || m.ends.is_empty() {
         return None;
     }
-    let layout = super::disk_scans::layout(&m.ends);
-    let runs = layout.runs.clone();
+    let super::disk_scans::Layout {
+        runs,
+        poses,
+        starts,
+    } = super::disk_scans::layout(&m.ends);
     let by_scans = m.ends.len() >= super::disk_scans::SCAN_MIN_ENDS * runs.len();
     let scanned = match by_scans {
-        true => super::disk_scans::clusters(&m.ends, layout),
+        true => super::disk_scans::clusters(&m.ends, &runs, &starts, poses),
         false => None,
     };
     // The scans' poses are numbered in order, none seen again: the last is the largest.

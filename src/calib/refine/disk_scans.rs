@@ -76,15 +76,17 @@ pub(super) fn layout(ends: &[(Isometry3<f64>, Vector2<f64>)]) -> Layout {
 /// Most runs whose orientations `clusters` compares pairwise.
 const MAX_RUNS_COMPARED: usize = 64;
 
-/// `honest::clusters` of ends laid out as `layout` (`Layout`) without its table, where the
-/// data show that no pose comes back: each run's poses move strictly forward along the run's
-/// first-to-last translation, and no two runs share an orientation. The layout's pose numbers
-/// are then those the table gives (in order of first sight). None otherwise.
+/// `honest::clusters` of ends laid out in `runs`, `starts` and `poses` (`layout`) without its
+/// table, where the data show that no pose comes back: each run's poses move strictly forward
+/// along the run's first-to-last translation, and no two runs share an orientation. The
+/// layout's pose numbers are then those the table gives (in order of first sight). None
+/// otherwise.
 pub(super) fn clusters(
     ends: &[(Isometry3<f64>, Vector2<f64>)],
-    layout: Layout,
+    runs: &[(usize, usize)],
+    starts: &[usize],
+    poses: Vec<u32>,
 ) -> Option<Vec<u32>> {
-    let runs = &layout.runs;
     if runs.len() > MAX_RUNS_COMPARED {
         return None;
     }
@@ -97,7 +99,7 @@ pub(super) fn clusters(
         }
     }
     let t = |e: usize| ends[e].0.translation.vector;
-    let mut starts = layout.starts.iter().peekable();
+    let mut starts = starts.iter().peekable();
     for &(first, end) in runs {
         let along = t(end - 1) - t(first);
         let mut last = f64::NEG_INFINITY;
@@ -109,7 +111,7 @@ pub(super) fn clusters(
             last = s;
         }
     }
-    Some(layout.poses)
+    Some(poses)
 }
 
 /// The disk's axes at the estimate: normal n = Q z and the plane's X = Q x, Y = Q y (the
@@ -543,11 +545,15 @@ mod tests {
             super::super::honest::clusters(&flanges, flanges.len())
         };
         // Scan 2 comes back to its last pose: the table alone can tell.
-        assert_eq!(clusters(&m.ends, layout(&m.ends)), None);
+        let scanned = |ends: &[(Isometry3<f64>, Vector2<f64>)]| {
+            let l = layout(ends);
+            clusters(ends, &l.runs, &l.starts, l.poses)
+        };
+        assert_eq!(scanned(&m.ends), None);
         let mut once = m.clone();
         once.ends.remove(2 * 21 + 1 + 2 * 21);
         once.ends.remove(2 * 21 + 1 + 2 * 21);
-        let fast = clusters(&once.ends, layout(&once.ends)).expect("no pose comes back");
+        let fast = scanned(&once.ends).expect("no pose comes back");
         assert_eq!(fast, table(&once));
         assert_eq!(fast.last(), Some(&83));
         // `disk_lanes::sums` counts the poses from the last number.
@@ -556,13 +562,13 @@ mod tests {
         let mut back = once.clone();
         back.ends.swap(10, 12);
         back.ends.swap(11, 13);
-        assert_eq!(clusters(&back.ends, layout(&back.ends)), None);
+        assert_eq!(scanned(&back.ends), None);
         let mut same = once.clone();
         let turn = same.ends[0].0.rotation;
         for (f, _) in same.ends.iter_mut().skip(2 * 21 + 1 + 2 * 21) {
             f.rotation = turn;
         }
-        assert_eq!(clusters(&same.ends, layout(&same.ends)), None);
+        assert_eq!(scanned(&same.ends), None);
     }
 
     #[test]
