@@ -182,17 +182,12 @@ impl Captures {
             .filter(|(_, k)| **k)
             .map(|(p, _)| p.clone())
             .collect();
-        c.timing = self.timing.as_ref().map(|t| Timing {
-            stamps: match t.stamps.len() == keep.len() {
-                true => (t.stamps.iter().zip(&keep))
-                    .filter(|(_, k)| **k)
-                    .map(|(s, _)| *s)
-                    .collect(),
-                // Not one per profile: nothing to keep aligned (`with_clock` skips them).
-                false => t.stamps.clone(),
-            },
-            ..t.clone()
-        });
+        c.timing = self.timing.clone();
+        // Not one per profile: nothing to keep aligned (`with_clock` skips them).
+        if let Some(t) = c.timing.as_mut().filter(|t| t.stamps.len() == keep.len()) {
+            let mut kept = keep.iter();
+            t.stamps.retain(|_| kept.next() == Some(&true));
+        }
         c
     }
 
