@@ -1174,6 +1174,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                 radius,
                 ends: rim.ends,
                 face,
+                rim_spacing: None,
             },
             specimen,
         }) as std::sync::Arc<dyn crate::calib::refine::Refinable>
@@ -1187,6 +1188,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                 radius,
                 ends,
                 face: Vec::new(),
+                rim_spacing: None,
             },
             specimen,
         })),

@@ -214,6 +214,12 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
         None
     }
 
+    /// The model whose rows give the covariance where they are not the fit's own (`disk`: its
+    /// censored rims); None: these.
+    fn covariance_model(&self) -> Option<Self> {
+        None
+    }
+
     /// The specimen's fixed point (disk or ball centre), when it has one.
     fn centre(&self, _s: &Self::Specimen) -> Option<Point3<f64>> {
         None
@@ -535,6 +541,21 @@ impl<M: Model + 'static> Refinable for Problem<M> {
         self.model.timed_problem(&self.specimen, line)
     }
     fn sums(&self, x: &Isometry3<f64>) -> Sums {
+        if let Some(model) = self.model.covariance_model() {
+            // The covariance's rows; the step and the sum of squares stay the fit's own.
+            let xt = Transform::from_isometry(x);
+            let labels = self.model.labels(&xt, &self.specimen);
+            let (r, j) = eval(&self.model, &xt, &self.specimen, &labels, true);
+            let rows = Problem {
+                model,
+                specimen: self.specimen,
+            };
+            return Sums {
+                atr: atb(&j, &r),
+                rss: r.norm_squared(),
+                ..rows.sums(x)
+            };
+        }
         let x = Transform::from_isometry(x);
         let m = &self.model;
         if let Some(sums) = m.sums(&x, &self.specimen) {
@@ -1109,19 +1130,28 @@ pub(crate) fn refine_rows<M: Model>(
     // The covariance at the optimum: fresh residuals; the last Jacobian, computed at most one
     // (converged, hence negligible) step away.
     let (r, _) = eval(model, &x, &s, &labels, false);
-    let j = match last_j {
-        Some(j) => j,
-        None => eval(model, &x, &s, &labels, true).1,
-    };
-    let a = match last_ata {
-        Some(a) if a.nrows() == j.ncols() => a,
-        _ => ata(&j),
-    };
     let clusters = model.clusters();
     let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
-    let sums = Sums {
-        ata: a,
-        ..Sums::of_without_ata(&r, &j, &clusters, g)
+    let sums = match model.covariance_model() {
+        // Its own rows, its own Jacobian; the fit's residuals still give the cost and RMS.
+        Some(rows) => {
+            let (rc, j) = eval(&rows, &x, &s, &labels, true);
+            Sums::of(&rc, &j, &clusters, g)
+        }
+        None => {
+            let j = match last_j {
+                Some(j) => j,
+                None => eval(model, &x, &s, &labels, true).1,
+            };
+            let a = match last_ata {
+                Some(a) if a.nrows() == j.ncols() => a,
+                _ => ata(&j),
+            };
+            Sums {
+                ata: a,
+                ..Sums::of_without_ata(&r, &j, &clusters, g)
+            }
+        }
     };
     let normal = Normal::of(&sums.ata);
     let cov = covariance_from(&normal, &sums);

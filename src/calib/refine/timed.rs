@@ -342,6 +342,13 @@ impl<M: Model + 'static> Model for Timed<M> {
         self.base.clusters()
     }
 
+    fn covariance_model(&self) -> Option<Self> {
+        Some(Timed::build(
+            self.base.covariance_model()?,
+            self.line.clone(),
+        ))
+    }
+
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Self {
         Timed::build(self.base.without_poses(drop), self.line.clone())
     }
