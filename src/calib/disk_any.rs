@@ -85,7 +85,6 @@ pub fn solve(
         rims,
         end_weights: Vec::new(),
         walls: Vec::new(),
-        rim_spacing: None,
     };
     let disk = DiskPose::new(Point3::from(centre), &n);
     // Censored rims: once but not twice differentiable at an interval's end (see `calib::bar`).

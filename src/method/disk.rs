@@ -1174,7 +1174,6 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                 radius,
                 ends: rim.ends,
                 face,
-                rim_spacing: None,
             },
             specimen,
         }) as std::sync::Arc<dyn crate::calib::refine::Refinable>
@@ -1188,7 +1187,6 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                 radius,
                 ends,
                 face: Vec::new(),
-                rim_spacing: None,
             },
             specimen,
         })),

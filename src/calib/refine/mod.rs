@@ -214,10 +214,22 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
         None
     }
 
-    /// The model whose rows give the covariance where they are not the fit's own (`disk`: its
-    /// censored rims); None: these.
-    fn covariance_model(&self) -> Option<Self> {
-        None
+    /// Whether the covariance takes other rows than the fit's (`covariance_rows`).
+    fn has_covariance_rows(&self) -> bool {
+        false
+    }
+
+    /// The rows the covariance is taken from, into `r` and a zeroed `j` as `eval` writes them
+    /// (`disk`: its censored rims measured inside their intervals); `eval`'s own by default.
+    fn covariance_rows(
+        &self,
+        x: &Transform,
+        s: &Self::Specimen,
+        labels: &[f64],
+        r: &mut DVector<f64>,
+        j: &mut DMatrix<f64>,
+    ) {
+        self.eval(x, s, labels, r, Some(j));
     }
 
     /// The specimen's fixed point (disk or ball centre), when it has one.
@@ -541,21 +553,6 @@ impl<M: Model + 'static> Refinable for Problem<M> {
         self.model.timed_problem(&self.specimen, line)
     }
     fn sums(&self, x: &Isometry3<f64>) -> Sums {
-        if let Some(model) = self.model.covariance_model() {
-            // The covariance's rows; the step and the sum of squares stay the fit's own.
-            let xt = Transform::from_isometry(x);
-            let labels = self.model.labels(&xt, &self.specimen);
-            let (r, j) = eval(&self.model, &xt, &self.specimen, &labels, true);
-            let rows = Problem {
-                model,
-                specimen: self.specimen,
-            };
-            return Sums {
-                atr: atb(&j, &r),
-                rss: r.norm_squared(),
-                ..rows.sums(x)
-            };
-        }
         let x = Transform::from_isometry(x);
         let m = &self.model;
         if let Some(sums) = m.sums(&x, &self.specimen) {
@@ -564,6 +561,17 @@ impl<M: Model + 'static> Refinable for Problem<M> {
         let clusters = self.clusters();
         let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
         let labels = m.labels(&x, &self.specimen);
+        if m.has_covariance_rows() {
+            // The covariance's rows; the step and the sum of squares stay the fit's own.
+            let (r, j) = eval(m, &x, &self.specimen, &labels, true);
+            let (atr, rss) = (atb(&j, &r), r.norm_squared());
+            let (rc, jc) = covariance_rows_into(m, &x, &self.specimen, &labels, Some(j));
+            return Sums {
+                atr,
+                rss,
+                ..Sums::of(&rc, &jc, &clusters, g)
+            };
+        }
         let whole = || {
             let (r, j) = eval(m, &x, &self.specimen, &labels, true);
             Sums::of(&r, &j, &clusters, g)
@@ -857,6 +865,27 @@ fn eval_into<M: Model>(
     (r, j)
 }
 
+/// `Model::covariance_rows` as `eval_into` writes `eval`'s.
+fn covariance_rows_into<M: Model>(
+    m: &M,
+    x: &Transform,
+    s: &M::Specimen,
+    labels: &[f64],
+    spent: Option<DMatrix<f64>>,
+) -> (DVector<f64>, DMatrix<f64>) {
+    let (n, p) = (n_residuals(m), 6 + m.n_specimen_params());
+    let mut j = match spent {
+        Some(mut j) if j.shape() == (n, p) => {
+            j.as_mut_slice().fill(0.0);
+            j
+        }
+        _ => DMatrix::zeros(n, p),
+    };
+    let mut r = DVector::zeros(n);
+    m.covariance_rows(x, s, labels, &mut r, &mut j);
+    (r, j)
+}
+
 fn apply<M: Model>(
     m: &M,
     x: &Transform,
@@ -1132,25 +1161,22 @@ pub(crate) fn refine_rows<M: Model>(
     let (r, _) = eval(model, &x, &s, &labels, false);
     let clusters = model.clusters();
     let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
-    let sums = match model.covariance_model() {
-        // Its own rows, its own Jacobian; the fit's residuals still give the cost and RMS.
-        Some(rows) => {
-            let (rc, j) = eval(&rows, &x, &s, &labels, true);
-            Sums::of(&rc, &j, &clusters, g)
-        }
-        None => {
-            let j = match last_j {
-                Some(j) => j,
-                None => eval(model, &x, &s, &labels, true).1,
-            };
-            let a = match last_ata {
-                Some(a) if a.nrows() == j.ncols() => a,
-                _ => ata(&j),
-            };
-            Sums {
-                ata: a,
-                ..Sums::of_without_ata(&r, &j, &clusters, g)
-            }
+    let sums = if model.has_covariance_rows() {
+        // Written over the fit's spent Jacobian; the fit's residuals still give its cost.
+        let (rc, j) = covariance_rows_into(model, &x, &s, &labels, last_j);
+        Sums::of(&rc, &j, &clusters, g)
+    } else {
+        let j = match last_j {
+            Some(j) => j,
+            None => eval(model, &x, &s, &labels, true).1,
+        };
+        let a = match last_ata {
+            Some(a) if a.nrows() == j.ncols() => a,
+            _ => ata(&j),
+        };
+        Sums {
+            ata: a,
+            ..Sums::of_without_ata(&r, &j, &clusters, g)
         }
     };
     let normal = Normal::of(&sums.ata);

@@ -124,6 +124,58 @@ impl<M: Model> Clone for Timed<M> {
 impl<M: Model> Timed<M> {
     /// None when a flange pose of `base` is not on `line` (not placed by time), or the model
     /// does not say which pose each residual is from.
+    /// The Jacobian `j` of the base model placed at the clock (`base_rows` writes its columns)
+    /// with the clock's columns after them.
+    fn with_clock_columns(
+        &self,
+        x: &Transform,
+        s: &(M::Specimen, [f64; 2]),
+        j: &mut DMatrix<f64>,
+        base_rows: impl FnOnce(&M, &mut DMatrix<f64>),
+    ) {
+        let model = self.placed_model(&s.1);
+        // The base model's columns into the first columns of j's storage (column-major: they
+        // are its first n p entries), then the clock's after them.
+        let extra = self.line.n_params();
+        let (n, p) = (j.nrows(), j.ncols() - extra);
+        let mut data: Vec<f64> = std::mem::replace(j, DMatrix::zeros(0, 0)).data.into();
+        data.truncate(n * p);
+        let mut inner = DMatrix::from_vec(n, p, data);
+        base_rows(model.as_ref(), &mut inner);
+        let twists: Vec<(Vector3<f64>, Vector3<f64>)> = self
+            .slots
+            .iter()
+            .map(|(_, t)| {
+                let (w, v) = t.map_or((Vector3::zeros(), Vector3::zeros()), |t| {
+                    velocity_at(&self.line.stream, self.line.shifted(t, &s.1))
+                });
+                (x.rot.inverse() * w, w.cross(&x.t) + v)
+            })
+            .collect();
+        let mut data: Vec<f64> = inner.data.into();
+        // Written after the base columns in the same storage (its capacity is already there).
+        for k in 0..n {
+            let (a, b) = twists[self.residual_slot[k] as usize];
+            let v = (0..3)
+                .map(|c| data[c * n + k] * a[c] + data[(3 + c) * n + k] * b[c])
+                .sum::<f64>();
+            data.push(v);
+        }
+        // The drift's column: the shift's times the time from the reference.
+        if self.line.drift {
+            for k in 0..n {
+                let slot = self.residual_slot[k] as usize;
+                let c = data[p * n + k];
+                data.push(
+                    self.slots[slot]
+                        .1
+                        .map_or(0.0, |t| c * (t - self.line.t_ref)),
+                );
+            }
+        }
+        *j = DMatrix::from_vec(n, p + extra, data);
+    }
+
     pub fn new(base: M, line: Arc<Timeline>) -> Option<Timed<M>> {
         let t = Timed::build(base, line);
         let placed = t.slots.iter().all(|(_, time)| time.is_some());
@@ -261,51 +313,28 @@ impl<M: Model + 'static> Model for Timed<M> {
         r: &mut DVector<f64>,
         j: Option<&mut DMatrix<f64>>,
     ) {
-        let model = self.placed_model(&s.1);
         let Some(j) = j else {
-            model.eval(x, &s.0, labels, r, None);
+            self.placed_model(&s.1).eval(x, &s.0, labels, r, None);
             return;
         };
-        // The base model's columns into the first columns of j's storage (column-major: they
-        // are its first n p entries), then the clock's after them.
-        let extra = self.line.n_params();
-        let (n, p) = (j.nrows(), j.ncols() - extra);
-        let mut data: Vec<f64> = std::mem::replace(j, DMatrix::zeros(0, 0)).data.into();
-        data.truncate(n * p);
-        let mut inner = DMatrix::from_vec(n, p, data);
-        model.eval(x, &s.0, labels, r, Some(&mut inner));
-        let twists: Vec<(Vector3<f64>, Vector3<f64>)> = self
-            .slots
-            .iter()
-            .map(|(_, t)| {
-                let (w, v) = t.map_or((Vector3::zeros(), Vector3::zeros()), |t| {
-                    velocity_at(&self.line.stream, self.line.shifted(t, &s.1))
-                });
-                (x.rot.inverse() * w, w.cross(&x.t) + v)
-            })
-            .collect();
-        let mut data: Vec<f64> = inner.data.into();
-        // Written after the base columns in the same storage (its capacity is already there).
-        for k in 0..n {
-            let (a, b) = twists[self.residual_slot[k] as usize];
-            let v = (0..3)
-                .map(|c| data[c * n + k] * a[c] + data[(3 + c) * n + k] * b[c])
-                .sum::<f64>();
-            data.push(v);
-        }
-        // The drift's column: the shift's times the time from the reference.
-        if self.line.drift {
-            for k in 0..n {
-                let slot = self.residual_slot[k] as usize;
-                let c = data[p * n + k];
-                data.push(
-                    self.slots[slot]
-                        .1
-                        .map_or(0.0, |t| c * (t - self.line.t_ref)),
-                );
-            }
-        }
-        *j = DMatrix::from_vec(n, p + extra, data);
+        self.with_clock_columns(x, s, j, |m, inner| m.eval(x, &s.0, labels, r, Some(inner)));
+    }
+
+    fn has_covariance_rows(&self) -> bool {
+        self.base.has_covariance_rows()
+    }
+
+    fn covariance_rows(
+        &self,
+        x: &Transform,
+        s: &Self::Specimen,
+        labels: &[f64],
+        r: &mut DVector<f64>,
+        j: &mut DMatrix<f64>,
+    ) {
+        self.with_clock_columns(x, s, j, |m, inner| {
+            m.covariance_rows(x, &s.0, labels, r, inner)
+        });
     }
 
     fn step(&self, s: &Self::Specimen, dx: &[f64]) -> Self::Specimen {
@@ -340,13 +369,6 @@ impl<M: Model + 'static> Model for Timed<M> {
     }
     fn clusters(&self) -> Vec<u32> {
         self.base.clusters()
-    }
-
-    fn covariance_model(&self) -> Option<Self> {
-        Some(Timed::build(
-            self.base.covariance_model()?,
-            self.line.clone(),
-        ))
     }
 
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Self {
