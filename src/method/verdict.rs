@@ -123,6 +123,20 @@ pub struct Quality {
     pub clock: Option<(crate::calib::refine::timed::ClockFit, f64, bool)>,
     /// Scanning on the move: the time from the first profile's stamp to the last's (s).
     pub capture_span_s: Option<f64>,
+    /// Another variant's result beyond both bounds (`verdict::decide`): the least error this one
+    /// must have if that one's bound holds, and that variant. None: judged alone, or none beyond.
+    pub between_variants: Option<BetweenVariants>,
+}
+
+/// What another variant's result says of this one's error (`Quality::between_variants`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BetweenVariants {
+    pub method: super::MethodId,
+    /// The bound the other variants imply (deg, mm): this result's own, raised to another's
+    /// distance from it less that one's 95 % bound (this one's least error where that bound
+    /// holds) where that is larger.
+    pub rotation_deg: f64,
+    pub translation_mm: f64,
 }
 
 impl Quality {
@@ -150,7 +164,17 @@ impl Quality {
 
     /// The honest 95 % bound on the whole error (deg, mm): its distance from the fit of its own
     /// data plus the fit's bound. Infinite where there is no covariance to bound it with.
+    /// At least what another variant's result implies (`between_variants`).
     pub fn error_bound(&self) -> (f64, f64) {
+        let (r, t) = self.own_error_bound();
+        match &self.between_variants {
+            Some(v) => (r.max(v.rotation_deg), t.max(v.translation_mm)),
+            None => (r, t),
+        }
+    }
+
+    /// `error_bound` from this result's own data alone.
+    pub fn own_error_bound(&self) -> (f64, f64) {
         match &self.bounds {
             Some(b) => (
                 self.from_fit_deg.unwrap_or(0.0) + b.rotation_norm_deg,
@@ -297,6 +321,7 @@ pub fn quality(
                 });
             (b - a).max(0.0)
         }),
+        between_variants: None,
     }
 }
 
@@ -496,7 +521,20 @@ fn precision_reasons(q: &Quality) -> Vec<String> {
             f(&b.translation_mm)
         );
     }
+    let (or, ot) = q.own_error_bound();
     match (q.from_fit_deg, q.from_fit_mm, &q.bounds) {
+        _ if let Some(v) = &q.between_variants
+            && (v.rotation_deg > or || v.translation_mm > ot) =>
+        {
+            why += &format!(
+                "; {} puts it there: its result lies beyond both bounds, and if its own bound \
+                 holds this one is at least {:.3} deg / {:.3} mm off (a systematic error the \
+                 residuals cannot show: the specimen's form, where a feature is found); a \
+                 specimen whose features the sensor resolves sharply (a bar's square edge, a \
+                 disk's rim) tightens it",
+                v.method, v.rotation_deg, v.translation_mm
+            );
+        }
         (Some(d), Some(m), Some(b)) if d > b.rotation_norm_deg || m > b.translation_norm_mm => {
             why += &format!(
                 "; most of it is the closed form's distance from the least-squares fit of its \
@@ -669,6 +707,45 @@ pub fn disagreements(
             })
         })
         .collect()
+}
+
+/// What the other variants' results say of the chosen one's error: for each not judged suspect
+/// (and estimating the clock as it does), their distance less its 95 % bound, which the chosen
+/// result's error exceeds wherever that bound holds; the largest, where it exceeds the chosen
+/// result's own bound. Every variant fits the same data, so a systematic error (a feature found
+/// off the line the model assumes) can move them apart while each fits its own rows well: on
+/// the edge paper's knife blade every variant's bound alone missed its error.
+fn between_variants(
+    results: &[(super::MethodId, Result<Assessed, crate::error::Error>)],
+    chosen: usize,
+) -> Option<BetweenVariants> {
+    let Some(Ok(c)) = results.get(chosen).map(|r| &r.1) else {
+        return None;
+    };
+    let (cr, ct) = c.judged.quality.own_error_bound();
+    let (mut rotation_deg, mut translation_mm, mut method) = (cr, ct, None);
+    for (id, o) in results.iter().enumerate().filter(|(i, _)| *i != chosen) {
+        let Ok(o) = &o.1 else { continue };
+        if o.judged.verdict == Verdict::Suspect || estimated_clock(o) != estimated_clock(c) {
+            continue;
+        }
+        let e = crate::calib::PoseError::between(
+            &c.calibration.flange_to_sensor,
+            &o.calibration.flange_to_sensor,
+        );
+        let (or, ot) = o.judged.quality.own_error_bound();
+        let (r, t) = (e.rotation_error_deg - or, e.translation_error_mm - ot);
+        if r > rotation_deg || t > translation_mm {
+            method = Some(results[id].0);
+        }
+        rotation_deg = rotation_deg.max(r);
+        translation_mm = translation_mm.max(t);
+    }
+    method.map(|method| BetweenVariants {
+        method,
+        rotation_deg,
+        translation_mm,
+    })
 }
 
 /// Whether the variant estimated the profiles' clock offset with its transform.
@@ -1055,6 +1132,7 @@ pub fn decide(
             .collect());
     };
     let mut others = disagreements(&results, chosen);
+    let between = between_variants(&results, chosen);
     let closed_form = results
         .iter()
         .find(|(id, _)| id.estimator == super::Estimator::ClosedForm)
@@ -1065,6 +1143,22 @@ pub fn decide(
     others.extend(contradicted_signs(caps, sensor, a, closed_form));
     others.extend(super::cause::mirrored_labels(caps, sensor, a, closed_form));
     let mut judged = a.judged.clone();
+    if let Some(v) = between {
+        let (r, t) = judged.quality.own_error_bound();
+        judged.notes.push(format!(
+            "the bound is widened from {r:.4} deg / {t:.4} mm to {:.4} deg / {:.4} mm: {}'s \
+             result lies farther from this one than its own 95 % bound allows (a systematic \
+             error the residuals cannot show: the specimen's form, where a feature is found)",
+            v.rotation_deg.max(r),
+            v.translation_mm.max(t),
+            v.method
+        ));
+        judged.quality.between_variants = Some(v);
+        judged.precision = precision_reasons(&judged.quality);
+        if judged.verdict == Verdict::Ok && !judged.precision.is_empty() {
+            judged.verdict = Verdict::Imprecise;
+        }
+    }
     judged.add_reasons(others);
     let loo = leave_one_out(a, caps, sensor);
     judged.add_reasons(loo.as_ref().and_then(leave_one_out_reason));

@@ -1132,7 +1132,7 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
                 let a = d.assessed();
                 let e =
                     PoseError::between(&a.calibration.flange_to_sensor, &s.rig.flange_to_sensor);
-                let (br, bt) = a.judged.quality.error_bound();
+                let (br, bt) = d.judged.quality.error_bound();
                 let right = e.rotation_error_deg <= 1.0 && e.translation_error_mm <= 1.0;
                 let lines = d.judged.lines().cloned().collect::<Vec<_>>().join(" | ");
                 let what = format!(

@@ -304,7 +304,14 @@ pub fn verdict_text(
     for r in j.lines() {
         say!("  - {r}");
     }
-    Ok(serde_json::json!({
+    let between = q.between_variants.as_ref().map(|v| {
+        serde_json::json!({
+            "method": v.method,
+            "rotation_deg": v.rotation_deg,
+            "translation_mm": v.translation_mm,
+        })
+    });
+    let mut doc = serde_json::json!({
         "verdict": j.verdict,
         "reasons": j.reasons,
         "precision": j.precision,
@@ -355,7 +362,10 @@ pub fn verdict_text(
             "carriers": l.carriers.iter().map(|(g, w)| serde_json::json!({"group": g, "direction": w})).collect::<Vec<_>>(),
             "outlier": l.outlier.map(|(g, b)| serde_json::json!({"group": g, "beyond_bounds": b})),
         })),
-    }))
+    });
+    // Where another variant's result widened the bound (`verdict::decide`).
+    doc["between_variants"] = serde_json::json!(between);
+    Ok(doc)
 }
 
 /// The recordings asked for, opened before any work so that a bad path or a missing viewer
