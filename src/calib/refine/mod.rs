@@ -852,17 +852,7 @@ fn eval_into<M: Model>(
     labels: &[f64],
     spent: Option<DMatrix<f64>>,
 ) -> (DVector<f64>, DMatrix<f64>) {
-    let (n, p) = (n_residuals(m), 6 + m.n_specimen_params());
-    let mut j = match spent {
-        Some(mut j) if j.shape() == (n, p) => {
-            j.as_mut_slice().fill(0.0);
-            j
-        }
-        _ => DMatrix::zeros(n, p),
-    };
-    let mut r = DVector::zeros(n);
-    m.eval(x, s, labels, &mut r, Some(&mut j));
-    (r, j)
+    rows_into(m, spent, |r, j| m.eval(x, s, labels, r, Some(j)))
 }
 
 /// `Model::covariance_rows` as `eval_into` writes `eval`'s.
@@ -873,6 +863,16 @@ fn covariance_rows_into<M: Model>(
     labels: &[f64],
     spent: Option<DMatrix<f64>>,
 ) -> (DVector<f64>, DMatrix<f64>) {
+    rows_into(m, spent, |r, j| m.covariance_rows(x, s, labels, r, j))
+}
+
+/// The residuals and Jacobian `fill` writes, the Jacobian into `spent` (zeroed) where it has
+/// the model's shape.
+fn rows_into<M: Model>(
+    m: &M,
+    spent: Option<DMatrix<f64>>,
+    fill: impl FnOnce(&mut DVector<f64>, &mut DMatrix<f64>),
+) -> (DVector<f64>, DMatrix<f64>) {
     let (n, p) = (n_residuals(m), 6 + m.n_specimen_params());
     let mut j = match spent {
         Some(mut j) if j.shape() == (n, p) => {
@@ -882,7 +882,7 @@ fn covariance_rows_into<M: Model>(
         _ => DMatrix::zeros(n, p),
     };
     let mut r = DVector::zeros(n);
-    m.covariance_rows(x, s, labels, &mut r, &mut j);
+    fill(&mut r, &mut j);
     (r, j)
 }
 

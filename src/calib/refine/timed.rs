@@ -122,8 +122,6 @@ impl<M: Model> Clone for Timed<M> {
 }
 
 impl<M: Model> Timed<M> {
-    /// None when a flange pose of `base` is not on `line` (not placed by time), or the model
-    /// does not say which pose each residual is from.
     /// The Jacobian `j` of the base model placed at the clock (`base_rows` writes its columns)
     /// with the clock's columns after them.
     fn with_clock_columns(
@@ -176,6 +174,8 @@ impl<M: Model> Timed<M> {
         *j = DMatrix::from_vec(n, p + extra, data);
     }
 
+    /// None when a flange pose of `base` is not on `line` (not placed by time), or the model
+    /// does not say which pose each residual is from.
     pub fn new(base: M, line: Arc<Timeline>) -> Option<Timed<M>> {
         let t = Timed::build(base, line);
         let placed = t.slots.iter().all(|(_, time)| time.is_some());
