@@ -263,6 +263,12 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
         honest::clusters(&self.residual_flanges(), self.n_residuals())
     }
 
+    /// Each of the `g` clusters' orientation group (`honest::orientation_groups`; empty: none
+    /// shared, or the poses not known).
+    fn orientation_groups(&self, clusters: &[u32], g: usize) -> Vec<u32> {
+        honest::orientation_groups(&self.residual_flanges(), clusters, g)
+    }
+
     /// The same model without the features seen from the flange poses `drop` picks (the
     /// verdict's leave-one-out runs, warm-started from the full result).
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Self;
@@ -398,6 +404,8 @@ pub trait Refinable: Send + Sync + fmt::Debug {
     fn n_params(&self) -> usize;
     /// Each residual's cluster (its flange pose), numbered from 0 (`honest::clusters`).
     fn clusters(&self) -> Vec<u32>;
+    /// Each cluster's orientation group (`Model::orientation_groups`).
+    fn orientation_groups(&self) -> Vec<u32>;
     /// The same problem without the features seen from the flange poses `drop` picks.
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable>;
     /// The sums the figures at `x` need (`Sums`), streamed in parts where the problem is tall.
@@ -536,6 +544,11 @@ impl<M: Model + 'static> Refinable for Problem<M> {
     }
     fn clusters(&self) -> Vec<u32> {
         self.model.clusters()
+    }
+    fn orientation_groups(&self) -> Vec<u32> {
+        let clusters = self.model.clusters();
+        let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
+        self.model.orientation_groups(&clusters, g)
     }
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable> {
         Box::new(Problem {
@@ -1181,7 +1194,8 @@ pub(crate) fn refine_rows<M: Model>(
     };
     let normal = Normal::of(&sums.ata);
     let cov = covariance_from(&normal, &sums);
-    let honest = honest::Honest::of(normal.inverse(), &sums, &normal.used, &cov);
+    let groups = model.orientation_groups(&clusters, g);
+    let honest = honest::Honest::of(normal.inverse(), &sums, &groups, &normal.used, &cov);
     let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
     let clock = (model.clock_shift(&s)).map(|c| timed::clock_fit(c, p, &sums, &normal));
     Ok((
@@ -1216,7 +1230,14 @@ pub fn assess(p: &dyn Refinable, x: &Isometry3<f64>, status: Status) -> (Refined
     // J^T J once: the covariance, the observability and the step all start from it.
     let normal = Normal::of(&sums.ata);
     (
-        figures_of(&sums, &normal, p.n_params(), x, status),
+        figures_of(
+            &sums,
+            &p.orientation_groups(),
+            &normal,
+            p.n_params(),
+            x,
+            status,
+        ),
         gauss_newton_step(&sums, &normal),
     )
 }
@@ -1254,6 +1275,7 @@ fn svd_step(a: &DMatrix<f64>, g: &DVector<f64>, d: &[f64]) -> Vector6<f64> {
 
 fn figures_of(
     sums: &Sums,
+    groups: &[u32],
     normal: &Normal,
     n_params: usize,
     x: &Isometry3<f64>,
@@ -1261,7 +1283,7 @@ fn figures_of(
 ) -> Refined {
     let n = sums.n;
     let cov = covariance_from(normal, sums);
-    let honest = honest::Honest::of(normal.inverse(), sums, &normal.used, &cov);
+    let honest = honest::Honest::of(normal.inverse(), sums, groups, &normal.used, &cov);
     let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
     let cost = sums.rss / 2.0;
     Refined {

@@ -370,6 +370,9 @@ impl<M: Model + 'static> Model for Timed<M> {
     fn clusters(&self) -> Vec<u32> {
         self.base.clusters()
     }
+    fn orientation_groups(&self, clusters: &[u32], g: usize) -> Vec<u32> {
+        self.base.orientation_groups(clusters, g)
+    }
 
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Self {
         Timed::build(self.base.without_poses(drop), self.line.clone())
