@@ -113,6 +113,11 @@ pub struct Quality {
     /// (`Honest::pose_directions`).
     pub pose_directions: usize,
     pub inflation: Option<f64>,
+    /// Orientation groups among the poses (poses seen with one flange orientation; 0: none
+    /// shared) and how much what a group's poses share widened the bounds (a factor on the sd,
+    /// part of `inflation`).
+    pub orientation_groups: usize,
+    pub group_widening: Option<f64>,
     /// The robot's stated accuracy (mm) the residual test allowed, and the tolerance judged
     /// against.
     pub judging: Judging,
@@ -305,6 +310,8 @@ pub fn quality(
         poses: figures.map_or(0, |f| f.honest.clusters),
         pose_directions: figures.map_or(0, |f| f.honest.pose_directions),
         inflation: finite.map(|f| f.honest.inflation),
+        orientation_groups: figures.map_or(0, |f| f.honest.orientation_groups),
+        group_widening: finite.map(|f| f.honest.group_widening),
         judging: caps.judging,
         from_nominal: caps
             .judging

@@ -284,14 +284,23 @@ pub fn verdict_text(
         let f = |v: &[f64; 3]| v.map(|x| format!("{x:.4}")).join("/");
         say!(
             "{method}: 95 % error bound {br:.4} deg / {bt:.4} mm (per axis: rotation about the \
-             sensor's x/y/z {} deg, translation along the flange's x/y/z {} mm; {} poses{})",
+             sensor's x/y/z {} deg, translation along the flange's x/y/z {} mm; {} poses{}{})",
             f(&b.rotation_deg),
             f(&b.translation_mm),
             q.poses,
+            match q.orientation_groups {
+                0 => String::new(),
+                g => format!(" in {g} orientations"),
+            },
             q.inflation
                 .filter(|f| *f > 1.0)
                 .map_or(String::new(), |f| format!(
-                    ", widened {f:.1} times by the scatter between poses"
+                    ", widened {f:.1} times by the scatter between poses{}",
+                    q.group_widening
+                        .filter(|w| *w > 1.0)
+                        .map_or(String::new(), |w| format!(
+                            " ({w:.2} of it shared by poses of one orientation)"
+                        ))
                 ))
         );
     }
@@ -365,6 +374,8 @@ pub fn verdict_text(
     });
     // Where another variant's result widened the bound (`verdict::decide`).
     doc["between_variants"] = serde_json::json!(between);
+    doc["orientation_groups"] = serde_json::json!(q.orientation_groups);
+    doc["group_widening"] = serde_json::json!(q.group_widening);
     Ok(doc)
 }
 

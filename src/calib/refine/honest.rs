@@ -33,6 +33,10 @@ pub struct Honest {
     /// direction, as a factor on the standard deviation (1: the sensor noise explains the
     /// scatter between poses).
     pub inflation: f64,
+    /// Orientation groups among the poses (`orientation_groups`; 0: none shared) and the
+    /// factor on the sd their design effect widened the covariance by (1: not widened).
+    pub orientation_groups: usize,
+    pub group_widening: f64,
     /// The residual-level covariance (`covariance` holds it and the clustered one).
     pub residual: Matrix6<f64>,
     /// The covariance a shift of each flange pose's points by its own independent error of unit
@@ -59,6 +63,8 @@ impl Honest {
             dof: 0,
             pose_directions: 0,
             inflation: f64::NAN,
+            orientation_groups: 0,
+            group_widening: 1.0,
             residual: Matrix6::from_element(f64::INFINITY),
             per_pose_shift: Matrix6::zeros(),
         }
@@ -116,6 +122,8 @@ impl Honest {
             dof: n.saturating_sub(p).max(1),
             pose_directions: 0,
             inflation: 1.0,
+            orientation_groups: 0,
+            group_widening: 1.0,
             residual: *cov,
             per_pose_shift,
         };
@@ -162,6 +170,8 @@ impl Honest {
             dof: g - 1,
             pose_directions: informative,
             inflation,
+            orientation_groups: groups.iter().map(|&c| c as usize + 1).max().unwrap_or(0),
+            group_widening: widening.sqrt(),
             residual: *cov,
             per_pose_shift,
         }
