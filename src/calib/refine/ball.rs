@@ -51,6 +51,18 @@ impl Model for BallModel {
             .collect()
     }
 
+    /// By arc, as `clusters` numbers them.
+    fn orientation_groups(&self) -> Vec<u32> {
+        let flanges = self.arc_flanges();
+        let p = 6 + self.n_specimen_params();
+        if super::honest::pose_directions(super::honest::orientations(&flanges), p) == 0 {
+            return Vec::new();
+        }
+        let clusters = self.arc_clusters();
+        let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
+        super::honest::orientation_groups(&flanges, &clusters, g)
+    }
+
     /// Numbered per arc, not per point: neither a pose per point nor a table sized by them.
     fn clusters(&self) -> Vec<u32> {
         let mut out = Vec::with_capacity(self.n);
@@ -192,10 +204,13 @@ impl BallModel {
 
     /// Each arc's cluster: arcs seen from one flange pose share a number (`honest::clusters`).
     fn arc_clusters(&self) -> Vec<u32> {
-        let per_arc: Vec<&Isometry3<f64>> = (self.arcs.iter())
+        super::honest::clusters(&self.arc_flanges(), self.arcs.len())
+    }
+
+    fn arc_flanges(&self) -> Vec<&Isometry3<f64>> {
+        (self.arcs.iter())
             .map(|(k, _)| &self.poses[*k as usize])
-            .collect();
-        super::honest::clusters(&per_arc, per_arc.len())
+            .collect()
     }
 
     /// The centre in the sensor frame: s = R^T (F_R^T (c - F_t) - t).

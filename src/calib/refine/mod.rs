@@ -263,10 +263,19 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
         honest::clusters(&self.residual_flanges(), self.n_residuals())
     }
 
-    /// Each of the `g` clusters' orientation group (`honest::orientation_groups`; empty: none
-    /// shared, or the poses not known).
-    fn orientation_groups(&self, clusters: &[u32], g: usize) -> Vec<u32> {
-        honest::orientation_groups(&self.residual_flanges(), clusters, g)
+    /// Each cluster's orientation group (`honest::orientation_groups`, the clusters numbered
+    /// as `clusters` numbers them; empty: none shared, or the poses not known).
+    fn orientation_groups(&self) -> Vec<u32> {
+        let flanges = self.residual_flanges();
+        // Too few orientations to see a direction of the transform: nothing to number (the
+        // disk paper's four scans, a sweep's hundred thousand fits).
+        let p = 6 + self.n_specimen_params();
+        if honest::pose_directions(honest::orientations(&flanges), p) == 0 {
+            return Vec::new();
+        }
+        let clusters = honest::clusters(&flanges, flanges.len());
+        let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
+        honest::orientation_groups(&flanges, &clusters, g)
     }
 
     /// The same model without the features seen from the flange poses `drop` picks (the
@@ -546,9 +555,7 @@ impl<M: Model + 'static> Refinable for Problem<M> {
         self.model.clusters()
     }
     fn orientation_groups(&self) -> Vec<u32> {
-        let clusters = self.model.clusters();
-        let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
-        self.model.orientation_groups(&clusters, g)
+        self.model.orientation_groups()
     }
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable> {
         Box::new(Problem {
@@ -1194,7 +1201,7 @@ pub(crate) fn refine_rows<M: Model>(
     };
     let normal = Normal::of(&sums.ata);
     let cov = covariance_from(&normal, &sums);
-    let groups = model.orientation_groups(&clusters, g);
+    let groups = model.orientation_groups();
     let honest = honest::Honest::of(normal.inverse(), &sums, &groups, &normal.used, &cov);
     let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
     let clock = (model.clock_shift(&s)).map(|c| timed::clock_fit(c, p, &sums, &normal));

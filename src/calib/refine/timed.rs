@@ -370,8 +370,8 @@ impl<M: Model + 'static> Model for Timed<M> {
     fn clusters(&self) -> Vec<u32> {
         self.base.clusters()
     }
-    fn orientation_groups(&self, clusters: &[u32], g: usize) -> Vec<u32> {
-        self.base.orientation_groups(clusters, g)
+    fn orientation_groups(&self) -> Vec<u32> {
+        self.base.orientation_groups()
     }
 
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Self {
