@@ -1601,6 +1601,26 @@ mod tests {
         Sums::of(&r, &j, &[], 0)
     }
 
+    /// On a linear problem the moved scores are those of the residuals at the fit, and they sum
+    /// to zero there (the fit's gradient).
+    #[test]
+    fn scores_moved_to_the_fit_are_the_fits_own() {
+        let (n, p, g) = (120, 8, 12);
+        let j = DMatrix::from_fn(n, p, |i, c| ((i * (c + 5) + 3 * c) as f64 * 0.613).sin());
+        let r = DVector::from_fn(n, |i, _| ((i * 11) as f64 * 0.29).cos() + 0.3);
+        let cl: Vec<u32> = (0..n).map(|i| (i / (n / g)) as u32).collect();
+        let mut sums = Sums::of(&r, &j, &cl, g);
+        let normal = Normal::of(&sums.ata);
+        sums.move_scores_to_fit(&normal);
+        let d = -normal.inverse().unwrap() * j.transpose() * &r;
+        let at_fit = Sums::of(&(&r + &j * d), &j, &cl, g);
+        assert!((&sums.scores - &at_fit.scores).norm() < 1e-9 * at_fit.scores.norm().max(1.0));
+        let total: f64 = (0..p).map(|c| sums.scores.column(c).sum().abs()).sum();
+        assert!(total < 1e-9, "{total}");
+        // Before the move they held the distance: far from zero.
+        assert!(Sums::of(&r, &j, &cl, g).scores.norm() > 1.0);
+    }
+
     #[test]
     fn the_step_is_the_svd_one_and_the_guard_keeps_it_so() {
         for (tie, inverse_would_do) in [(1.0, true), (1e-3, true), (1e-9, false)] {
