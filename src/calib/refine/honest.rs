@@ -525,10 +525,13 @@ fn group_widening(
     if mean.is_finite() { mean.max(1.0) } else { 1.0 }
 }
 
-/// Poses whose orientations agree to within this angle (rad, 0.057 deg) share a group
-/// (`orientation_groups`): a robot's reported orientation over a pure translation repeats to
-/// thousandths of a degree, while the views the protocols vary differ by degrees.
-const SAME_ORIENTATION_RAD: f64 = 1e-3;
+/// Poses whose orientations agree to within this angle (rad) share a group
+/// (`orientation_groups`): the tolerance the protocols' "one orientation" groups are read with
+/// (`calib::ORIENTATION_TOLERANCE_DEG`, 0.1 deg). A robot's reported orientation over a pure
+/// translation repeats to thousandths of a degree; the views the protocols vary differ by
+/// degrees.
+const SAME_ORIENTATION_RAD: f64 =
+    crate::calib::ORIENTATION_TOLERANCE_DEG * std::f64::consts::PI / 180.0;
 
 /// Most orientations `orientations` tells apart: beyond, each direction is seen by groups
 /// enough, and the count bounds its comparisons.
@@ -986,10 +989,11 @@ mod tests {
     #[test]
     fn orientation_groups_join_the_poses_of_one_orientation() {
         let turn = |a: f64| Vector3::new(0.3, -0.2, 0.9).normalize() * a;
-        // Three orientations, four translations each; the third 0.5e-3 rad off the first.
+        // Three orientations, four translations each; the third 1e-3 rad (0.057 deg) off the
+        // first.
         let poses: Vec<Isometry3<f64>> = (0..12)
             .map(|i| {
-                let a = [0.2, 0.6, 0.2005][i / 4];
+                let a = [0.2, 0.6, 0.201][i / 4];
                 Isometry3::new(Vector3::new(0.01 * (i % 4) as f64, 0.0, 0.5), turn(a))
             })
             .collect();
