@@ -139,6 +139,10 @@ pub struct Judging {
     /// pose stream (None: every profile at a stated pose): an error in the profiles' clock offset
     /// moves them this far per second of it, which no residual shows.
     pub scan_speed: Option<f64>,
+    /// One standard deviation of the disk's or ball's true radius about the stated one (metres;
+    /// a certificate's standard uncertainty; 0: taken as exact). The fit holds the radius as
+    /// stated, so its error moves the result by a bias no residual shows: the bound adds it.
+    pub radius_tolerance: f64,
 }
 
 impl Judging {
@@ -157,6 +161,7 @@ impl Default for Judging {
             robot_accuracy: Judging::DEFAULT_ROBOT_ACCURACY_MM * 1e-3,
             nominal: None,
             scan_speed: None,
+            radius_tolerance: 0.0,
         }
     }
 }

@@ -136,6 +136,10 @@ struct SpecimenV1 {
     /// A disk's or ball's radius, mm.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     radius_mm: Option<f64>,
+    /// One standard deviation of the true radius about `radius_mm` (a certificate's standard
+    /// uncertainty), mm; left out: the radius is taken as exact.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    radius_tolerance_mm: Option<f64>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -282,6 +286,8 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
         specimen: SpecimenV1 {
             kind: c.specimen_kind,
             radius_mm: c.specimen_radius.map(|r| r * 1e3),
+            radius_tolerance_mm: (c.judging.radius_tolerance > 0.0)
+                .then_some(c.judging.radius_tolerance * 1e3),
         },
         edge_sense: c.edge_sense,
         truth_flange_to_sensor_mm: c.truth.as_ref().map(crate::math::pose_to_rows_mm),
@@ -1318,7 +1324,42 @@ fn judging_of(f: &FileV1, file: &str) -> Result<Judging, FormatError> {
             .map(|m| transform_of(&m, file, "nominal_flange_to_sensor_mm"))
             .transpose()?,
         scan_speed: None,
+        radius_tolerance: match f.specimen.radius_tolerance_mm {
+            None => 0.0,
+            Some(t) => radius_tolerance(
+                t,
+                f.specimen.radius_mm,
+                file,
+                "specimen.radius_tolerance_mm",
+            )?,
+        },
     })
+}
+
+/// A specimen's radius tolerance (mm in, metres out), checked: one standard deviation, from 0
+/// to a tenth of the radius (`radius_mm`, when stated).
+pub fn radius_tolerance(
+    mm: f64,
+    radius_mm: Option<f64>,
+    file: &str,
+    at: &str,
+) -> Result<f64, FormatError> {
+    let most = radius_mm
+        .filter(|r| r.is_finite() && *r > 0.0)
+        .map_or(10.0, |r| r / 10.0);
+    if mm.is_finite() && (0.0..=most).contains(&mm) {
+        Ok(mm * 1e-3)
+    } else {
+        Err(err(
+            file,
+            at,
+            format!(
+                "{mm}: give one standard deviation of the specimen's true radius about the \
+                 stated one in mm (a certificate's standard uncertainty), from 0 to {most} (a \
+                 tenth of the radius); leave it out for a radius taken as exact"
+            ),
+        ))
+    }
 }
 
 /// A tolerance on the verdict's 95 % bound (deg or mm), checked.

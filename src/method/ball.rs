@@ -360,7 +360,10 @@ impl Plan for BallPlanned {
         let mut caps = Captures {
             orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
             feature_sigma: (!self.raycast).then_some(self.sigma),
-            judging: crate::captures::Judging::default(),
+            judging: crate::captures::Judging {
+                radius_tolerance: self.radius_tolerance,
+                ..Default::default()
+            },
             method: Kind::Ball,
             sensor: rig.sensor.name.clone(),
             specimen_kind: SpecimenType::Ball,

@@ -488,7 +488,10 @@ impl Plan for DiskPlan {
             timing,
             orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
             feature_sigma: (!self.raycast).then_some(self.sigma),
-            judging: crate::captures::Judging::default(),
+            judging: crate::captures::Judging {
+                radius_tolerance: self.radius_tolerance,
+                ..Default::default()
+            },
             method: Kind::Disk,
             sensor: rig.sensor.name.clone(),
             specimen_kind: self.specimen.kind.specimen_type(),

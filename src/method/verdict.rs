@@ -118,6 +118,9 @@ pub struct Quality {
     /// part of `inflation`).
     pub orientation_groups: usize,
     pub group_widening: Option<f64>,
+    /// Where the captures state the specimen's radius tolerance: how far the result moves per
+    /// mm of error in the radius (deg per mm, mm per mm); the bounds include it.
+    pub radius_shift: Option<(f64, f64)>,
     /// The robot's stated accuracy (mm) the residual test allowed, and the tolerance judged
     /// against.
     pub judging: Judging,
@@ -286,6 +289,10 @@ pub fn quality(
         NOISE_FACTOR * (1.0 + Z_999 * (2.0 / d as f64).sqrt()).sqrt() * s.hypot(robot) / s
     });
     let finite = figures.filter(|f| f.honest.covariance.iter().all(|v| v.is_finite()));
+    // A stated radius tolerance: how far the fit moves per metre of radius, at the result.
+    let radius_shift = (caps.judging.radius_tolerance > 0.0 && finite.is_some())
+        .then(|| cal.refinable.as_ref()?.radius_shift(&cal.flange_to_sensor))
+        .flatten();
     Quality {
         residual_rms_mm: rms.map(|r| r * 1e3),
         stated_noise_mm: noise.map(|s| s * 1e3),
@@ -303,9 +310,18 @@ pub fn quality(
         profiles: caps.profiles.len(),
         rejected: cal.missed,
         bounds: finite.map(|f| {
-            f.honest
-                .with_systematic(robot / ROBOT_REACH, robot)
-                .bounds()
+            let h = f.honest.with_systematic(robot / ROBOT_REACH, robot);
+            match &radius_shift {
+                Some(s) => h.with_shift(s, caps.judging.radius_tolerance),
+                None => h,
+            }
+            .bounds()
+        }),
+        radius_shift: radius_shift.map(|s| {
+            (
+                s.fixed_rows::<3>(0).norm().to_degrees() * 1e-3,
+                s.fixed_rows::<3>(3).norm(),
+            )
         }),
         poses: figures.map_or(0, |f| f.honest.clusters),
         pose_directions: figures.map_or(0, |f| f.honest.pose_directions),
@@ -457,6 +473,16 @@ pub fn judge(q: Quality) -> Judged {
     }
     if let Some(note) = clock_note(&q) {
         notes.push(note);
+    }
+    if let Some((deg, mm)) = q.radius_shift {
+        let t = q.judging.radius_tolerance * 1e3;
+        notes.push(format!(
+            "the specimen's stated radius tolerance ({t:.4} mm, one sd) is in the bounds: the \
+             fit holds the radius as stated, and each 0.01 mm of error in it moves the result \
+             {:.4} deg / {:.4} mm, which no residual shows",
+            deg * 0.01,
+            mm * 0.01
+        ));
     }
     if q.profiles > 0 && q.rejected as f64 > MAX_REJECTED_SHARE * q.profiles as f64 {
         reasons.push(format!(

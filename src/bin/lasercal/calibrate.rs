@@ -32,6 +32,11 @@ pub struct Args {
     /// [default: 0.5]
     #[arg(long, allow_negative_numbers = true)]
     robot_accuracy_mm: Option<f64>,
+    /// One standard deviation of the disk's or ball's true radius about the stated one (mm, a
+    /// certificate's standard uncertainty): the bounds then include what it moves the result;
+    /// overrides the file's specimen.radius_tolerance_mm [default: 0, the radius exact]
+    #[arg(long, allow_negative_numbers = true)]
+    radius_tolerance_mm: Option<f64>,
     /// Profiles placed by time stamps on a pose_stream: take their clock offset as stated
     /// (profile_clock_offset_s) instead of estimating it with the transform; overrides the file's
     /// estimate_clock_offset
@@ -100,6 +105,14 @@ pub fn run(a: Args) -> Result<i32> {
     if let Some(r) = a.robot_accuracy_mm {
         caps.judging.robot_accuracy =
             lasercal::io::captures::robot_accuracy(r, &name, "--robot-accuracy-mm")?;
+    }
+    if let Some(t) = a.radius_tolerance_mm {
+        caps.judging.radius_tolerance = lasercal::io::captures::radius_tolerance(
+            t,
+            caps.specimen_radius.map(|r| r * 1e3),
+            &name,
+            "--radius-tolerance-mm",
+        )?;
     }
     if a.hold_clock_offset || a.estimate_clock_drift {
         match caps.timing.as_mut() {

@@ -51,6 +51,17 @@ impl Model for BallModel {
             .collect()
     }
 
+    fn radius(&self) -> Option<f64> {
+        Some(self.radius)
+    }
+
+    fn with_radius(&self, radius: f64) -> Option<BallModel> {
+        Some(BallModel {
+            radius,
+            ..self.clone()
+        })
+    }
+
     /// By arc, as `clusters` numbers them.
     fn orientation_groups(&self) -> Vec<u32> {
         let flanges = self.arc_flanges();
@@ -377,6 +388,78 @@ mod tests {
             t: x.t + Vector3::new(1e-4, -2e-4, 3e-4),
         };
         (m, off, c + Vector3::new(2e-4, 0.0, -1e-4))
+    }
+
+    /// Exact arcs of a ball from 8 poses: refitted with the radius 10 um off, the result moves
+    /// by `radius_shift` times 10 um (to 1 %), and not at all with the stated radius.
+    #[test]
+    fn the_radius_shift_is_the_refits_move() {
+        use super::super::{Options, Problem, Refinable, refine};
+        let x = Isometry3::new(
+            Vector3::new(0.006, 0.054, 0.364),
+            Vector3::new(0.02, -0.01, 1.5),
+        );
+        let (c, radius) = (Vector3::new(-0.315, -0.304, 0.150), 0.0695);
+        let mut m = BallModel::new(radius);
+        for k in 0..8 {
+            let a = k as f64 * std::f64::consts::TAU / 8.0;
+            // The sensor 0.2 m above the ball, looking down, its plane within 25 mm of the
+            // centre; the flange where that puts it.
+            let turn = nalgebra::UnitQuaternion::from_scaled_axis(Vector3::z() * 0.3 * a)
+                * nalgebra::UnitQuaternion::from_scaled_axis(Vector3::new(
+                    std::f64::consts::PI + 0.1 * a.sin(),
+                    0.1 * a.cos(),
+                    0.0,
+                ));
+            let sensor = Isometry3::from_parts(
+                (c + Vector3::new(0.01 * a.cos(), 0.01 * a.sin(), 0.2)).into(),
+                turn,
+            );
+            let f = sensor * x.inverse();
+            // The laser plane (sensor y = 0) in the base frame: the ball's section there.
+            let s = f * x;
+            let d = c - s.translation.vector;
+            let (ex, ey, ez) = (
+                s.rotation * Vector3::x(),
+                s.rotation * Vector3::y(),
+                s.rotation * Vector3::z(),
+            );
+            let rho = (radius * radius - d.dot(&ey).powi(2)).sqrt();
+            assert!(rho > 0.03, "pose {k}: the plane misses the ball ({rho})");
+            let (cx, cz) = (d.dot(&ex), d.dot(&ez));
+            m.add(
+                &f,
+                (0..40).map(|i| {
+                    let t = std::f64::consts::PI * (1.2 + 0.6 * i as f64 / 39.0);
+                    Vector2::new(cx + rho * t.cos(), cz - rho * t.sin().abs())
+                }),
+            );
+        }
+        let opts = Options::default();
+        let (at, _) = refine(&m, &x, &c, &opts).unwrap();
+        let moved = (at.flange_to_sensor.translation.vector - x.translation.vector).norm();
+        assert!(moved < 1e-9, "exact data: {moved}");
+        let h = 1e-5;
+        let (off, _) = refine(&m.with_radius(radius + h).unwrap(), &x, &c, &opts).unwrap();
+        let seen_r = (x.rotation.inverse() * off.flange_to_sensor.rotation).scaled_axis();
+        let seen_t = off.flange_to_sensor.translation.vector - x.translation.vector;
+        let shift = Problem {
+            model: m,
+            specimen: c,
+        }
+        .radius_shift(&x)
+        .unwrap()
+            * h;
+        for i in 0..3 {
+            let scale = shift.fixed_rows::<3>(0).norm();
+            assert!((seen_r[i] - shift[i]).abs() < 0.01 * scale, "rotation {i}");
+            let scale = shift.fixed_rows::<3>(3).norm();
+            assert!(
+                (seen_t[i] - shift[3 + i]).abs() < 0.01 * scale,
+                "translation {i}"
+            );
+        }
+        assert!(shift.fixed_rows::<3>(3).norm() > 1e-7);
     }
 
     #[test]

@@ -189,6 +189,17 @@ impl Model for DiskModel {
         }
     }
 
+    fn radius(&self) -> Option<f64> {
+        Some(self.radius)
+    }
+
+    fn with_radius(&self, radius: f64) -> Option<DiskModel> {
+        Some(DiskModel {
+            radius,
+            ..self.clone()
+        })
+    }
+
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> DiskModel {
         let kept_ends: Vec<usize> = (0..self.ends.len())
             .filter(|&i| !drop(&self.ends[i].0))
@@ -504,6 +515,17 @@ impl Model for DiskReduced {
             rest: self.rest.map_poses(to),
             face: super::moved(&self.face, to),
         }
+    }
+
+    fn radius(&self) -> Option<f64> {
+        self.rest.radius()
+    }
+
+    fn with_radius(&self, radius: f64) -> Option<DiskReduced> {
+        Some(DiskReduced {
+            rest: self.rest.with_radius(radius)?,
+            face: self.face.clone(),
+        })
     }
 
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> DiskReduced {

@@ -204,6 +204,15 @@ impl Honest {
         }
     }
 
+    /// The same with a bias added that moves the transform by `shift` per unit of an error of
+    /// standard deviation `sd` (a specimen's radius against its stated one).
+    pub fn with_shift(&self, shift: &nalgebra::Vector6<f64>, sd: f64) -> Honest {
+        Honest {
+            covariance: self.covariance + shift * shift.transpose() * (sd * sd),
+            ..self.clone()
+        }
+    }
+
     /// 95 % bounds on the error (deg, mm).
     pub fn bounds(&self) -> Bounds {
         let t = student_t_975(self.dof) / Z_975;

@@ -263,6 +263,19 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
         honest::clusters(&self.residual_flanges(), self.n_residuals())
     }
 
+    /// The specimen's stated radius (metres) where the model holds one fixed (a disk, a ball).
+    fn radius(&self) -> Option<f64> {
+        None
+    }
+
+    /// The same model with its fixed radius set to `radius` (None: it holds none).
+    fn with_radius(&self, _radius: f64) -> Option<Self>
+    where
+        Self: Sized,
+    {
+        None
+    }
+
     /// Each cluster's orientation group (`honest::orientation_groups`, the clusters numbered
     /// as `clusters` numbers them; empty: none shared, or the poses not known).
     fn orientation_groups(&self) -> Vec<u32> {
@@ -415,6 +428,10 @@ pub trait Refinable: Send + Sync + fmt::Debug {
     fn clusters(&self) -> Vec<u32>;
     /// Each cluster's orientation group (`Model::orientation_groups`).
     fn orientation_groups(&self) -> Vec<u32>;
+    /// How the least-squares fit near `x` moves per metre of error in the specimen's stated
+    /// radius (rotation rad in the sensor frame, translation m; None: the model fixes no
+    /// radius, or the problem is singular).
+    fn radius_shift(&self, x: &Isometry3<f64>) -> Option<Vector6<f64>>;
     /// The same problem without the features seen from the flange poses `drop` picks.
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable>;
     /// The sums the figures at `x` need (`Sums`), streamed in parts where the problem is tall.
@@ -583,6 +600,28 @@ impl<M: Model + 'static> Refinable for Problem<M> {
     }
     fn orientation_groups(&self) -> Vec<u32> {
         self.model.orientation_groups()
+    }
+    fn radius_shift(&self, x: &Isometry3<f64>) -> Option<Vector6<f64>> {
+        // The residuals are linear in a fixed radius, so J^T r at two radii differs by
+        // J^T dr/dR exactly (J does not depend on it): the fit's step per metre is
+        // -A^-1 J^T dr/dR, through the same sums the figures use.
+        let radius = self.model.radius()?;
+        let h = radius * 1e-4;
+        let other = Problem {
+            model: self.model.with_radius(radius + h)?,
+            specimen: self.specimen,
+        };
+        let (a, b) = (self.sums(x), other.sums(x));
+        let normal = Normal::of(&a.ata);
+        let inv = normal.inverse()?;
+        let used = &normal.used;
+        if used.len() < 6 || used[..6] != [0, 1, 2, 3, 4, 5] {
+            return None;
+        }
+        let g = DVector::from_fn(used.len(), |i, _| (b.atr[used[i]] - a.atr[used[i]]) / h);
+        let d = -inv * g;
+        let shift = Vector6::from_fn(|i, _| d[i]);
+        shift.iter().all(|v| v.is_finite()).then_some(shift)
     }
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable> {
         Box::new(Problem {

@@ -378,6 +378,17 @@ impl<M: Model + 'static> Model for Timed<M> {
         Timed::build(self.base.without_poses(drop), self.line.clone())
     }
 
+    fn radius(&self) -> Option<f64> {
+        self.base.radius()
+    }
+
+    fn with_radius(&self, radius: f64) -> Option<Self> {
+        Some(Timed::build(
+            self.base.with_radius(radius)?,
+            self.line.clone(),
+        ))
+    }
+
     fn map_poses(&self, to: &mut dyn FnMut(&Isometry3<f64>) -> Isometry3<f64>) -> Self {
         // The mapped poses keep their times.
         let placed = self
