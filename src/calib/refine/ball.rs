@@ -66,7 +66,9 @@ impl Model for BallModel {
     fn orientation_groups(&self) -> Vec<u32> {
         let flanges = self.arc_flanges();
         let p = 6 + self.n_specimen_params();
-        if super::honest::pose_directions(super::honest::orientations(&flanges), p) == 0 {
+        if super::honest::pose_directions(super::honest::orientations(flanges.iter().copied()), p)
+            == 0
+        {
             return Vec::new();
         }
         let clusters = self.arc_clusters();

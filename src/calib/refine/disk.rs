@@ -189,6 +189,23 @@ impl Model for DiskModel {
         }
     }
 
+    /// Chords alone (the disk paper's protocol, a Fig. 15 trial): counted from the ends
+    /// without a pose per residual first.
+    fn orientation_groups(&self) -> Vec<u32> {
+        let p = 6 + self.n_specimen_params();
+        if self.face.is_empty()
+            && self.rims.is_empty()
+            && self.walls.is_empty()
+            && super::honest::pose_directions(
+                super::honest::orientations(self.ends.iter().map(|(f, _)| f)),
+                p,
+            ) == 0
+        {
+            return Vec::new();
+        }
+        super::orientation_groups_of(self)
+    }
+
     fn radius(&self) -> Option<f64> {
         Some(self.radius)
     }

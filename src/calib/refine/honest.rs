@@ -548,11 +548,11 @@ const MAX_ORIENTATIONS: usize = 256;
 
 /// How many orientations (within `SAME_ORIENTATION_RAD`) `flanges` show, up to
 /// `MAX_ORIENTATIONS`: one comparison per run of one pose, no table.
-pub fn orientations(flanges: &[&Isometry3<f64>]) -> usize {
+pub fn orientations<'a>(flanges: impl IntoIterator<Item = &'a Isometry3<f64>>) -> usize {
     let near = (SAME_ORIENTATION_RAD / 2.0).cos();
     let mut reps: Vec<nalgebra::UnitQuaternion<f64>> = Vec::new();
     let mut last: Option<&Isometry3<f64>> = None;
-    for &f in flanges {
+    for f in flanges {
         if last.is_some_and(|l| std::ptr::eq(l, f) || l.rotation == f.rotation) {
             continue;
         }
@@ -1012,14 +1012,14 @@ mod tests {
             orientation_groups(&f, &cl, 12),
             vec![0, 0, 0, 0, 1, 1, 1, 1, 0, 0, 0, 0]
         );
-        assert_eq!(orientations(&f), 2);
+        assert_eq!(orientations(f.iter().copied()), 2);
         // Every pose its own orientation: no groups; nor without a flange per residual.
         let free: Vec<Isometry3<f64>> = (0..12)
             .map(|i| Isometry3::new(Vector3::zeros(), turn(0.01 * i as f64)))
             .collect();
         let f: Vec<&Isometry3<f64>> = free.iter().collect();
         assert!(orientation_groups(&f, &clusters(&f, 12), 12).is_empty());
-        assert_eq!(orientations(&f), 12);
+        assert_eq!(orientations(f.iter().copied()), 12);
         assert!(orientation_groups(&f[..5], &clusters(&f, 12), 12).is_empty());
     }
 

@@ -279,16 +279,7 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
     /// Each cluster's orientation group (`honest::orientation_groups`, the clusters numbered
     /// as `clusters` numbers them; empty: none shared, or the poses not known).
     fn orientation_groups(&self) -> Vec<u32> {
-        let flanges = self.residual_flanges();
-        // Too few orientations to see a direction of the transform: nothing to number (the
-        // disk paper's four scans, a sweep's hundred thousand fits).
-        let p = 6 + self.n_specimen_params();
-        if honest::pose_directions(honest::orientations(&flanges), p) == 0 {
-            return Vec::new();
-        }
-        let clusters = honest::clusters(&flanges, flanges.len());
-        let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
-        honest::orientation_groups(&flanges, &clusters, g)
+        orientation_groups_of(self)
     }
 
     /// The same model without the features seen from the flange poses `drop` picks (the
@@ -520,6 +511,20 @@ impl Sums {
         self.rss += o.rss;
         self.n += o.n;
     }
+}
+
+/// `Model::orientation_groups` from the model's residual flanges.
+pub(super) fn orientation_groups_of<M: Model + ?Sized>(m: &M) -> Vec<u32> {
+    let flanges = m.residual_flanges();
+    // Too few orientations to see a direction of the transform: nothing to number (the disk
+    // paper's four scans, a sweep's hundred thousand fits).
+    let p = 6 + m.n_specimen_params();
+    if honest::pose_directions(honest::orientations(flanges.iter().copied()), p) == 0 {
+        return Vec::new();
+    }
+    let clusters = honest::clusters(&flanges, flanges.len());
+    let g = clusters.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
+    honest::orientation_groups(&flanges, &clusters, g)
 }
 
 /// Rows per part when a problem's sums are streamed (`Refinable::sums`): a part's Jacobian is
