@@ -978,6 +978,17 @@ mod tests {
         assert_eq!((c[299], c[300], c[599]), (299, 299, 0));
     }
 
+    /// The residual-level sandwich A^-1 (sum r_i^2 J_i^T J_i) A^-1 of six parameters, by rows.
+    fn sandwich(inv: &DMatrix<f64>, j: &DMatrix<f64>, r: &DVector<f64>) -> Matrix6<f64> {
+        let mut meat = DMatrix::zeros(6, 6);
+        for i in 0..j.nrows() {
+            let row = j.row(i).transpose() * r[i];
+            meat += &row * row.transpose();
+        }
+        let full = inv * meat * inv;
+        Matrix6::from_fn(|a, b| full[(a, b)])
+    }
+
     /// Seeded draws: uniform in (0, 1) and standard normal (Box-Muller), one sequence.
     struct Draws(u64);
 
@@ -1049,13 +1060,7 @@ mod tests {
             });
             let step = &inv * j.transpose() * &r;
             let res = &r - &j * &step;
-            let mut meat = DMatrix::zeros(6, 6);
-            for i in 0..n {
-                let row = j.row(i).transpose() * res[i];
-                meat += &row * row.transpose();
-            }
-            let full = &inv * meat * &inv;
-            let cov = Matrix6::from_fn(|a, b| full[(a, b)]);
+            let cov = sandwich(&inv, &j, &res);
             let sums = super::super::Sums::of(&res, &j, &cl, poses);
             seen += step[0] * step[0] / draws as f64;
             alone +=
@@ -1145,13 +1150,7 @@ mod tests {
         let a = j.transpose() * &j;
         let used: Vec<usize> = (0..6).collect();
         let inv = a.clone().try_inverse().unwrap();
-        let mut meat = DMatrix::zeros(6, 6);
-        for i in 0..n {
-            let row = j.row(i).transpose() * r[i];
-            meat += &row * row.transpose();
-        }
-        let full = &inv * meat * &inv;
-        let cov = Matrix6::from_fn(|a, b| full[(a, b)]);
+        let cov = sandwich(&inv, &j, &r);
         let sums = super::super::Sums::of(&r, &j, &cl, 20);
         let h = Honest::of(Some(&inv), &sums, &[], &used, &cov);
         assert_eq!((h.clusters, h.dof), (20, 19));
