@@ -1087,9 +1087,10 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(2);
-    let cases: [(&str, Kind, fn() -> (Setup, Fan, Vec<Solid>)); 2] = [
+    let cases: [(&str, Kind, fn() -> (Setup, Fan, Vec<Solid>)); 3] = [
         ("disk", Kind::Disk, disk_case),
         ("ball", Kind::Ball, ball_case),
+        ("edge", Kind::Edge, edge_case),
     ];
     let (mut false_alarms, mut missed) = (Vec::new(), Vec::new());
     println!(
