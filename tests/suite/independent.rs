@@ -1071,7 +1071,8 @@ fn ball_refinement_converges_on_independent_profiles() {
 }
 
 /// The verdict on the papers' own protocols as another generator makes them: the disk paper's
-/// four scans and its ball's rotation and translation sets, every profile from `testkit::fan`
+/// four scans, its ball's rotation and translation sets and the edge paper's 25 orientations of
+/// 10 translations (its parallel bar), every profile from `testkit::fan`
 /// (its own fan, declared as docs/sensors.md says) with z noise 0.1 mm; once with an exact arm
 /// and once with robot pose error (each profile cast from a pose moved up to 0.3 mm and
 /// 0.017 deg, the file recording the commanded pose and stating 0.2 mm of robot accuracy). Every
