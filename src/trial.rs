@@ -61,6 +61,7 @@ pub fn run_trial(setup: &Setup, method: MethodId, seed: u64, trial: u64) -> Tria
             let judged = crate::method::verdict::judge(crate::method::verdict::quality(
                 &cal,
                 refined.as_ref(),
+                method.estimator,
                 &caps,
                 &setup.rig.sensor,
             ));

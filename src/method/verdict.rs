@@ -258,10 +258,12 @@ pub fn stated_noise(caps: &Captures, sensor: &SensorModel) -> Option<f64> {
 }
 
 /// The quality figures of a result: `refined` when the variant refined (its own figures), else
-/// the closed form judged under the feature model at its transform.
+/// the closed form judged under the feature model at its transform; `estimator` names the
+/// problem the variant fitted (`Calibration::problem`).
 pub fn quality(
     cal: &Calibration,
     refined: Option<&Refined>,
+    estimator: super::Estimator,
     caps: &Captures,
     sensor: &SensorModel,
 ) -> Quality {
@@ -291,7 +293,7 @@ pub fn quality(
     let finite = figures.filter(|f| f.honest.covariance.iter().all(|v| v.is_finite()));
     // A stated radius tolerance: how far the fit moves per metre of radius, at the result.
     let radius_shift = (caps.judging.radius_tolerance > 0.0 && finite.is_some())
-        .then(|| cal.refinable.as_ref()?.radius_shift(&cal.flange_to_sensor))
+        .then(|| cal.problem(estimator)?.radius_shift(&cal.flange_to_sensor))
         .flatten();
     Quality {
         residual_rms_mm: rms.map(|r| r * 1e3),
@@ -635,7 +637,13 @@ pub fn assess(
     sensor: &SensorModel,
 ) -> Result<Assessed, crate::error::Error> {
     let (calibration, refined) = super::estimate(method, caps, sensor)?;
-    let judged = judge(quality(&calibration, refined.as_ref(), caps, sensor));
+    let judged = judge(quality(
+        &calibration,
+        refined.as_ref(),
+        method.estimator,
+        caps,
+        sensor,
+    ));
     Ok(Assessed {
         method,
         calibration,
@@ -838,7 +846,7 @@ pub fn leave_one_out(a: &Assessed, caps: &Captures, sensor: &SensorModel) -> Opt
         .map(|g| {
             let c = caps.without_group(g.id);
             without_group(a, caps, g.id, &c, sensor).map(|(cal, refined)| {
-                let q = quality(&cal, refined.as_ref(), &c, sensor);
+                let q = quality(&cal, refined.as_ref(), a.method.estimator, &c, sensor);
                 (cal, q)
             })
         })

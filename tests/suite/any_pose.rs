@@ -1360,7 +1360,7 @@ fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
                 refused += 1;
                 continue;
             };
-            let j = judge(quality(&cal, r.as_ref(), &s.caps, &sensor));
+            let j = judge(quality(&cal, r.as_ref(), id.estimator, &s.caps, &sensor));
             let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
             // A wrong answer (beyond 1 deg or 1 mm) must not pass as ok.
             if !(e.rotation_error_deg < 1.0 && e.translation_error_mm < 1.0) {
@@ -1419,7 +1419,7 @@ fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
         let Ok((cal, r)) = lasercal::method::estimate(id, &s.caps, &sensor) else {
             continue;
         };
-        let j = judge(quality(&cal, r.as_ref(), &s.caps, &sensor));
+        let j = judge(quality(&cal, r.as_ref(), id.estimator, &s.caps, &sensor));
         let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
         if e.rotation_error_deg > 1.0 || e.translation_error_mm > 1.0 {
             wrong += 1;
@@ -1685,6 +1685,7 @@ fn noisy_profiles_of_a_sensor_known_only_by_its_points_state_their_own_noise() {
     let judged = lasercal::method::verdict::judge(lasercal::method::verdict::quality(
         &cal,
         r.as_ref(),
+        ANY.estimator,
         &caps,
         &sensor,
     ));
@@ -1746,6 +1747,7 @@ fn points_only_profiles_at_noise_lose_little_to_a_declared_fan() {
                 let j = lasercal::method::verdict::judge(lasercal::method::verdict::quality(
                     &c,
                     r.as_ref(),
+                    id.estimator,
                     &caps,
                     &sensor,
                 ));

@@ -55,7 +55,13 @@ fn run_case(
             tally.refused += 1;
             continue;
         };
-        let j = judge(quality(&cal, refined.as_ref(), &caps, &s.rig.sensor));
+        let j = judge(quality(
+            &cal,
+            refined.as_ref(),
+            method.estimator,
+            &caps,
+            &s.rig.sensor,
+        ));
         let e = PoseError::between(&cal.flange_to_sensor, &truth);
         let bad = !(e.rotation_error_deg <= 1.0 && e.translation_error_mm <= 1.0);
         // Imprecise is no confident answer either: only `ok` passes.
