@@ -1347,18 +1347,28 @@ pub fn radius_tolerance(
     let most = radius_mm
         .filter(|r| r.is_finite() && *r > 0.0)
         .map_or(10.0, |r| r / 10.0);
+    metres_from_mm(mm, most, file, at, || {
+        format!(
+            "give one standard deviation of the specimen's true radius about the stated one in \
+             mm (a certificate's standard uncertainty), from 0 to {most} (a tenth of the \
+             radius); leave it out for a radius taken as exact"
+        )
+    })
+}
+
+/// `mm` in metres where it is finite and from 0 to `most`; else an error naming the file, the
+/// field and the value, with `hint` saying what to give.
+fn metres_from_mm(
+    mm: f64,
+    most: f64,
+    file: &str,
+    at: &str,
+    hint: impl FnOnce() -> String,
+) -> Result<f64, FormatError> {
     if mm.is_finite() && (0.0..=most).contains(&mm) {
         Ok(mm * 1e-3)
     } else {
-        Err(err(
-            file,
-            at,
-            format!(
-                "{mm}: give one standard deviation of the specimen's true radius about the \
-                 stated one in mm (a certificate's standard uncertainty), from 0 to {most} (a \
-                 tenth of the radius); leave it out for a radius taken as exact"
-            ),
-        ))
+        Err(err(file, at, format!("{mm}: {}", hint())))
     }
 }
 
@@ -1380,18 +1390,11 @@ pub fn tolerance(v: f64, file: &str, at: &str) -> Result<f64, FormatError> {
 
 /// A robot's pose accuracy (mm in, metres out), checked.
 pub fn robot_accuracy(mm: f64, file: &str, at: &str) -> Result<f64, FormatError> {
-    if mm.is_finite() && (0.0..=100.0).contains(&mm) {
-        Ok(mm * 1e-3)
-    } else {
-        Err(err(
-            file,
-            at,
-            format!(
-                "{mm}: give one standard deviation of the robot's pose error at the specimen in \
-                 mm, from 0 to 100 (default 0.5; 0 for a simulated rig without robot error)"
-            ),
-        ))
-    }
+    metres_from_mm(mm, 100.0, file, at, || {
+        "give one standard deviation of the robot's pose error at the specimen in mm, from 0 to \
+         100 (default 0.5; 0 for a simulated rig without robot error)"
+            .into()
+    })
 }
 
 /// A user's orientation tolerance (deg), checked: finite, above 0 and at most 5 (beyond, "one

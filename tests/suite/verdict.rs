@@ -753,3 +753,39 @@ fn variants_beyond_each_others_bounds_widen_the_chosen_bound() {
         a.judged.quality.own_error_bound()
     );
 }
+
+/// A simulated rig states its specimen's radius tolerance in the file it writes (read back
+/// the same), the bound includes what it moves the result, and a value beyond a tenth of the
+/// radius is refused naming the field.
+#[test]
+fn a_stated_radius_tolerance_is_written_read_and_checked() {
+    let s = setup("ball-causes", &|t| t.to_string());
+    let caps = trial_captures(&s, Kind::Ball, 3, 0).0.unwrap();
+    assert!((caps.judging.radius_tolerance - 0.005e-3).abs() < 1e-12);
+    let text = lasercal::io::captures::to_json(&caps, &s.rig.sensor);
+    let (back, sensor) = lasercal::io::captures::from_json(&text, "ball.json").unwrap();
+    assert!((back.judging.radius_tolerance - caps.judging.radius_tolerance).abs() < 1e-12);
+    let method = MethodId {
+        kind: Kind::Ball,
+        estimator: Estimator::Refined,
+    };
+    let (cal, refined) = estimate(method, &back, &sensor).unwrap();
+    let with = quality(&cal, refined.as_ref(), method.estimator, &back, &sensor);
+    let mut exact = back.clone();
+    exact.judging.radius_tolerance = 0.0;
+    let without = quality(&cal, refined.as_ref(), method.estimator, &exact, &sensor);
+    assert!(with.radius_shift.is_some() && without.radius_shift.is_none());
+    assert!(with.error_bound().1 > without.error_bound().1);
+    let bad = text.replace(
+        "\"radius_tolerance_mm\":0.005",
+        "\"radius_tolerance_mm\":50.0",
+    );
+    assert_ne!(bad, text, "the file states the tolerance");
+    let e = lasercal::io::captures::from_json(&bad, "ball.json")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("ball.json") && e.contains("specimen.radius_tolerance_mm") && e.contains("50"),
+        "{e}"
+    );
+}
