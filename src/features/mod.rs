@@ -279,6 +279,93 @@ fn tighten(
     (first, last, Line2::fit(&all).unwrap_or(line))
 }
 
+/// The face's end once wall points are told from it, at one end of a disk's face (`forward`:
+/// beyond `last`). Where a wall drops away past the end (adjacent points, each farther from the
+/// face's line than the one before and beyond the noise), its line, offset against column,
+/// tells the face's last points from wall points that the noise let in: at 0.25 mm of noise
+/// `tighten`'s 4-RMS walk took the first wall points for the face, carrying a disk's ends outward
+/// by up to nine columns on the side where its wall shows (on the comparison rig the refined
+/// chords' result moved 0.016 deg with them). A point is the wall's where the wall's line explains
+/// its offset better than the face's. (The rim placed at the two lines' corner instead was tried:
+/// the wall's line, extrapolated, biased the closed form's result threefold at low noise.)
+fn end_before_wall(
+    pts: &[(usize, Vector2<f64>)],
+    first: usize,
+    last: usize,
+    line: &Line2,
+    sensor: &SensorModel,
+    forward: bool,
+) -> Option<usize> {
+    if sensor.points_only || sensor.resampling().is_some() || last < first + 8 {
+        return None;
+    }
+    // Offset along each point's column from the face's line, positive away from the sensor.
+    let off = |i: usize| -> Option<f64> {
+        let (k, p) = pts[i];
+        let q = line.intersect(&column_line(sensor, k as f64))?;
+        Some(sensor.dir_z * (p.y - q.y))
+    };
+    let face: Vec<f64> = (first..=last).filter_map(off).collect();
+    let sigma = (face.iter().map(|o| o * o).sum::<f64>() / face.len() as f64)
+        .sqrt()
+        .max(sensor.z_quantum.unwrap_or(0.0) / 12f64.sqrt())
+        .max(1e-9);
+    // The wall: adjacent columns past the end, each farther from the face's line than the one
+    // before and beyond the noise; at most `RUN` of them.
+    const RUN: usize = 6;
+    let step = |i: usize| -> Option<usize> {
+        if forward {
+            (i + 1 < pts.len()).then_some(i + 1)
+        } else {
+            i.checked_sub(1)
+        }
+    };
+    let mut run: Vec<(f64, f64)> = Vec::new();
+    let (mut at, mut prev) = (if forward { last } else { first }, 0.0);
+    while run.len() < RUN {
+        let Some(next) = step(at) else { break };
+        if pts[next].0.abs_diff(pts[at].0) != 1 {
+            break;
+        }
+        let Some(o) = off(next) else { break };
+        if o <= prev || o <= 3.0 * sigma {
+            break;
+        }
+        run.push((pts[next].0 as f64, o));
+        (at, prev) = (next, o);
+    }
+    if run.len() < 2 {
+        return None;
+    }
+    // The wall's offset, linear in the column: o = a + b (k - mean).
+    let n = run.len() as f64;
+    let mean_k = run.iter().map(|r| r.0).sum::<f64>() / n;
+    let mean_o = run.iter().map(|r| r.1).sum::<f64>() / n;
+    let sxx: f64 = run.iter().map(|r| (r.0 - mean_k).powi(2)).sum();
+    let b = run
+        .iter()
+        .map(|r| (r.0 - mean_k) * (r.1 - mean_o))
+        .sum::<f64>()
+        / sxx;
+    // Away from the face (growing past the end) and clearly so.
+    let outward = if forward { b } else { -b };
+    if outward <= 3.0 * sigma / sxx.sqrt() {
+        return None;
+    }
+    let wall_at = |k: f64| mean_o + b * (k - mean_k);
+    // The face's last points: a wall point where the wall's line explains its offset better.
+    let mut end = if forward { last } else { first };
+    while end.abs_diff(if forward { first } else { last }) > 8 {
+        let (k, o) = (pts[end].0 as f64, off(end)?);
+        let w = wall_at(k);
+        if w <= 0.0 || (o - w).abs() >= o.abs() {
+            break;
+        }
+        end = if forward { end - 1 } else { end + 1 };
+    }
+    Some(end)
+}
+
 /// Chord of a disk on a cylinder (a step at the rim): split-and-merge; the chord is the segment, no
 /// longer than the disk's diameter, beyond both of whose ends the profile falls away from the
 /// sensor (the table and the cylinder wall lie below the disk); among several, the one with most
@@ -354,6 +441,15 @@ pub fn disk_profile(
     // The rim lies between the last column on the disk and the next one, whatever is beyond (the
     // cylinder wall is curved, so a corner with it would not be exact).
     let (first, last, line) = tighten(&pts, &segs[best], cfg.split_tol, sensor);
+    let ends = [false, true].map(|fwd| end_before_wall(&pts, first, last, &line, sensor, fwd));
+    let (first, last, line) = match ends {
+        [None, None] => (first, last, line),
+        [lo, hi] => {
+            let (f, l) = (lo.unwrap_or(first), hi.unwrap_or(last));
+            let face: Vec<Vector2<f64>> = pts[f..=l].iter().map(|p| p.1).collect();
+            (f, l, Line2::fit(&face).unwrap_or(line))
+        }
+    };
     let s = &Segment { first, last, line };
     // The sensor's dropout rate, measured on the face: the share of its columns without a point.
     // Beyond 30 % the face falls apart into pieces that cannot be told from pieces of the table:

@@ -146,10 +146,12 @@ fn medians(
 }
 
 #[test]
-fn full_profile_halves_the_chord_ends_error_on_the_comparison_rig() {
-    // Issue 14's acceptance: at least 2x better than the feature refinement. The comparison rig
-    // (Gocator 2340, quantised) at far z noise 0.12 mm, 30 trials; 200 trials per noise give
-    // 2.1-6x (README).
+fn full_profile_beats_the_chord_ends_on_the_comparison_rig() {
+    // Issue 14 asked for 2x better than the feature refinement, and it was (2.1-6x). Since the
+    // chord ends stopped taking wall points for the face (twentieth session) the chord ends are
+    // better too: on the comparison rig (Gocator 2340, quantised) at far z noise 0.12 mm, 30
+    // trials, 1.5x in rotation and 3.4x in translation; 200 trials per noise give 1.7-3.0x and
+    // 3.3-5.0x (docs/guide/methods.md).
     let text = std::fs::read_to_string(common::scen("comparison.toml"))
         .unwrap()
         .replace("z_sigma_far_mm = 0.06", "z_sigma_far_mm = 0.12");
@@ -160,8 +162,8 @@ fn full_profile_halves_the_chord_ends_error_on_the_comparison_rig() {
         "disk-refined {ra:.4} deg / {ta:.4} mm, disk-full {rb:.4} deg / {tb:.4} mm (medians)"
     );
     assert!(
-        2.0 * rb <= ra && 2.0 * tb <= ta,
-        "disk-full is not 2x better: {rb} / {tb} against {ra} / {ta}"
+        1.3 * rb <= ra && 2.5 * tb <= ta,
+        "disk-full is not 1.3x / 2.5x better: {rb} / {tb} against {ra} / {ta}"
     );
 }
 
@@ -193,7 +195,9 @@ fn full_profile_beats_chord_ends_on_profiles_lasercal_did_not_make() {
     // The comparison rig's poses, every profile from the independent generator (its own ray
     // caster, cylinder wall and camera occlusion), z noise 0.1 mm; 20 trials. Its camera sees
     // the wall beyond fewer ends, and the chord ends of its unquantised equal-angle rays are
-    // better to start with: measured 3.0x in rotation, 1.7x in translation.
+    // good to start with: measured 3.0x in rotation and 1.7x in translation while the chord ends
+    // took wall points for the face; since they do not, 1.75x in rotation (0.0044 against 0.0077
+    // deg), while in translation the chord ends are the better (0.0035 against 0.0041 mm).
     use lasercal::testkit::fan::Solid;
     let s = comparison();
     let solids = [
@@ -210,8 +214,9 @@ fn full_profile_beats_chord_ends_on_profiles_lasercal_did_not_make() {
          {tb:.4} mm (medians)"
     );
     assert!(
-        2.0 * rb <= ra && 1.3 * tb <= ta,
-        "disk-full is not 2x / 1.3x better: {rb} / {tb} against {ra} / {ta}"
+        1.5 * rb <= ra && tb <= 1.3 * ta,
+        "disk-full is not 1.5x better in rotation and within 1.3x in translation: {rb} / {tb} \
+         against {ra} / {ta}"
     );
 }
 
