@@ -39,6 +39,7 @@ pub mod tag {
     pub const SPECIMEN: u64 = 6;
     pub const PLAN: u64 = 7;
     pub const GRID_POINT: u64 = 8;
+    pub const PLACEMENT: u64 = 9;
 }
 
 /// A text's 64-bit FNV-1a hash: stable across platforms and versions, for seeds derived from

@@ -92,6 +92,17 @@ pub fn trial_captures(
     (simulate(setup, kind, seed, trial, &mut r), validation_seed)
 }
 
+/// Trial `trial`'s slide of every pose (the specimen's placement, `[placement]`): uniform within
+/// +-`jitter` (m) along base x and y, from its own stream (none without jitter).
+fn placement(jitter: f64, seed: u64, trial: u64) -> nalgebra::Vector3<f64> {
+    if !(jitter > 0.0) {
+        return nalgebra::Vector3::zeros();
+    }
+    let mut r = rng::stream(seed, &[tag::PLACEMENT, trial]);
+    let mut axis = || rand::RngExt::random_range(&mut r, -jitter..=jitter);
+    nalgebra::Vector3::new(axis(), axis(), 0.0)
+}
+
 fn simulate(
     setup: &Setup,
     kind: Kind,
@@ -105,7 +116,8 @@ fn simulate(
         setup.robot_error,
         setup.vibration,
         rng::stream(seed, &[tag::ROBOT_ERROR, trial]),
-    );
+    )
+    .with_placement(placement(setup.placement_jitter, seed, trial));
     if let Some(d) = &setup.dynamics {
         let gains = crate::sim::dynamics::ServoGains {
             stiffness: d.stiffness,

@@ -22,6 +22,8 @@ pub struct Setup {
     pub robot_error: RobotError,
     pub vibration: Vibration,
     pub dynamics: Option<DynamicsSection>,
+    /// Largest slide of the specimen per trial along base x and y (m; `[placement]`).
+    pub placement_jitter: f64,
 }
 
 impl Setup {
@@ -74,6 +76,7 @@ impl Scenario {
             robot_error,
             vibration,
             dynamics: self.dynamics.clone(),
+            placement_jitter: self.placement.as_ref().map_or(0.0, |p| p.jitter_mm * 1e-3),
         })
     }
 }

@@ -66,6 +66,19 @@ impl Scenario {
     }
 
     fn validate_disturbances(&self, v: &Validator) -> Result<(), ScenarioError> {
+        if let Some(p) = &self.placement {
+            v.non_negative("placement.jitter_mm", p.jitter_mm)?;
+            // A slide of a few columns changes the phase; one of centimetres moves the specimen
+            // out of the plan's views.
+            if p.jitter_mm > 20.0 {
+                return Err(v.bad(
+                    "placement.jitter_mm",
+                    p.jitter_mm,
+                    "at most 20 mm: the plan's poses are laid out for the specimen where it stands; \
+                     move it with specimen.position_mm instead",
+                ));
+            }
+        }
         if let Some(r) = &self.robot_error {
             for (k, x) in [
                 ("repeatability_mm", r.repeatability_mm),

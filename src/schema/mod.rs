@@ -93,6 +93,9 @@ pub struct Scenario {
     /// The arm's dynamics ([dynamics]).
     #[serde(default)]
     pub dynamics: Option<DynamicsSection>,
+    /// The specimen placed anew each trial ([placement]).
+    #[serde(default)]
+    pub placement: Option<PlacementSection>,
     /// Which physical causes of error to keep, and their scale ([causes]).
     #[serde(default)]
     pub causes: Option<CausesSection>,

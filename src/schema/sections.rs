@@ -325,6 +325,16 @@ pub struct RobotErrorSection {
     pub joint_offset_error_deg: f64,
 }
 
+/// The specimen placed anew for each trial: slid on the table by an offset drawn per trial.
+#[derive(Debug, Clone, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct PlacementSection {
+    /// Largest slide along the base's x and y, mm: each trial's offset is uniform within plus or
+    /// minus this per axis (from the trial's seed), so the scans meet the sensor's columns at
+    /// another phase each trial, as placements of a real specimen do.
+    pub jitter_mm: f64,
+}
+
 /// Arm dynamics (rapier): each capture is taken after moving there and settling.
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]

@@ -87,6 +87,9 @@ pub struct Disturbance {
     waves: [[(f64, f64); 8]; 3],
     q_prev: Option<Joints>,
     rng: Rng,
+    /// The trial's specimen placement as an offset of every pose (base frame, m): the specimen
+    /// slid by minus this on the table (`with_placement`).
+    placement: Vector3<f64>,
 }
 
 impl Disturbance {
@@ -130,12 +133,25 @@ impl Disturbance {
             waves,
             q_prev: None,
             rng,
+            placement: Vector3::zeros(),
         }
+    }
+
+    /// The same with the specimen slid by `-offset` (base x, y; m) on the table for the whole
+    /// trial, as every pose moved by `offset`: the calibration, which estimates where the
+    /// specimen stands, sees the same rig with the specimen elsewhere, and each scan meets the
+    /// sensor's columns at another phase.
+    pub fn with_placement(mut self, offset: Vector3<f64>) -> Disturbance {
+        self.placement = offset;
+        self
     }
 
     /// True when no cause is switched on.
     pub fn is_off(&self) -> bool {
-        self.err.is_off() && self.vib.is_off() && self.dynamic.is_none()
+        self.err.is_off()
+            && self.vib.is_off()
+            && self.dynamic.is_none()
+            && self.placement == Vector3::zeros()
     }
 
     /// The vibration offset at profile `k` (metres, base frame).
@@ -201,7 +217,7 @@ impl Disturbance {
                 pose.rotation,
             );
         }
-        let v = self.vibration_at(k);
+        let v = self.vibration_at(k) + self.placement;
         Isometry3::from_parts(
             Translation3::from(pose.translation.vector + v),
             pose.rotation,

@@ -272,3 +272,53 @@ fn the_stated_robot_accuracy_matches_the_drawn_robots() {
     );
     assert_eq!(RobotError::default().point_sd(&robot), 0.0);
 }
+
+#[test]
+fn a_placement_jitter_slides_each_trial_and_keeps_the_result_exact() {
+    use lasercal::calib::PoseError;
+    use lasercal::method::{Kind, estimate};
+    use lasercal::trial::trial_captures;
+    // Noise-free analytic chords: the disk slid within +-1 mm per trial must leave the closed
+    // form exact (it estimates where the disk stands) while the chords move.
+    let exact = base().replace("sigma_mm = 0.1", "sigma_mm = 0.0");
+    let build = |text: &str| {
+        ScenarioFile::parse(text, "p.toml")
+            .unwrap()
+            .scenario
+            .build("p")
+            .unwrap()
+    };
+    let fixed = build(&exact);
+    let slid = build(&format!("{exact}\n[placement]\njitter_mm = 1.0\n"));
+    let mut chords = Vec::new();
+    for t in 0..3 {
+        let a = trial_captures(&fixed, Kind::Disk, 3, t).0.unwrap();
+        let b = trial_captures(&slid, Kind::Disk, 3, t).0.unwrap();
+        // The file records the same commanded poses; the specimen stands elsewhere.
+        for (pa, pb) in a.profiles.iter().zip(&b.profiles) {
+            assert_eq!(pa.base_to_flange, pb.base_to_flange);
+        }
+        assert_ne!(a.profiles[0].data, b.profiles[0].data, "trial {t}");
+        let (cal, _) = estimate("disk".parse().unwrap(), &b, &slid.rig.sensor).unwrap();
+        let e = PoseError::between(&cal.flange_to_sensor, &slid.rig.flange_to_sensor);
+        assert!(
+            e.rotation_error_deg < 1e-9 && e.translation_error_mm < 1e-9,
+            "trial {t}: {e:?}"
+        );
+        // The same trial slides alike every time.
+        let again = trial_captures(&slid, Kind::Disk, 3, t).0.unwrap();
+        assert_eq!(b.profiles[0].data, again.profiles[0].data);
+        chords.push(b.profiles[0].data.clone());
+    }
+    assert!(chords[0] != chords[1] && chords[1] != chords[2]);
+    // Out of range: a clear error naming the key.
+    for bad in ["-1.0", "50.0"] {
+        let err = ScenarioFile::parse(
+            &format!("{exact}\n[placement]\njitter_mm = {bad}\n"),
+            "bad.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("placement.jitter_mm"), "{err}");
+    }
+}
