@@ -166,6 +166,32 @@ fn looking_down(height: f64) -> Isometry3<f64> {
     )
 }
 
+/// A disk on its cylinder below `looking_down(0.0)`, tilted by a random angle in `tilt` (rad)
+/// about a random horizontal axis and placed at random in the view, over a table: the scene and
+/// the disk's pose.
+fn disk_below(g: &mut lasercal::rng::Rng, tilt: std::ops::Range<f64>) -> (Scene, Isometry3<f64>) {
+    let tilt = g.random_range(tilt);
+    let axis = nalgebra::Unit::new_normalize(Vector3::new(
+        g.random_range(-1.0..1.0),
+        g.random_range(-1.0..1.0),
+        0.0,
+    ));
+    let disk_pose = Isometry3::from_parts(
+        Translation3::new(
+            g.random_range(-0.01..0.01),
+            g.random_range(-0.04..0.04),
+            g.random_range(-0.03..0.03),
+        ),
+        UnitQuaternion::from_axis_angle(&axis, tilt),
+    );
+    let mut scene = Scene::new(Some(Table {
+        height_m: -0.09,
+        reflectance: 0.3,
+    }));
+    scene.add(&disk_cyl(), disk_pose);
+    (scene, disk_pose)
+}
+
 #[test]
 fn chord_endpoints_within_one_x_sample() {
     let sensor = SensorModel::gocator_2340().ideal();
@@ -173,25 +199,7 @@ fn chord_endpoints_within_one_x_sample() {
     let cfg = SplitMerge::default();
     let mut checked = 0;
     for _ in 0..100 {
-        let tilt = g.random_range(0.0..0.6);
-        let axis = nalgebra::Unit::new_normalize(Vector3::new(
-            g.random_range(-1.0..1.0),
-            g.random_range(-1.0..1.0),
-            0.0,
-        ));
-        let disk_pose = Isometry3::from_parts(
-            Translation3::new(
-                g.random_range(-0.01..0.01),
-                g.random_range(-0.04..0.04),
-                g.random_range(-0.03..0.03),
-            ),
-            UnitQuaternion::from_axis_angle(&axis, tilt),
-        );
-        let mut scene = Scene::new(Some(Table {
-            height_m: -0.09,
-            reflectance: 0.3,
-        }));
-        scene.add(&disk_cyl(), disk_pose);
+        let (scene, disk_pose) = disk_below(&mut g, 0.0..0.6);
         let pose = looking_down(0.0);
         let profile = sensor.profile(&scene, &pose, None);
         let target = lasercal::sim::disk::DiskTarget::from_pose(&disk_pose, 0.05);
@@ -598,25 +606,7 @@ fn a_noisy_wall_does_not_carry_the_chord_ends_outward() {
     let mut noise = lasercal::rng::stream(5, &[1]);
     let (mut outward, mut columns_out) = (Vec::new(), 0);
     for _ in 0..400 {
-        let tilt = g.random_range(0.1..0.3);
-        let axis = nalgebra::Unit::new_normalize(Vector3::new(
-            g.random_range(-1.0..1.0),
-            g.random_range(-1.0..1.0),
-            0.0,
-        ));
-        let disk_pose = Isometry3::from_parts(
-            Translation3::new(
-                g.random_range(-0.01..0.01),
-                g.random_range(-0.04..0.04),
-                g.random_range(-0.03..0.03),
-            ),
-            UnitQuaternion::from_axis_angle(&axis, tilt),
-        );
-        let mut scene = Scene::new(Some(Table {
-            height_m: -0.09,
-            reflectance: 0.3,
-        }));
-        scene.add(&disk_cyl(), disk_pose);
+        let (scene, disk_pose) = disk_below(&mut g, 0.1..0.3);
         let pose = looking_down(0.0);
         let profile = sensor.profile(&scene, &pose, Some(&mut noise));
         let target = lasercal::sim::disk::DiskTarget::from_pose(&disk_pose, 0.05);
