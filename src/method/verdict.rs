@@ -19,7 +19,7 @@ use crate::calib::refine::Refined;
 use crate::calib::refine::honest::Bounds;
 use crate::captures::{Captures, Judging, ProfileData};
 use crate::sensor::SensorModel;
-use nalgebra::{Isometry3, Matrix6, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Matrix6, UnitQuaternion, Vector3, Vector6};
 
 /// How many times the stated noise the residuals may show before the data are called
 /// inconsistent with the noise model.
@@ -814,6 +814,10 @@ pub struct LeaveOneOut {
     /// The group whose removal moves the result furthest beyond what the 95 % bounds of both
     /// runs allow, and that move in units of the allowance (above 1: beyond it).
     pub outlier: Option<(usize, f64)>,
+    /// Each run that calibrated: its group and how far its result lies from the full one
+    /// (rotation rad about the sensor's axes, translation m along the flange's), as the fit's
+    /// step is parameterised.
+    pub moves: Vec<(usize, Vector6<f64>)>,
 }
 
 /// Groups of more than this many are not left out one by one (the figure would cost as many
@@ -835,6 +839,7 @@ pub fn leave_one_out(a: &Assessed, caps: &Captures, sensor: &SensorModel) -> Opt
         group: caps.groups[0].id,
         carriers: Vec::new(),
         outlier: None,
+        moves: Vec::new(),
     };
     let (fr, ft) = a.judged.quality.error_bound();
     let mut worst = -1.0;
@@ -860,6 +865,10 @@ pub fn leave_one_out(a: &Assessed, caps: &Captures, sensor: &SensorModel) -> Opt
                 out.carriers.push((g.id, short));
             }
             Ok((cal, q)) => {
+                out.moves.push((
+                    g.id,
+                    step_between(&a.calibration.flange_to_sensor, &cal.flange_to_sensor),
+                ));
                 let e = crate::calib::PoseError::between(
                     &cal.flange_to_sensor,
                     &a.calibration.flange_to_sensor,
@@ -894,6 +903,14 @@ pub fn leave_one_out(a: &Assessed, caps: &Captures, sensor: &SensorModel) -> Opt
         }
     }
     Some(out)
+}
+
+/// The step from `from` to `to` as the fits take it: R_to = R_from exp([w]) (w rad about the
+/// sensor's axes) and the translation's change (m, flange frame).
+pub fn step_between(from: &Isometry3<f64>, to: &Isometry3<f64>) -> Vector6<f64> {
+    let w = (from.rotation.inverse() * to.rotation).scaled_axis();
+    let t = to.translation.vector - from.translation.vector;
+    Vector6::new(w.x, w.y, w.z, t.x, t.y, t.z)
 }
 
 /// `a`'s variant run on `reduced`, the captures without group `group`. An iterative estimator's

@@ -369,7 +369,33 @@ fn calibrate_runs_every_variant_prints_the_verdict_and_exits_3_when_suspect() {
     assert_eq!(q["verdict"], "ok", "{q}");
     assert_eq!(q["covariance_rad_m"].as_array().unwrap().len(), 6, "{q}");
     assert_eq!(q["correlations"][2][2].as_f64(), Some(1.0), "{q}");
-    assert!(q["leave_one_out"]["runs"].as_u64() == Some(4), "{q}");
+    let loo = &q["leave_one_out"];
+    assert!(loo["runs"].as_u64() == Some(4), "{q}");
+    // Each group's move per axis; the one named as the largest is the move it reports.
+    let moves = loo["moves"].as_array().unwrap();
+    assert_eq!(moves.len(), 4, "{loo}");
+    let norm = |v: &serde_json::Value| {
+        let v: Vec<f64> = v
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
+        v.iter().map(|x| x * x).sum::<f64>().sqrt()
+    };
+    let worst = moves.iter().find(|m| m["group"] == loo["group"]).unwrap();
+    let (r, t) = (
+        loo["rotation_deg"].as_f64().unwrap(),
+        loo["translation_mm"].as_f64().unwrap(),
+    );
+    assert!(
+        (norm(&worst["rotation_deg"]) - r).abs() <= 1e-9 * r.max(1e-9),
+        "{loo}"
+    );
+    assert!(
+        (norm(&worst["translation_mm"]) - t).abs() <= 1e-9 * t.max(1e-9),
+        "{loo}"
+    );
     assert_eq!(doc["variants"].as_array().unwrap().len(), 4, "{doc}");
 
     // A flipped group sign: the label-free variants still find the transform, and the verdict

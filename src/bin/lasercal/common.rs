@@ -370,6 +370,7 @@ pub fn verdict_text(
             "translation_mm": l.translation_mm, "group": l.group,
             "carriers": l.carriers.iter().map(|(g, w)| serde_json::json!({"group": g, "direction": w})).collect::<Vec<_>>(),
             "outlier": l.outlier.map(|(g, b)| serde_json::json!({"group": g, "beyond_bounds": b})),
+            "moves": group_moves(l),
         })),
     });
     // Where another variant's result widened the bound (`verdict::decide`).
@@ -495,4 +496,19 @@ pub fn decide(
             why.join("\n  ")
         )
     })
+}
+
+/// Each leave-one-group-out run's move from the full result, per axis (deg about the sensor's
+/// axes, mm along the flange's).
+fn group_moves(l: &lasercal::method::verdict::LeaveOneOut) -> Vec<serde_json::Value> {
+    l.moves
+        .iter()
+        .map(|(g, m)| {
+            serde_json::json!({
+                "group": g,
+                "rotation_deg": [m[0].to_degrees(), m[1].to_degrees(), m[2].to_degrees()],
+                "translation_mm": [m[3] * 1e3, m[4] * 1e3, m[5] * 1e3],
+            })
+        })
+        .collect()
 }
