@@ -143,6 +143,12 @@ pub struct Judging {
     /// a certificate's standard uncertainty; 0: taken as exact). The fit holds the radius as
     /// stated, so its error moves the result by a bias no residual shows: the bound adds it.
     pub radius_tolerance: f64,
+    /// A straight edge's straightness tolerance (metres, peak to valley: the most the edge
+    /// bows across itself over `edge_length`; 0: taken as straight). The fit holds the edge
+    /// straight, so a bow moves the result by a bias the residuals barely show: the bound adds it.
+    pub straightness: f64,
+    /// The length the straightness applies to (metres; None: the span the profiles see).
+    pub edge_length: Option<f64>,
 }
 
 impl Judging {
@@ -162,6 +168,8 @@ impl Default for Judging {
             nominal: None,
             scan_speed: None,
             radius_tolerance: 0.0,
+            straightness: 0.0,
+            edge_length: None,
         }
     }
 }

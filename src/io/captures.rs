@@ -140,6 +140,13 @@ struct SpecimenV1 {
     /// uncertainty), mm; left out: the radius is taken as exact.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     radius_tolerance_mm: Option<f64>,
+    /// A straight edge's straightness tolerance, mm peak to valley over `edge_length_mm`; left
+    /// out: the edge is taken as straight.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    straightness_mm: Option<f64>,
+    /// The length the straightness applies to, mm; left out: the span the profiles see.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    edge_length_mm: Option<f64>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -288,6 +295,12 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
             radius_mm: c.specimen_radius.map(|r| r * 1e3),
             radius_tolerance_mm: (c.judging.radius_tolerance > 0.0)
                 .then_some(c.judging.radius_tolerance * 1e3),
+            straightness_mm: (c.judging.straightness > 0.0).then_some(c.judging.straightness * 1e3),
+            edge_length_mm: c
+                .judging
+                .edge_length
+                .filter(|_| c.judging.straightness > 0.0)
+                .map(|l| l * 1e3),
         },
         edge_sense: c.edge_sense,
         truth_flange_to_sensor_mm: c.truth.as_ref().map(crate::math::pose_to_rows_mm),
@@ -1333,6 +1346,61 @@ fn judging_of(f: &FileV1, file: &str) -> Result<Judging, FormatError> {
                 "specimen.radius_tolerance_mm",
             )?,
         },
+        straightness: match f.specimen.straightness_mm {
+            None => 0.0,
+            Some(t)
+                if matches!(
+                    f.specimen.kind,
+                    SpecimenType::DiskCylinder
+                        | SpecimenType::DiskPaper
+                        | SpecimenType::Ball
+                        | SpecimenType::Plane
+                ) =>
+            {
+                return Err(err(
+                    file,
+                    "specimen.straightness_mm",
+                    format!(
+                        "{t}: a straightness tolerance is a straight edge's; this specimen has \
+                         none: leave it out (a disk's or ball's radius tolerance is \
+                         radius_tolerance_mm)"
+                    ),
+                ));
+            }
+            Some(t) => straightness(t, file, "specimen.straightness_mm")?,
+        },
+        edge_length: f
+            .specimen
+            .edge_length_mm
+            .map(|l| {
+                metres_from_mm(l, 1e5, file, "specimen.edge_length_mm", || {
+                    "give the length the straightness tolerance applies to in mm, above 0 \
+                     (at most 100 m); leave it out for the span the profiles see"
+                        .to_string()
+                })
+                .and_then(|m| {
+                    if m > 0.0 {
+                        Ok(m)
+                    } else {
+                        Err(err(
+                            file,
+                            "specimen.edge_length_mm",
+                            format!("{l}: the length must be above 0 mm"),
+                        ))
+                    }
+                })
+            })
+            .transpose()?,
+    })
+}
+
+/// A straight edge's straightness tolerance (mm in, metres out), checked: peak to valley, from
+/// 0 to 1 mm.
+pub fn straightness(mm: f64, file: &str, at: &str) -> Result<f64, FormatError> {
+    metres_from_mm(mm, 1.0, file, at, || {
+        "give the edge's straightness tolerance in mm, peak to valley (the most it bows \
+         across itself over its length), from 0 to 1; leave it out for an edge taken as straight"
+            .to_string()
     })
 }
 

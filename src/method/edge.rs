@@ -355,7 +355,14 @@ impl Plan for EdgePlan {
         let mut caps = Captures {
             orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
             feature_sigma: (!self.raycast).then_some(self.sigma),
-            judging: crate::captures::Judging::default(),
+            // A rig whose scenario draws a bow states its tolerance, over the edge's length.
+            judging: crate::captures::Judging {
+                straightness: self.form.straightness,
+                edge_length: (self.form.straightness > 0.0)
+                    .then(|| spec.edge_length())
+                    .flatten(),
+                ..Default::default()
+            },
             method: Kind::Edge,
             sensor: rig.sensor.name.clone(),
             specimen_kind: spec.kind.specimen_type(),

@@ -121,6 +121,11 @@ pub struct Quality {
     /// Where the captures state the specimen's radius tolerance: how far the result moves per
     /// mm of error in the radius (deg per mm, mm per mm); the bounds include it.
     pub radius_shift: Option<(f64, f64)>,
+    /// Where the captures state a straight edge's straightness: how far the result moves per mm
+    /// of bow (deg per mm, mm per mm; the larger of the two directions across the edge); the
+    /// bounds include it. None where stated but this variant's model holds no single edge line
+    /// (the note says so).
+    pub bow_shift: Option<(f64, f64)>,
     /// The robot's stated accuracy (mm) the residual test allowed, and the tolerance judged
     /// against.
     pub judging: Judging,
@@ -295,6 +300,13 @@ pub fn quality(
     let radius_shift = (caps.judging.radius_tolerance > 0.0 && finite.is_some())
         .then(|| cal.problem(estimator)?.radius_shift(&cal.flange_to_sensor))
         .flatten();
+    // A stated straightness: how far the fit moves per metre of bow across the edge, both ways.
+    let bow_shift = (caps.judging.straightness > 0.0 && finite.is_some())
+        .then(|| {
+            cal.problem(estimator)?
+                .bow_shift(&cal.flange_to_sensor, caps.judging.edge_length)
+        })
+        .flatten();
     Quality {
         residual_rms_mm: rms.map(|r| r * 1e3),
         stated_noise_mm: noise.map(|s| s * 1e3),
@@ -313,8 +325,15 @@ pub fn quality(
         rejected: cal.missed,
         bounds: finite.map(|f| {
             let h = f.honest.with_systematic(robot / ROBOT_REACH, robot);
-            match &radius_shift {
+            let h = match &radius_shift {
                 Some(s) => h.with_shift(s, caps.judging.radius_tolerance),
+                None => h,
+            };
+            // A bow of the stated peak to valley toward an unknown direction across the edge:
+            // its two components, each of mean square pv^2 / 2.
+            let pv = caps.judging.straightness * std::f64::consts::FRAC_1_SQRT_2;
+            match &bow_shift {
+                Some([a, b]) => h.with_shift(a, pv).with_shift(b, pv),
                 None => h,
             }
             .bounds()
@@ -324,6 +343,10 @@ pub fn quality(
                 s.fixed_rows::<3>(0).norm().to_degrees() * 1e-3,
                 s.fixed_rows::<3>(3).norm(),
             )
+        }),
+        bow_shift: bow_shift.map(|[a, b]| {
+            let larger = |k: usize| a.fixed_rows::<3>(k).norm().max(b.fixed_rows::<3>(k).norm());
+            (larger(0).to_degrees() * 1e-3, larger(3))
         }),
         poses: figures.map_or(0, |f| f.honest.clusters),
         pose_directions: figures.map_or(0, |f| f.honest.pose_directions),
@@ -485,6 +508,27 @@ pub fn judge(q: Quality) -> Judged {
             deg * 0.01,
             mm * 0.01
         ));
+    }
+    if q.judging.straightness > 0.0 {
+        let t = q.judging.straightness * 1e3;
+        let over = match q.judging.edge_length {
+            Some(l) => format!("over {:.0} mm", l * 1e3),
+            None => "over the span the profiles see".to_string(),
+        };
+        notes.push(match q.bow_shift {
+            Some((deg, mm)) => format!(
+                "the edge's stated straightness ({t:.4} mm {over}) is in the bounds: the fit \
+                 holds the edge straight, and a bow of 0.01 mm across it moves the result up to \
+                 {:.4} deg / {:.4} mm, which the residuals barely show",
+                deg * 0.01,
+                mm * 0.01
+            ),
+            None => format!(
+                "the edge's stated straightness ({t:.4} mm {over}) is not in this variant's \
+                 bounds: its model fits faces, not one edge line; the closed form's and \
+                 edge-refined's bounds hold it"
+            ),
+        });
     }
     if q.profiles > 0 && q.rejected as f64 > MAX_REJECTED_SHARE * q.profiles as f64 {
         reasons.push(format!(

@@ -815,3 +815,71 @@ fn a_stated_radius_tolerance_is_written_read_and_checked() {
         "{e}"
     );
 }
+
+/// A simulated edge rig states its edge's straightness and length in the file it writes (read
+/// back the same); with the bow alone moving the result (`edge-causes`' specimen row), the
+/// bound without it misses the error and with it holds it; a tolerance beyond 1 mm, or one on
+/// a specimen without an edge, is refused naming the field.
+#[test]
+fn a_stated_straightness_is_written_read_and_in_the_bound() {
+    let s = setup("edge-causes", &|t| {
+        t.replace("only = \"all\"", "only = \"specimen\"")
+            .replace("scale = 1.0", "scale = 4.0")
+    });
+    let caps = trial_captures(&s, Kind::Edge, 2021, 0).0.unwrap();
+    assert!(
+        (caps.judging.straightness - 0.04e-3).abs() < 1e-12,
+        "{:?}",
+        caps.judging
+    );
+    assert!(caps.judging.edge_length.is_some_and(|l| l > 0.05));
+    let text = lasercal::io::captures::to_json(&caps, &s.rig.sensor);
+    let (back, sensor) = lasercal::io::captures::from_json(&text, "edge.json").unwrap();
+    assert_eq!(back.judging.straightness, caps.judging.straightness);
+    assert_eq!(back.judging.edge_length, caps.judging.edge_length);
+    let truth = caps.truth.unwrap();
+    for estimator in [Estimator::ClosedForm, Estimator::Refined] {
+        let method = MethodId {
+            kind: Kind::Edge,
+            estimator,
+        };
+        let (cal, refined) = estimate(method, &back, &sensor).unwrap();
+        let e = PoseError::between(&cal.flange_to_sensor, &truth);
+        let with = quality(&cal, refined.as_ref(), estimator, &back, &sensor);
+        let mut straight = back.clone();
+        straight.judging.straightness = 0.0;
+        let without = quality(&cal, refined.as_ref(), estimator, &straight, &sensor);
+        assert!(with.bow_shift.is_some() && without.bow_shift.is_none());
+        let (b, n) = (with.error_bound(), without.error_bound());
+        assert!(
+            e.rotation_error_deg <= b.0 && e.translation_error_mm <= b.1,
+            "{estimator:?}: {e:?} beyond {b:?}"
+        );
+        assert!(
+            !(e.rotation_error_deg <= n.0 && e.translation_error_mm <= n.1),
+            "{estimator:?}: {e:?} within {n:?} without the bow"
+        );
+    }
+    let bad = text.replace("\"straightness_mm\":0.04", "\"straightness_mm\":5.0");
+    assert_ne!(bad, text, "the file states the straightness");
+    let e = lasercal::io::captures::from_json(&bad, "edge.json")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("edge.json") && e.contains("specimen.straightness_mm") && e.contains('5'),
+        "{e}"
+    );
+    let ball = setup("ball-causes", &|t| t.to_string());
+    let ball_caps = trial_captures(&ball, Kind::Ball, 3, 0).0.unwrap();
+    let text = lasercal::io::captures::to_json(&ball_caps, &ball.rig.sensor).replace(
+        "\"radius_tolerance_mm\":0.005",
+        "\"radius_tolerance_mm\":0.005,\"straightness_mm\":0.01",
+    );
+    let e = lasercal::io::captures::from_json(&text, "ball.json")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("specimen.straightness_mm") && e.contains("none"),
+        "{e}"
+    );
+}

@@ -37,6 +37,12 @@ pub struct Args {
     /// overrides the file's specimen.radius_tolerance_mm [default: 0, the radius exact]
     #[arg(long, allow_negative_numbers = true)]
     radius_tolerance_mm: Option<f64>,
+    /// A straight edge's straightness tolerance (mm, peak to valley over the file's
+    /// specimen.edge_length_mm, else over the span the profiles see): the bounds then include
+    /// what such a bow moves the result; overrides the file's specimen.straightness_mm
+    /// [default: 0, the edge straight]
+    #[arg(long, allow_negative_numbers = true)]
+    straightness_mm: Option<f64>,
     /// Profiles placed by time stamps on a pose_stream: take their clock offset as stated
     /// (profile_clock_offset_s) instead of estimating it with the transform; overrides the file's
     /// estimate_clock_offset
@@ -113,6 +119,10 @@ pub fn run(a: Args) -> Result<i32> {
             &name,
             "--radius-tolerance-mm",
         )?;
+    }
+    if let Some(t) = a.straightness_mm {
+        caps.judging.straightness =
+            lasercal::io::captures::straightness(t, &name, "--straightness-mm")?;
     }
     if a.hold_clock_offset || a.estimate_clock_drift {
         match caps.timing.as_mut() {

@@ -380,6 +380,9 @@ pub fn verdict_text(
     doc["radius_tolerance_mm"] = serde_json::json!(q.judging.radius_tolerance * 1e3);
     doc["radius_shift_deg_per_mm"] = serde_json::json!(q.radius_shift.map(|s| s.0));
     doc["radius_shift_mm_per_mm"] = serde_json::json!(q.radius_shift.map(|s| s.1));
+    doc["straightness_mm"] = serde_json::json!(q.judging.straightness * 1e3);
+    doc["bow_shift_deg_per_mm"] = serde_json::json!(q.bow_shift.map(|s| s.0));
+    doc["bow_shift_mm_per_mm"] = serde_json::json!(q.bow_shift.map(|s| s.1));
     Ok(doc)
 }
 

@@ -268,6 +268,18 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
         None
     }
 
+    /// A straight edge's: how its residuals change per metre of bow (peak to valley over
+    /// `length`, metres; None: over the span its points cover) toward each of the two
+    /// directions across the line. None: the model has no straight edge.
+    fn bow_rows(
+        &self,
+        _x: &Transform,
+        _s: &Self::Specimen,
+        _length: Option<f64>,
+    ) -> Option<[DVector<f64>; 2]> {
+        None
+    }
+
     /// The same model with its fixed radius set to `radius` (None: it holds none).
     fn with_radius(&self, _radius: f64) -> Option<Self>
     where
@@ -423,6 +435,10 @@ pub trait Refinable: Send + Sync + fmt::Debug {
     /// radius (rotation rad in the sensor frame, translation m; None: the model fixes no
     /// radius, or the problem is singular).
     fn radius_shift(&self, x: &Isometry3<f64>) -> Option<Vector6<f64>>;
+    /// How the least-squares fit near `x` moves per metre of bow of a straight edge (peak to
+    /// valley over `length` metres; None: over the span the points cover), toward each of the
+    /// two directions across it (None: no straight edge in the model, or singular).
+    fn bow_shift(&self, x: &Isometry3<f64>, length: Option<f64>) -> Option<[Vector6<f64>; 2]>;
     /// The same problem without the features seen from the flange poses `drop` picks.
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable>;
     /// The sums the figures at `x` need (`Sums`), streamed in parts where the problem is tall.
@@ -627,6 +643,29 @@ impl<M: Model + 'static> Refinable for Problem<M> {
         let d = -inv * g;
         let shift = Vector6::from_fn(|i, _| d[i]);
         shift.iter().all(|v| v.is_finite()).then_some(shift)
+    }
+    fn bow_shift(&self, x: &Isometry3<f64>, length: Option<f64>) -> Option<[Vector6<f64>; 2]> {
+        // The fit's step per unit of a residual change g is -A^-1 J^T g; a bow's affine part
+        // (an offset and a tilt of the line) is the line's own parameters and moves nothing.
+        let rows = self
+            .model
+            .bow_rows(&Transform::from_isometry(x), &self.specimen, length)?;
+        let (_, j) = self.residuals_and_jacobian(x);
+        let normal = Normal::of(&(j.transpose() * &j));
+        let inv = normal.inverse()?;
+        let used = &normal.used;
+        if used.len() < 6 || used[..6] != [0, 1, 2, 3, 4, 5] {
+            return None;
+        }
+        let shift = |g: &DVector<f64>| {
+            let jtg = j.tr_mul(g);
+            let d = -(inv * DVector::from_fn(used.len(), |i, _| jtg[used[i]]));
+            Vector6::from_fn(|i, _| d[i])
+        };
+        let out = [shift(&rows[0]), shift(&rows[1])];
+        out.iter()
+            .all(|s| s.iter().all(|v| v.is_finite()))
+            .then_some(out)
     }
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable> {
         Box::new(Problem {
