@@ -352,18 +352,78 @@ fn end_before_wall(
     if outward <= 3.0 * sigma / sxx.sqrt() {
         return None;
     }
-    let wall_at = |k: f64| mean_o + b * (k - mean_k);
-    // The face's last points: a wall point where the wall's line explains its offset better.
+    // A wall rises from the face's end: its line meets the face's within a few columns of it.
+    // (The table far below, tilted, also falls away column by column, but meets the face's
+    // line hundreds of columns off.)
+    let corner = mean_k - mean_o / b;
+    let from_end = (corner - pts[if forward { last } else { first }].0 as f64).abs();
+    if !(from_end <= 3.0) {
+        return None;
+    }
+    // The face's last points: the wall's where their offset passes the balanced threshold.
+    let t = balanced_threshold(outward, sigma);
     let mut end = if forward { last } else { first };
     while end.abs_diff(if forward { first } else { last }) > 8 {
-        let (k, o) = (pts[end].0 as f64, off(end)?);
-        let w = wall_at(k);
-        if w <= 0.0 || (o - w).abs() >= o.abs() {
+        if off(end)? <= t {
             break;
         }
         end = if forward { end - 1 } else { end + 1 };
     }
     Some(end)
+}
+
+/// The offset from a face's line beyond which a point at its end is taken for the wall's, for a
+/// wall falling `slope` per column and noise `sigma`: the wall's first point lies (1 - phi)
+/// slope below the face (phi, the rim's place between the two columns, uniform), so one taken
+/// for the face carries the end a column out, and the face's last point taken for the wall a
+/// column in. At the threshold both happen equally often on average over phi, and the end,
+/// placed half a column past the last face point, is unbiased. Taking a point for the wall only
+/// where the wall's line explained it better (offset beyond half the line's) never erred inward
+/// and carried the ends on the wall's side outward by 0.02 columns at z noise 0.12 mm, 0.002 mm
+/// on the comparison rig, the same in every placement: the refined chords' result 0.8 sd off.
+fn balanced_threshold(slope: f64, sigma: f64) -> f64 {
+    if !(slope > 0.0 && sigma > 0.0) {
+        return 0.0;
+    }
+    // Phi(-t / sigma) less the mean over phi of Phi((t - v slope) / sigma): falls with t.
+    let gap = |t: f64| {
+        const N: usize = 64;
+        let wall = (0..N)
+            .map(|i| normal_cdf((t - (i as f64 + 0.5) / N as f64 * slope) / sigma))
+            .sum::<f64>()
+            / N as f64;
+        normal_cdf(-t / sigma) - wall
+    };
+    let (mut lo, mut hi) = (0.0, 6.0 * sigma);
+    if gap(lo) <= 0.0 {
+        return lo;
+    }
+    for _ in 0..50 {
+        let mid = 0.5 * (lo + hi);
+        if gap(mid) > 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// The standard normal distribution function (Abramowitz and Stegun 7.1.26: within 1.5e-7). By
+/// hand: one function, not worth a crate.
+fn normal_cdf(x: f64) -> f64 {
+    let z = x.abs() / std::f64::consts::SQRT_2;
+    let t = 1.0 / (1.0 + 0.327_591_1 * z);
+    let poly = t
+        * (0.254_829_592
+            + t * (-0.284_496_736
+                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
+    let erf = 1.0 - poly * (-z * z).exp();
+    if x >= 0.0 {
+        0.5 * (1.0 + erf)
+    } else {
+        0.5 * (1.0 - erf)
+    }
 }
 
 /// Chord of a disk on a cylinder (a step at the rim): split-and-merge; the chord is the segment, no
