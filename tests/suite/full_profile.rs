@@ -150,8 +150,10 @@ fn full_profile_beats_the_chord_ends_on_the_comparison_rig() {
     // Issue 14 asked for 2x better than the feature refinement, and it was (2.1-6x). Since the
     // chord ends stopped taking wall points for the face (twentieth session) the chord ends are
     // better too: on the comparison rig (Gocator 2340, quantised) at far z noise 0.12 mm, 30
-    // trials, 1.5x in rotation and 3.4x in translation; 200 trials per noise give 1.7-3.0x and
-    // 3.3-5.0x (docs/guide/methods.md).
+    // trials, 1.5x in rotation and 3.4x in translation; since a wall point within the noise is
+    // told from the face by the balanced threshold (twenty-first session) the chord ends'
+    // translation is better still: 1.7x and 2.4x (0.0027 / 0.0030 against 0.0046 / 0.0070);
+    // 200 trials per noise give 1.7-4.3x and 2.2-3.3x (docs/guide/methods.md).
     let text = std::fs::read_to_string(common::scen("comparison.toml"))
         .unwrap()
         .replace("z_sigma_far_mm = 0.06", "z_sigma_far_mm = 0.12");
@@ -162,8 +164,8 @@ fn full_profile_beats_the_chord_ends_on_the_comparison_rig() {
         "disk-refined {ra:.4} deg / {ta:.4} mm, disk-full {rb:.4} deg / {tb:.4} mm (medians)"
     );
     assert!(
-        1.3 * rb <= ra && 2.5 * tb <= ta,
-        "disk-full is not 1.3x / 2.5x better: {rb} / {tb} against {ra} / {ta}"
+        1.3 * rb <= ra && 2.0 * tb <= ta,
+        "disk-full is not 1.3x / 2.0x better: {rb} / {tb} against {ra} / {ta}"
     );
 }
 
@@ -197,7 +199,14 @@ fn full_profile_beats_chord_ends_on_profiles_lasercal_did_not_make() {
     // the wall beyond fewer ends, and the chord ends of its unquantised equal-angle rays are
     // good to start with: measured 3.0x in rotation and 1.7x in translation while the chord ends
     // took wall points for the face; since they do not, 1.75x in rotation (0.0044 against 0.0077
-    // deg), while in translation the chord ends are the better (0.0035 against 0.0041 mm).
+    // deg), while in translation the chord ends were the better (0.0035 against 0.0041 mm).
+    // With the balanced threshold at the wall's first point (twenty-first session) the chord
+    // ends are better in rotation (0.0047 deg) and worse in translation (0.0057 mm), and
+    // disk-full better in both: 1.15x and 1.43x (0.0041 deg / 0.0040 mm). Per end, against the
+    // exact chords of these profiles (10 trials, 1,000 ends per scan and side, standard error
+    // 0.0011 mm), the threshold cut the outward biases on the wall's sides from 0.0029 / 0.0051
+    // / 0.0028 mm to 0.0009 / 0.0024 / -0.0004: this one rig's result moved with the biases it
+    // keeps (0.0065 mm on a side the wall does not decide, -0.0027 on another).
     use lasercal::testkit::fan::Solid;
     let s = comparison();
     let solids = [
@@ -214,9 +223,9 @@ fn full_profile_beats_chord_ends_on_profiles_lasercal_did_not_make() {
          {tb:.4} mm (medians)"
     );
     assert!(
-        1.5 * rb <= ra && tb <= 1.3 * ta,
-        "disk-full is not 1.5x better in rotation and within 1.3x in translation: {rb} / {tb} \
-         against {ra} / {ta}"
+        1.1 * rb <= ra && 1.2 * tb <= ta,
+        "disk-full is not 1.1x better in rotation and 1.2x in translation: {rb} / {tb} against \
+         {ra} / {ta}"
     );
 }
 
