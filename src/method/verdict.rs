@@ -108,6 +108,9 @@ pub struct Quality {
     /// The honest 95 % bounds (`calib::refine::honest`), the flange poses they were clustered
     /// by, and how much the scatter between poses widened them (a factor on the sd).
     pub bounds: Option<Bounds>,
+    /// A closed form's whole bounds (deg, mm): its distance from the fit (`from_fit_*`) and the
+    /// fit's error together (`Honest::bounds_around`). None for a refined result.
+    pub around_fit: Option<(f64, f64)>,
     pub poses: usize,
     /// The directions of the transform in which the scatter between poses was measured
     /// (`Honest::pose_directions`).
@@ -188,12 +191,10 @@ impl Quality {
 
     /// `error_bound` from this result's own data alone.
     pub fn own_error_bound(&self) -> (f64, f64) {
-        match &self.bounds {
-            Some(b) => (
-                self.from_fit_deg.unwrap_or(0.0) + b.rotation_norm_deg,
-                self.from_fit_mm.unwrap_or(0.0) + b.translation_norm_mm,
-            ),
-            None => (f64::INFINITY, f64::INFINITY),
+        match (&self.around_fit, &self.bounds) {
+            (Some(a), _) => *a,
+            (None, Some(b)) => (b.rotation_norm_deg, b.translation_norm_mm),
+            (None, None) => (f64::INFINITY, f64::INFINITY),
         }
     }
 
@@ -307,6 +308,20 @@ pub fn quality(
                 .bow_shift(&cal.flange_to_sensor, caps.judging.edge_length)
         })
         .flatten();
+    let honest = finite.map(|f| {
+        let h = f.honest.with_systematic(robot / ROBOT_REACH, robot);
+        let h = match &radius_shift {
+            Some(s) => h.with_shift(s, caps.judging.radius_tolerance),
+            None => h,
+        };
+        // A bow of the stated peak to valley toward an unknown direction across the edge:
+        // its two components, each of mean square pv^2 / 2.
+        let pv = caps.judging.straightness * std::f64::consts::FRAC_1_SQRT_2;
+        match &bow_shift {
+            Some([a, b]) => h.with_shift(a, pv).with_shift(b, pv),
+            None => h,
+        }
+    });
     Quality {
         residual_rms_mm: rms.map(|r| r * 1e3),
         stated_noise_mm: noise.map(|s| s * 1e3),
@@ -323,21 +338,8 @@ pub fn quality(
         status: cal.status,
         profiles: caps.profiles.len(),
         rejected: cal.missed,
-        bounds: finite.map(|f| {
-            let h = f.honest.with_systematic(robot / ROBOT_REACH, robot);
-            let h = match &radius_shift {
-                Some(s) => h.with_shift(s, caps.judging.radius_tolerance),
-                None => h,
-            };
-            // A bow of the stated peak to valley toward an unknown direction across the edge:
-            // its two components, each of mean square pv^2 / 2.
-            let pv = caps.judging.straightness * std::f64::consts::FRAC_1_SQRT_2;
-            match &bow_shift {
-                Some([a, b]) => h.with_shift(a, pv).with_shift(b, pv),
-                None => h,
-            }
-            .bounds()
-        }),
+        bounds: honest.as_ref().map(|h| h.bounds()),
+        around_fit: honest.as_ref().zip(step).map(|(h, s)| h.bounds_around(&s)),
         radius_shift: radius_shift.map(|s| {
             (
                 s.fixed_rows::<3>(0).norm().to_degrees() * 1e-3,
