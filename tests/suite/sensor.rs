@@ -591,16 +591,34 @@ fn edge_point_of_each_edge_specimen() {
     }
 }
 
-/// How far each chord end found on `profiles` ray-cast profiles of disks tilted 6-17 deg below a
-/// Gocator 2340 looking down, at z noise `sigma` (m), lies outward of the exact chord's end (m),
-/// with the column step there; and the profiles whose chord was not found.
-fn ends_outward(sigma: f64, profiles: usize, seeds: (u64, u64)) -> (Vec<(f64, f64)>, usize) {
+/// A Gocator 2340 with z noise `sigma` (m) across its range, its segmentation, and the scene's
+/// and the noise's random streams from `seeds`.
+fn noisy_gocator(
+    sigma: f64,
+    seeds: (u64, u64),
+) -> (
+    SensorModel,
+    SplitMerge,
+    lasercal::rng::Rng,
+    lasercal::rng::Rng,
+) {
     let mut sensor = SensorModel::gocator_2340();
     sensor.noise.z_sigma_near = sigma;
     sensor.noise.z_sigma_far = sigma;
     let cfg = SplitMerge::for_sensor(&sensor);
-    let mut g = testkit::rng(seeds.0);
-    let mut noise = lasercal::rng::stream(seeds.1, &[1]);
+    (
+        sensor,
+        cfg,
+        testkit::rng(seeds.0),
+        lasercal::rng::stream(seeds.1, &[1]),
+    )
+}
+
+/// How far each chord end found on `profiles` ray-cast profiles of disks tilted 6-17 deg below a
+/// Gocator 2340 looking down, at z noise `sigma` (m), lies outward of the exact chord's end (m),
+/// with the column step there; and the profiles whose chord was not found.
+fn ends_outward(sigma: f64, profiles: usize, seeds: (u64, u64)) -> (Vec<(f64, f64)>, usize) {
+    let (sensor, cfg, mut g, mut noise) = noisy_gocator(sigma, seeds);
     let (mut out, mut missed) = (Vec::new(), 0);
     for _ in 0..profiles {
         let (scene, disk_pose) = disk_below(&mut g, 0.1..0.3);
@@ -696,12 +714,7 @@ fn edge_outward(
         width: 0.025,
         height: 0.012,
     });
-    let mut sensor = SensorModel::gocator_2340();
-    sensor.noise.z_sigma_near = sigma;
-    sensor.noise.z_sigma_far = sigma;
-    let cfg = SplitMerge::for_sensor(&sensor);
-    let mut g = testkit::rng(seeds.0);
-    let mut noise = lasercal::rng::stream(seeds.1, &[1]);
+    let (sensor, cfg, mut g, mut noise) = noisy_gocator(sigma, seeds);
     let mut out = Vec::new();
     for _ in 0..profiles {
         // Edge across the laser plane near base y = 0, body toward -x, top face up then tilted.
