@@ -739,17 +739,25 @@ fn larger_of(a: &Matrix6<f64>, b: &Matrix6<f64>, informative: usize) -> (Matrix6
 
 /// The quantile of |d + e| for e ~ N(0, c), c 3x3, a fixed offset d, at the level whose normal
 /// quantile is `z`: |d + e|^2 taken as a scaled chi-square with its mean |d|^2 + tr c and
-/// variance 2 tr c^2 + 4 d^T c d (Patnaik's approximation of the non-central chi-square; with
-/// d = 0 it is `norm_quantile`'s).
+/// variance 2 tr c^2 + 4 d^T c d (Patnaik's approximation of the non-central chi-square;
+/// Satterthwaite's of a weighted sum of chi-square(1) variables where d = 0).
 fn offset_norm_quantile(c: &Matrix3<f64>, d: &nalgebra::Vector3<f64>, z: f64) -> f64 {
-    let mean = d.norm_squared() + c.trace();
-    let var = 2.0 * c.norm_squared() + 4.0 * (d.transpose() * c * d)[(0, 0)];
-    if !(mean > 0.0) || !mean.is_finite() || !(var > 0.0) {
-        return if mean.is_finite() {
-            mean.max(0.0).sqrt()
-        } else {
-            f64::INFINITY
-        };
+    // Only the eigenvalues' sum and sum of squares are wanted: for a covariance (symmetric,
+    // positive semi-definite) c's trace and squared Frobenius norm, with no decomposition. A
+    // negative variance is no covariance: its eigenvalues, clamped at zero.
+    let (s1, s2) = if c.diagonal().iter().all(|&v| v >= 0.0) {
+        (c.trace(), c.norm_squared())
+    } else {
+        let l = SymmetricEigen::new(*c).eigenvalues.map(|v| v.max(0.0));
+        (l.sum(), l.norm_squared())
+    };
+    let mean = d.norm_squared() + s1;
+    let var = 2.0 * s2 + 4.0 * (d.transpose() * c * d)[(0, 0)].max(0.0);
+    if !mean.is_finite() {
+        return f64::INFINITY;
+    }
+    if !(var > 0.0) {
+        return mean.max(0.0).sqrt();
     }
     let (scale, dof) = (var / (2.0 * mean), 2.0 * mean * mean / var);
     (scale * chi_square_quantile(dof, z)).sqrt()
@@ -761,28 +769,15 @@ fn norm_quantile_95(c: &Matrix3<f64>) -> f64 {
     norm_quantile(c, Z_95)
 }
 
-/// The quantile of |e| for e ~ N(0, c), c 3x3, at the level whose normal quantile is `z`: |e|^2
-/// is a weighted sum of chi-square(1) variables, taken as a scaled chi-square with the same mean
-/// and variance (Satterthwaite).
+/// The quantile of |e| for e ~ N(0, c), c 3x3, at the level whose normal quantile is `z`
+/// (`offset_norm_quantile` without an offset).
 fn norm_quantile(c: &Matrix3<f64>, z: f64) -> f64 {
-    // Only the eigenvalues' sum and sum of squares are wanted: for a covariance (symmetric,
-    // positive semi-definite) c's trace and squared Frobenius norm, with no decomposition. A
-    // negative variance is no covariance: its eigenvalues, clamped at zero.
-    let (s1, s2) = if c.diagonal().iter().all(|&d| d >= 0.0) {
-        (c.trace(), c.norm_squared())
-    } else {
-        let l = SymmetricEigen::new(*c).eigenvalues.map(|v| v.max(0.0));
-        (l.sum(), l.norm_squared())
-    };
-    if !(s1 > 0.0) || !s1.is_finite() {
-        return if s1 == 0.0 { 0.0 } else { f64::INFINITY };
-    }
-    let (scale, dof) = (s2 / s1, s1 * s1 / s2);
-    (scale * chi_square_quantile(dof, z)).sqrt()
+    offset_norm_quantile(c, &nalgebra::Vector3::zeros(), z)
 }
 
 /// The chi-square distribution's 95 % quantile (`chi_square_quantile`).
-pub fn chi_square_95(dof: f64) -> f64 {
+#[cfg(test)]
+fn chi_square_95(dof: f64) -> f64 {
     chi_square_quantile(dof, Z_95)
 }
 
