@@ -15,6 +15,7 @@ use rustc_hash::FxHashMap;
 /// The two-sided 95 % normal quantile.
 const Z_975: f64 = 1.959_963_985;
 /// The one-sided 95 % normal quantile (chi-square quantiles).
+#[cfg(test)]
 const Z_95: f64 = 1.644_853_627;
 /// The normal quantile of sqrt(0.95) = 0.97468: each of the two norms' bounds at this level
 /// holds both together in at least 95 % (`Bounds`).
