@@ -12,7 +12,7 @@
 
 use super::CalibError;
 use super::plane::LineView;
-use super::refine::disk::{DiskModel, DiskPose};
+use super::refine::disk::{DiskModel, DiskPose, face_weights};
 use super::refine::{Options, Problem, Refined, refine};
 use nalgebra::{Isometry3, Matrix3, Point3, Vector2, Vector3};
 
@@ -34,10 +34,13 @@ pub struct DiskAnySolution {
     pub problem: Problem<DiskModel>,
 }
 
+/// `weight` gives a face point's (sensor x, z) weight in the refinement (a noise that varies
+/// with depth scaled to one spread; 1 for none).
 pub fn solve(
     views: &[DiskView],
     radius: f64,
     apex: &Vector3<f64>,
+    weight: &dyn Fn(&Vector2<f64>) -> f64,
 ) -> Result<DiskAnySolution, CalibError> {
     let (views, plane) = super::plane::solve_faces(views, |v| &v.face, apex)?;
     let x = plane.flange_to_sensor;
@@ -68,20 +71,30 @@ pub fn solve(
     // Past the point budget, every profile's face thinned evenly (`super::POINT_BUDGET`).
     let total = views.iter().map(|v| v.face.points.len()).sum();
     let keep = super::points_per_profile(total, views.len(), usize::MAX);
+    let face: Vec<(Isometry3<f64>, Vector2<f64>)> = views
+        .iter()
+        .flat_map(|v| {
+            let stride = super::stride_for(v.face.points.len(), keep);
+            v.face
+                .points
+                .iter()
+                .step_by(stride)
+                .map(move |p| (v.face.base_to_flange, *p))
+        })
+        .collect();
     let model = DiskModel {
         radius,
         ends: Vec::new(),
-        face: views
-            .iter()
-            .flat_map(|v| {
-                let stride = super::stride_for(v.face.points.len(), keep);
-                v.face
-                    .points
-                    .iter()
-                    .step_by(stride)
-                    .map(move |p| (v.face.base_to_flange, *p))
-            })
-            .collect(),
+        face_weights: face_weights(&face, weight),
+        // A rim's spread (the column step, the noise) scaled as the face points around it.
+        rim_weights: if (rims.iter()).all(|(_, a, b)| weight(&((a + b) / 2.0)) == 1.0) {
+            Vec::new()
+        } else {
+            (rims.iter())
+                .map(|(_, a, b)| weight(&((a + b) / 2.0)))
+                .collect()
+        },
+        face,
         rims,
         end_weights: Vec::new(),
         walls: Vec::new(),

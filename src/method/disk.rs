@@ -2,10 +2,10 @@
 //! moves (Sec. III-A); its `[disk]` scenario section, plan, simulation, chord features and the
 //! transformation solution (Eqs. 14-19), with the chord-end refinement model.
 
-use super::{Estimator, Kind, Method, Plan, Sim};
+use super::{Estimator, Kind, Method, Plan, Sim, depth_weight};
 use crate::calib::disk::{DiskChord, DiskProblem, DiskScan};
 use crate::calib::disk_any::DiskView;
-use crate::calib::refine::disk::{DiskModel, DiskPose};
+use crate::calib::refine::disk::{DiskModel, DiskPose, face_weights};
 use crate::calib::refine::{Problem, Refined};
 use crate::captures::{CaptureError, CaptureProfile, Captures, Group, ProfileData, Role};
 use crate::error::Error;
@@ -796,8 +796,9 @@ fn rim_of(
             (h, w.norm() - radius, w.normalize())
         });
         if wall.len() >= super::WALL_MIN_POINTS {
-            rim.walls
-                .extend(wall.into_iter().map(|(p, wt)| (*flange, p, wt)));
+            rim.walls.extend(
+                (wall.into_iter()).map(|(p, wt)| (*flange, p, wt * depth_weight(sensor, &p))),
+            );
             continue;
         }
         // The chord's direction at this end (toward the other end) against the radius.
@@ -808,7 +809,8 @@ fn rim_of(
         let cos = (w.normalize().dot(&along)).abs().max(0.3);
         let depth = sensor.depth(&Point3::new(end.x, 0.0, end.y));
         let spread = sensor.x_step_at_depth(depth) * cos / 12f64.sqrt();
-        let sigma = sensor.noise.z_sigma_at(sensor, depth);
+        // The face's rows are scaled to the range's largest noise (`depth_weight`).
+        let sigma = sensor.noise.z_sigma_at(sensor, depth) * depth_weight(sensor, end);
         rim.ends.push((*flange, *end));
         rim.end_weights.push((sigma / spread).max(0.25));
     }
@@ -917,7 +919,9 @@ fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, R
     let (views, reports) = super::free_views(c, Kind::Disk, |g, p| {
         disk_view(c, g, p, sensor, radius, &cfg)
     })?;
-    let sol = crate::calib::disk_any::solve(&views, radius, &sensor.apex().coords)?;
+    let sol = crate::calib::disk_any::solve(&views, radius, &sensor.apex().coords, &|p| {
+        depth_weight(sensor, p)
+    })?;
     let cal = super::any_pose_calibration(
         &sol.refined,
         Some(sol.disk.centre),
@@ -1172,10 +1176,12 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         std::sync::Arc::new(Problem {
             model: DiskModel {
                 rims: Vec::new(),
+                rim_weights: Vec::new(),
                 walls: rim.walls,
                 end_weights: rim.end_weights,
                 radius,
                 ends: rim.ends,
+                face_weights: face_weights(&face, |p| depth_weight(sensor, p)),
                 face,
             },
             specimen,
@@ -1185,11 +1191,13 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         refinable: Some(std::sync::Arc::new(Problem {
             model: DiskModel {
                 rims: Vec::new(),
+                rim_weights: Vec::new(),
                 walls: Vec::new(),
                 end_weights: Vec::new(),
                 radius,
                 ends,
                 face: Vec::new(),
+                face_weights: Vec::new(),
             },
             specimen,
         })),

@@ -8,7 +8,7 @@
 //! points may carry weights (residual and Jacobian row scaled): their spread differs from the
 //! face points'.
 
-use super::plane::{moment_rows, row_in_base, weighted_moment_rows};
+use super::plane::{row_in_base, weighted_moment_rows};
 use super::{Model, Options, Refined, Transform, exp, frame_with, transform_columns};
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Point3, Rotation3, Vector2, Vector3};
 
@@ -19,10 +19,15 @@ pub struct DiskModel {
     pub ends: Vec<(Isometry3<f64>, Vector2<f64>)>,
     /// Points of the disk's face (full profile; empty for the chord-end refinement).
     pub face: Vec<(Isometry3<f64>, Vector2<f64>)>,
+    /// Each face point's weight (empty: all 1): the stated noise at its depth scaled to one
+    /// spread, so that one robust scale and one variance serve near and far points alike.
+    pub face_weights: Vec<f64>,
     /// Where the rim lies on a face's line, between two points (any-pose; empty otherwise): no
     /// residual while the rim passes between them, else the nearer one's distance from the rim
     /// (censored, as `refine::bar`'s edges).
     pub rims: Vec<(Isometry3<f64>, Vector2<f64>, Vector2<f64>)>,
+    /// Each rim's weight (empty: all 1), as `face_weights`.
+    pub rim_weights: Vec<f64>,
     /// Each end's weight on its distance from the rim (empty: all 1).
     pub end_weights: Vec<f64>,
     /// Points of the cylinder's wall (a disk on a cylinder of its radius; full profile), each
@@ -157,7 +162,9 @@ impl Model for DiskModel {
             ends: super::moved(&self.ends, to),
             end_weights: self.end_weights.clone(),
             face: super::moved(&self.face, to),
+            face_weights: self.face_weights.clone(),
             rims: self.rims.iter().map(|(f, a, b)| (to(f), *a, *b)).collect(),
+            rim_weights: self.rim_weights.clone(),
             walls: self.walls.iter().map(|(f, p, w)| (to(f), *p, *w)).collect(),
         }
     }
@@ -230,6 +237,14 @@ impl Model for DiskModel {
                 kept_ends.iter().map(|&i| self.end_weights[i]).collect()
             },
             face: super::kept(&self.face, drop),
+            face_weights: (self.face_weights.iter().zip(&self.face))
+                .filter(|(_, (f, _))| !drop(f))
+                .map(|(w, _)| *w)
+                .collect(),
+            rim_weights: (self.rim_weights.iter().zip(&self.rims))
+                .filter(|(_, (f, _, _))| !drop(f))
+                .map(|(w, _)| *w)
+                .collect(),
             rims: self
                 .rims
                 .iter()
@@ -307,7 +322,7 @@ impl Model for DiskModel {
         s: &DiskPose,
         opts: &Options,
     ) -> Option<(Refined, DiskPose)> {
-        let face = moment_rows(&self.face);
+        let face = self.face_moments();
         // Worth it where the poses hold many face points each (a full profile's hundreds).
         if 2 * face.len() >= self.face.len() {
             return None;
@@ -317,7 +332,9 @@ impl Model for DiskModel {
                 radius: self.radius,
                 ends: self.ends.clone(),
                 face: Vec::new(),
+                face_weights: Vec::new(),
                 rims: self.rims.clone(),
+                rim_weights: self.rim_weights.clone(),
                 end_weights: self.end_weights.clone(),
                 walls: self.walls.clone(),
             },
@@ -379,7 +396,31 @@ impl Model for DiskModel {
 /// (`DiskModel::robust_start`).
 const ROBUST_ROUNDS: usize = 12;
 
+/// Each face point's `weight` (`DiskModel::face_weights`), empty where all are 1: a model
+/// without weights runs as it did.
+pub fn face_weights(
+    face: &[(Isometry3<f64>, Vector2<f64>)],
+    weight: impl Fn(&Vector2<f64>) -> f64,
+) -> Vec<f64> {
+    let w: Vec<f64> = face.iter().map(|(_, p)| weight(p)).collect();
+    if w.iter().all(|&w| w == 1.0) {
+        Vec::new()
+    } else {
+        w
+    }
+}
+
 impl DiskModel {
+    fn face_weight(&self, i: usize) -> f64 {
+        self.face_weights.get(i).copied().unwrap_or(1.0)
+    }
+
+    /// The face's rows by each pose's moments (`plane::weighted_moment_rows`), each point's
+    /// row scaled by its weight.
+    fn face_moments(&self) -> Vec<(Isometry3<f64>, Vector3<f64>)> {
+        weighted_moment_rows(&self.face, |i| self.face_weight(i).powi(2))
+    }
+
     /// The residuals (and Jacobian): a violated rim at its nearer point, or, given the rims'
     /// column `spacing` (m, in the sensor's plane), inside its interval (`covariance_rows`).
     fn rows(
@@ -402,6 +443,12 @@ impl DiskModel {
         for (i, (f, p)) in self.face.iter().enumerate() {
             let point = seer.point(f, p, j.is_some());
             disk.plane_row(r, j.as_deref_mut(), base + i, &point);
+            if let Some(&w) = self.face_weights.get(i) {
+                r[base + i] *= w;
+                if let Some(j) = j.as_deref_mut() {
+                    j.row_mut(base + i).scale_mut(w);
+                }
+            }
         }
         let base = base + self.face.len();
         for (i, (f, a, b)) in self.rims.iter().enumerate() {
@@ -427,7 +474,8 @@ impl DiskModel {
                 None => *near,
             };
             let point = seer.point(f, &p, j.is_some());
-            disk.rim_row(self.radius, r, j.as_deref_mut(), k, &point, 1.0);
+            let weight = self.rim_weights.get(i).copied().unwrap_or(1.0);
+            disk.rim_row(self.radius, r, j.as_deref_mut(), k, &point, weight);
         }
         let base = base + self.rims.len();
         for (i, (f, p, weight)) in self.walls.iter().enumerate() {
@@ -465,7 +513,11 @@ impl DiskModel {
             planes.push(*end);
             index.push(2 * k);
         }
-        let plane_weight = |k: usize| w[index[k]];
+        // A face point's row carries its own weight as well as the round's.
+        let plane_weight = |k: usize| match index[k].checked_sub(2 * n_ends) {
+            Some(i) => w[index[k]] * self.face_weight(i).powi(2),
+            None => w[index[k]],
+        };
         let face = weighted_moment_rows(&planes, plane_weight);
         let base = 2 * n_ends + self.face.len();
         let walls = (self.ends.iter().enumerate())
@@ -483,7 +535,9 @@ impl DiskModel {
                 radius: self.radius,
                 ends: Vec::new(),
                 face: Vec::new(),
+                face_weights: Vec::new(),
                 rims: Vec::new(),
+                rim_weights: Vec::new(),
                 end_weights: Vec::new(),
                 walls,
             },
@@ -594,6 +648,7 @@ impl Model for DiskReduced {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calib::refine::plane::moment_rows;
     use crate::calib::refine::testing::same_normal_equations;
     use crate::calib::refine::{Status, eval, refine, refine_rows};
 
@@ -755,8 +810,13 @@ mod tests {
 
     #[test]
     fn the_face_by_its_moments_keeps_the_normal_equations() {
-        let (m, x, disk) = model(1e-4);
-        let face = moment_rows(&m.face);
+        let (mut m, x, disk) = model(1e-4);
+        assert_eq!(m.face_moments(), moment_rows(&m.face));
+        // Weighted by depth (`face_weights`), as a full profile's are where noise grows with it.
+        m.face_weights = (0..m.face.len())
+            .map(|i| 1.0 + (0.3 * i as f64).sin().abs() * 5.0)
+            .collect();
+        let face = m.face_moments();
         assert_eq!(face.len(), 36);
         let reduced = DiskReduced {
             rest: DiskModel {
@@ -812,6 +872,9 @@ mod tests {
             .map(|(f, p)| (*f, Vector2::new(p.x, p.y - 0.01), 0.7))
             .collect();
         m.end_weights = (0..m.ends.len()).map(|i| 1.0 + 0.1 * i as f64).collect();
+        m.face_weights = (0..m.face.len())
+            .map(|i| 2.0 - (0.11 * i as f64).cos())
+            .collect();
         let (t, s) = off_truth(&m, &x, &disk);
         let (r, j) = eval(&m, &t, &s, &[], true);
         // Weights away from 1 on every kind of row (as a robust loss gives outliers).
@@ -824,6 +887,101 @@ mod tests {
         assert!(
             m.reweighted_rows(&DVector::from_element(r.len() + 1, 1.0))
                 .is_none()
+        );
+    }
+
+    #[test]
+    fn leaving_poses_out_keeps_each_point_with_its_weight() {
+        let (mut m, x, disk) = model(1e-4);
+        m.face_weights = (0..m.face.len()).map(|i| 1.0 + i as f64).collect();
+        m.rims = (m.ends.iter())
+            .map(|(f, p)| (*f, *p, p + Vector2::new(1e-4, 0.0)))
+            .collect();
+        m.rim_weights = (0..m.rims.len()).map(|i| 2.0 + i as f64).collect();
+        let left_out = m.face[0].0;
+        let drop = |f: &Isometry3<f64>| *f == left_out;
+        let kept = m.without_poses(&drop);
+        let t = Transform::from_isometry(&x);
+        let (r, _) = eval(&m, &t, &disk, &[], false);
+        let (rk, _) = eval(&kept, &t, &disk, &[], false);
+        // The kept rows are the whole model's rows of the kept poses, weights and all.
+        let flanges = m.residual_flanges();
+        let expected: Vec<f64> = (0..r.len())
+            .filter(|&i| !drop(flanges[i]))
+            .map(|i| r[i])
+            .collect();
+        assert!(kept.face.len() < m.face.len() && kept.rims.len() < m.rims.len());
+        assert_eq!(rk.as_slice(), &expected[..]);
+    }
+
+    /// Face points whose noise grows with depth, as a profiler's does: each pose's points at
+    /// z sigma from 0.02 mm (nearest) to 0.25 mm (farthest), Gaussian, seeded by `trial`; the
+    /// points' weights 0.25 mm over their sigma.
+    fn depth_noise(trial: u64) -> (DiskModel, Isometry3<f64>, DiskPose, Vec<f64>) {
+        let (mut m, x, disk) = model(0.0);
+        let mut r = crate::rng::stream(31, &[trial]);
+        let (mut pose, mut weights) = (0, Vec::new());
+        for i in 0..m.face.len() {
+            if i > 0 && m.face[i].0 != m.face[i - 1].0 {
+                pose += 1;
+            }
+            let sigma = 0.02e-3 + 0.23e-3 * pose as f64 / 11.0;
+            m.face[i].1.y += sigma * crate::rng::gauss(&mut r);
+            weights.push(0.25e-3 / sigma);
+        }
+        (m, x, disk, weights)
+    }
+
+    #[test]
+    fn weighted_by_depth_the_robust_fit_is_tighter_and_its_covariance_true() {
+        // Unweighted, the robust loss takes one scale from the quiet near points and clips the
+        // noisy far ones, which the covariance (every row at full weight) does not see.
+        let start = |x: &Isometry3<f64>| {
+            x * Isometry3::new(
+                Vector3::new(1e-3, -1e-3, 2e-3),
+                Vector3::new(0.01, 0.0, -0.01),
+            )
+        };
+        let fit = |m: &DiskModel, x: &Isometry3<f64>, disk: &DiskPose, k: f64| {
+            let opts = Options {
+                loss: crate::calib::refine::Loss::Huber { k },
+                ..Options::default()
+            };
+            let (r, _) = refine_rows(m, &start(x), disk, &opts).unwrap();
+            let w = (x.inverse() * r.flange_to_sensor).rotation.scaled_axis();
+            let t = r.flange_to_sensor.translation.vector - x.translation.vector;
+            let e = nalgebra::Vector6::new(w.x, w.y, w.z, t.x, t.y, t.z);
+            let maha = (e.transpose() * r.covariance.try_inverse().unwrap() * e)[0];
+            (maha, w.norm_squared())
+        };
+        let trials = 150;
+        let (mut weighted, mut plain) = ((0.0, 0.0), (0.0, 0.0));
+        for trial in 0..trials {
+            let (mut m, x, disk, weights) = depth_noise(trial);
+            let (a, b) = fit(&m, &x, &disk, 1.5);
+            plain = (plain.0 + a / trials as f64, plain.1 + b / trials as f64);
+            m.face_weights = weights;
+            let (a, b) = fit(&m, &x, &disk, 3.0);
+            weighted = (
+                weighted.0 + a / trials as f64,
+                weighted.1 + b / trials as f64,
+            );
+        }
+        // 6 for a true covariance of the six parameters (sd of the mean about 0.3 here).
+        assert!(
+            (5.0..7.2).contains(&weighted.0),
+            "weighted: mean Mahalanobis {:.2}",
+            weighted.0
+        );
+        assert!(
+            weighted.1 < 0.8 * plain.1,
+            "weighted {:.3e} against unweighted {:.3e} rad^2",
+            weighted.1,
+            plain.1
+        );
+        eprintln!(
+            "mean Mahalanobis {:.2} weighted, {:.2} unweighted; mean squared rotation error {:.3e} / {:.3e} rad^2",
+            weighted.0, plain.0, weighted.1, plain.1
         );
     }
 
