@@ -83,14 +83,35 @@ pub fn measured_noise<'a>(profiles: impl IntoIterator<Item = &'a Profile>) -> Op
             else {
                 continue;
             };
-            let w = (b.x - a.x) / (c.x - a.x);
-            if !(0.0..=1.0).contains(&w) {
-                continue;
-            }
-            let dz = b.z - (a.z + w * (c.z - a.z));
-            d.push((dz / (1.0 + w * w + (1.0 - w) * (1.0 - w)).sqrt()).abs());
+            let at = |q: crate::sensor::ProfilePoint| Vector2::new(q.x, q.z);
+            d.extend(departure(&at(a), &at(b), &at(c)));
         }
     }
+    robust_sd(d)
+}
+
+/// The z noise (m) a run of consecutive points of one surface shows (`measured_noise`'s
+/// departures, each point against its two neighbours in the run). None with fewer than 20.
+pub fn run_noise(points: &[Vector2<f64>]) -> Option<f64> {
+    robust_sd(
+        (points.windows(3))
+            .filter_map(|t| departure(&t[0], &t[1], &t[2]))
+            .collect(),
+    )
+}
+
+/// |b.z less the z that a and c interpolate at b.x|, over the spread that difference has for
+/// independent z noise; None where b does not lie between them in x.
+fn departure(a: &Vector2<f64>, b: &Vector2<f64>, c: &Vector2<f64>) -> Option<f64> {
+    let w = (b.x - a.x) / (c.x - a.x);
+    (0.0..=1.0).contains(&w).then(|| {
+        let dz = b.y - (a.y + w * (c.y - a.y));
+        (dz / (1.0 + w * w + (1.0 - w) * (1.0 - w)).sqrt()).abs()
+    })
+}
+
+/// 1.4826 x the median of `d` (absolute values); None with fewer than 20.
+fn robust_sd(mut d: Vec<f64>) -> Option<f64> {
     if d.len() < 20 {
         return None;
     }
@@ -1378,5 +1399,24 @@ mod tests {
         let exact = [profile(0.0, &mut rng)];
         assert!(measured_noise(&exact).unwrap() < 1e-12);
         assert_eq!(measured_noise(&[Profile { points: vec![] }]), None);
+    }
+
+    #[test]
+    fn a_run_of_face_points_reads_its_own_noise() {
+        let mut rng = crate::testkit::rng(6);
+        for sigma in [2e-5, 1e-4, 2.5e-4] {
+            let run: Vec<Vector2<f64>> = (0..500)
+                .map(|k| {
+                    let x = -0.04 + 0.08 * (k as f64 / 499.0).powf(1.1);
+                    Vector2::new(x, 0.3 - 0.15 * x + sigma * crate::rng::gauss(&mut rng))
+                })
+                .collect();
+            let m = run_noise(&run).unwrap();
+            assert!((m / sigma - 1.0).abs() < 0.1, "{m} against {sigma}");
+        }
+        // 20 triples at least; exact points read as none.
+        let exact: Vec<Vector2<f64>> = (0..22).map(|k| Vector2::new(k as f64, 0.5)).collect();
+        assert_eq!(run_noise(&exact), Some(0.0));
+        assert_eq!(run_noise(&exact[..21]), None);
     }
 }

@@ -2,7 +2,7 @@
 //! moves (Sec. III-A); its `[disk]` scenario section, plan, simulation, chord features and the
 //! transformation solution (Eqs. 14-19), with the chord-end refinement model.
 
-use super::{Estimator, Kind, Method, Plan, Sim, depth_weight};
+use super::{DepthNoise, Estimator, Kind, Method, Plan, Sim};
 use crate::calib::disk::{DiskChord, DiskProblem, DiskScan};
 use crate::calib::disk_any::DiskView;
 use crate::calib::refine::disk::{DiskModel, DiskPose, face_weights};
@@ -778,7 +778,9 @@ fn rim_of(
     disk: &DiskPose,
     radius: f64,
     sensor: &SensorModel,
+    noise: Option<&DepthNoise>,
 ) -> Rim {
+    let weight = |p: &Vector2<f64>| noise.map_or(1.0, |n| n.weight(sensor, p));
     let n = disk.normal();
     let mut rim = Rim::default();
     let in_disk = |base_to_sensor: &Isometry3<f64>, p: &Vector2<f64>| {
@@ -796,9 +798,8 @@ fn rim_of(
             (h, w.norm() - radius, w.normalize())
         });
         if wall.len() >= super::WALL_MIN_POINTS {
-            rim.walls.extend(
-                (wall.into_iter()).map(|(p, wt)| (*flange, p, wt * depth_weight(sensor, &p))),
-            );
+            rim.walls
+                .extend((wall.into_iter()).map(|(p, wt)| (*flange, p, wt * weight(&p))));
             continue;
         }
         // The chord's direction at this end (toward the other end) against the radius.
@@ -809,8 +810,11 @@ fn rim_of(
         let cos = (w.normalize().dot(&along)).abs().max(0.3);
         let depth = sensor.depth(&Point3::new(end.x, 0.0, end.y));
         let spread = sensor.x_step_at_depth(depth) * cos / 12f64.sqrt();
-        // The face's rows are scaled to the range's largest noise (`depth_weight`).
-        let sigma = sensor.noise.z_sigma_at(sensor, depth) * depth_weight(sensor, end);
+        // Where the face's rows are weighted by depth, all share the spread `top`.
+        let sigma = match noise {
+            Some(n) => n.top(),
+            None => sensor.noise.z_sigma_at(sensor, depth),
+        };
         rim.ends.push((*flange, *end));
         rim.end_weights.push((sigma / spread).max(0.25));
     }
@@ -919,9 +923,12 @@ fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, R
     let (views, reports) = super::free_views(c, Kind::Disk, |g, p| {
         disk_view(c, g, p, sensor, radius, &cfg)
     })?;
-    let sol = crate::calib::disk_any::solve(&views, radius, &sensor.apex().coords, &|p| {
-        depth_weight(sensor, p)
-    })?;
+    let samples: Vec<_> = (views.iter())
+        .filter_map(|v| DepthNoise::sample(sensor, &v.face.points))
+        .collect();
+    let noise = DepthNoise::fit(&samples);
+    let weight = |p: &Vector2<f64>| noise.map_or(1.0, |n| n.weight(sensor, p));
+    let sol = crate::calib::disk_any::solve(&views, radius, &sensor.apex().coords, &weight)?;
     let cal = super::any_pose_calibration(
         &sol.refined,
         Some(sol.disk.centre),
@@ -1071,6 +1078,8 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     // (index of the chord's first end, its walls) where a chord has any.
     let mut walls: Vec<(usize, [Vec<Vector2<f64>>; 2])> = Vec::new();
     let keep = super::face_points(c.profiles.len());
+    // Each scan's profiles' face noise at their depths (`DepthNoise`), dropped with the scan.
+    let mut samples: Vec<Vec<(f64, f64, f64)>> = Vec::new();
     for g in &c.groups {
         // A scan's sign not recorded: the closed form needs it, the any-pose estimator does not.
         if g.sign != 1.0 && g.sign != -1.0 {
@@ -1092,6 +1101,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         let mut chords = Vec::with_capacity(ps.len());
         let (ends_from, face_from) = (ends.len(), face.len());
         let mut report = super::GroupReport::new(g.id);
+        let mut noise_samples = Vec::new();
         for p in &ps {
             let flange = &p.base_to_flange;
             let u = if span.norm_squared() > 0.0 {
@@ -1117,6 +1127,8 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                     face: points,
                     beyond: past,
                 }) => {
+                    // Each profile's face noise at its depth, before thinning.
+                    noise_samples.extend(DepthNoise::sample(sensor, &points));
                     if !points.is_empty() {
                         // The full-profile refinement's face points: up to FACE_POINTS per
                         // profile, spread over the chord (more cost than information beyond).
@@ -1145,6 +1157,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         });
         spans.push((ends_from..ends.len(), face_from..face.len()));
         reports.push(report);
+        samples.push(noise_samples);
     }
     // A scan with fewer than 3 chords cannot give its ellipse: left out, if 4 scans remain.
     super::leave_out_thin_groups(&mut reports, 3, 4, Kind::Disk)?;
@@ -1165,6 +1178,12 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     let normal = plane_normal(&ends, &sol.flange_to_sensor, &sensor.apex());
     let specimen = DiskPose::new(sol.centre_in_base.into(), &normal);
     let full_profile = (!face.is_empty()).then(|| {
+        let kept = (samples.iter().zip(&reports)).filter(|(_, r)| !r.left_out);
+        let noise = DepthNoise::fit(
+            &kept
+                .flat_map(|(s, _)| s.iter().copied())
+                .collect::<Vec<_>>(),
+        );
         let rim = rim_of(
             &ends,
             &beyond,
@@ -1172,6 +1191,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             &specimen,
             radius,
             sensor,
+            noise.as_ref(),
         );
         std::sync::Arc::new(Problem {
             model: DiskModel {
@@ -1181,7 +1201,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                 end_weights: rim.end_weights,
                 radius,
                 ends: rim.ends,
-                face_weights: face_weights(&face, |p| depth_weight(sensor, p)),
+                face_weights: face_weights(&face, |p| noise.map_or(1.0, |n| n.weight(sensor, p))),
                 face,
             },
             specimen,

@@ -407,6 +407,81 @@ fn with_ranges(key: &str, ranges: &[(f64, f64)]) -> String {
 }
 
 #[cfg(test)]
+mod depth_noise_tests {
+    use super::DepthNoise;
+    use crate::sensor::SensorModel;
+    use nalgebra::Vector2;
+
+    /// Profiles of a face across the range, their noise 0.02 mm near to 0.25 mm far (or
+    /// `uniform`), each read back by `DepthNoise::sample`.
+    fn samples(sensor: &SensorModel, uniform: bool, seed: u64) -> Vec<(f64, f64, f64)> {
+        truth(sensor, uniform, seed)
+            .into_iter()
+            .map(|(s, _)| s)
+            .collect()
+    }
+
+    /// `samples` with each profile's true sigma (m).
+    fn truth(sensor: &SensorModel, uniform: bool, seed: u64) -> Vec<((f64, f64, f64), f64)> {
+        let mut rng = crate::testkit::rng(seed);
+        let (near, far) = sensor.z_range();
+        (0..16)
+            .filter_map(|k| {
+                let z = near + (far - near) * (0.1 + 0.8 * k as f64 / 15.0);
+                let f = (k as f64 + 0.5) / 16.0;
+                let sigma = if uniform { 1e-4 } else { 2e-5 + 2.3e-4 * f };
+                let face: Vec<Vector2<f64>> = (0..600)
+                    .map(|i| {
+                        let x = -0.02 + 0.04 * i as f64 / 599.0;
+                        Vector2::new(x, z + 0.1 * x + sigma * crate::rng::gauss(&mut rng))
+                    })
+                    .collect();
+                DepthNoise::sample(sensor, &face).map(|s| (s, sigma))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_noise_is_read_against_depth_from_the_faces() {
+        let sensor = SensorModel::gocator_2340();
+        let t = truth(&sensor, false, 3);
+        let s: Vec<_> = t.iter().map(|(s, _)| *s).collect();
+        let n = DepthNoise::fit(&s).unwrap();
+        // Read back within 15 % across the range (a profile's own reading spreads by 5-10 %);
+        // the weights scale it to its largest value.
+        for &((d, _, _), sigma) in &t {
+            assert!(
+                (n.at(d) / sigma - 1.0).abs() < 0.15,
+                "{} at {d}: {sigma}",
+                n.at(d)
+            );
+        }
+        let largest = t.iter().map(|t| t.1).fold(0.0, f64::max);
+        assert!((n.top() / largest - 1.0).abs() < 0.1);
+        // A point's weight: top over the noise at its depth, flat beyond the fitted depths.
+        let (z0, z1) = sensor.z_range();
+        let w: Vec<f64> = [z0, z1]
+            .map(|z| n.weight(&sensor, &Vector2::new(0.0, z)))
+            .into();
+        let (low, high) = (w[0].min(w[1]), w[0].max(w[1]));
+        assert!((low - 1.0).abs() < 1e-12, "{w:?}");
+        assert!(high > 5.0 && high <= 25.0, "{w:?}");
+    }
+
+    #[test]
+    fn uniform_noise_or_too_little_spread_leaves_every_weight_one() {
+        let sensor = SensorModel::gocator_2340();
+        for seed in 0..20 {
+            assert_eq!(DepthNoise::fit(&samples(&sensor, true, seed)), None);
+        }
+        let s = samples(&sensor, false, 4);
+        assert_eq!(DepthNoise::fit(&s[..2]), None);
+        let one_depth: Vec<_> = s.iter().map(|&(_, sd, n)| (0.3, sd, n)).collect();
+        assert_eq!(DepthNoise::fit(&one_depth), None);
+    }
+}
+
+#[cfg(test)]
 mod report_tests {
     use super::GroupReport;
 
@@ -572,13 +647,109 @@ fn first_wall_weight(normal: &Vector3<f64>, z_sensor: &Vector3<f64>) -> f64 {
         .max(crate::calib::refine::slant::KAPPA_START)
 }
 
-/// A point's (sensor x, z) weight under the stated depth-dependent noise
-/// (`NoiseModel::depth_weight`): the full-profile fits' Huber loss takes one scale from the
-/// residuals' median, which quiet near points set, and would cut the noisy far ones as
-/// outliers while the covariance holds their weights fixed (disk-full's rotation bound held
-/// 90.5 % of 200 placements at 0.02 mm near, 0.25 mm far; docs/verdict.md).
-fn depth_weight(sensor: &SensorModel, p: &Vector2<f64>) -> f64 {
-    (sensor.noise).depth_weight(sensor, sensor.depth(&Point3::new(p.x, 0.0, p.y)))
+/// The z noise of a capture's face points against their depth, read from the data, by which the
+/// full-profile fits weight their points (`DepthNoise::weight`). A profiler's noise grows with
+/// depth; the statement may give one number for the range, or none, or the wrong two. Unweighted,
+/// the full-profile fits' Huber loss takes one scale from the residuals' median, which quiet near
+/// points set, and clips the noisy far ones as outliers while the covariance holds every row at
+/// full weight (`disk-full`'s rotation bound held 90.5 % of 200 placements at 0.02 mm near, 0.25
+/// mm far; docs/verdict.md).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DepthNoise {
+    /// The line sigma = at_near + slope (depth - near) (m), over depths near..far.
+    at_near: f64,
+    slope: f64,
+    near: f64,
+    far: f64,
+    /// Its largest value over near..far: the spread every weighted row shares.
+    top: f64,
+}
+
+/// A line whose ends differ by less than this ratio is taken for uniform noise (every weight 1):
+/// a fit over a few profiles' noise varies by some percent by chance alone.
+const DEPTH_NOISE_MIN_RATIO: f64 = 1.25;
+/// The largest weight: the line at a point's depth is floored at `top` over this (a line that
+/// reaches zero within the range still has quantisation and jitter there).
+const MAX_DEPTH_WEIGHT: f64 = 25.0;
+
+impl DepthNoise {
+    /// The line through each profile's face noise at its depth, `(depth m, sigma m, triples)`
+    /// (least squares, each weighted by its triples); None with fewer than 3 profiles, depths
+    /// that do not spread, or a line that varies by less than `DEPTH_NOISE_MIN_RATIO`.
+    pub fn fit(samples: &[(f64, f64, f64)]) -> Option<DepthNoise> {
+        let ok: Vec<(f64, f64, f64)> = (samples.iter())
+            .filter(|(d, s, n)| d.is_finite() && s.is_finite() && *n > 0.0)
+            .copied()
+            .collect();
+        if ok.len() < 3 {
+            return None;
+        }
+        let near = ok.iter().map(|s| s.0).fold(f64::INFINITY, f64::min);
+        let far = ok.iter().map(|s| s.0).fold(f64::NEG_INFINITY, f64::max);
+        // Depths that do not spread (one stand-off) fix no slope.
+        if !(far - near > 1e-6 * far.abs().max(1.0)) {
+            return None;
+        }
+        // A sigma read from n points spreads by about sigma / sqrt(2 n): each profile weighted
+        // by n over the line's sigma there squared (the first pass by n alone), so that the
+        // quiet end is read as closely as the noisy one, relatively.
+        let mut line = (0.0, 0.0);
+        for pass in 0..2 {
+            let weight = |(d, _, n): &(f64, f64, f64)| match pass {
+                0 => *n,
+                _ => n / (line.0 + line.1 * (d - near)).max(1e-9).powi(2),
+            };
+            let w: f64 = ok.iter().map(weight).sum();
+            let mean = |f: &dyn Fn(&(f64, f64, f64)) -> f64| {
+                ok.iter().map(|s| weight(s) * f(s)).sum::<f64>() / w
+            };
+            let (md, ms) = (mean(&|s| s.0), mean(&|s| s.1));
+            let sdd = mean(&|s| (s.0 - md).powi(2));
+            let slope = mean(&|s| (s.0 - md) * (s.1 - ms)) / sdd;
+            line = (ms + slope * (near - md), slope);
+        }
+        let (at_near, slope) = line;
+        let at_far = at_near + slope * (far - near);
+        let top = at_near.max(at_far);
+        if !(top > 0.0) || top < DEPTH_NOISE_MIN_RATIO * at_near.min(at_far) {
+            return None;
+        }
+        Some(DepthNoise {
+            at_near,
+            slope,
+            near,
+            far,
+            top,
+        })
+    }
+
+    /// The noise at `depth` (m), the line held flat beyond the depths it was fitted over.
+    pub fn at(&self, depth: f64) -> f64 {
+        let d = depth.clamp(self.near, self.far);
+        (self.at_near + self.slope * (d - self.near)).max(self.top / MAX_DEPTH_WEIGHT)
+    }
+
+    /// The spread every weighted row shares (m).
+    pub fn top(&self) -> f64 {
+        self.top
+    }
+
+    /// A point's (sensor x, z) weight: `top` over the noise at its depth.
+    pub fn weight(&self, sensor: &SensorModel, p: &Vector2<f64>) -> f64 {
+        self.top / self.at(sensor.depth(&Point3::new(p.x, 0.0, p.y)))
+    }
+
+    /// A profile's sample for `fit`: its face points' noise (`features::run_noise`, in column
+    /// order) at their median depth, with the number of points.
+    pub fn sample(sensor: &SensorModel, face: &[Vector2<f64>]) -> Option<(f64, f64, f64)> {
+        let sigma = crate::features::run_noise(face)?;
+        let mut depths: Vec<f64> = (face.iter())
+            .map(|p| sensor.depth(&Point3::new(p.x, 0.0, p.y)))
+            .collect();
+        let mid = depths.len() / 2;
+        let depth = *depths.select_nth_unstable_by(mid, f64::total_cmp).1;
+        Some((depth, sigma, face.len() as f64))
+    }
 }
 
 /// The points of `past` (sensor x, z, seen from `base_to_sensor`) on a specimen's wall, with
@@ -812,7 +983,6 @@ pub fn extraction_sensor<'a>(
     std::borrow::Cow::Owned(s)
 }
 
-/// The refinement options of an estimator's last fit (also its leave-one-out runs').
 /// Where the full-profile fits' Huber loss clips, in robust standard deviations of the
 /// (depth-weighted) residuals. The covariance holds every row at full weight, as least squares
 /// does: at 3 the loss leaves 0.3 % of Gaussian rows clipped and the covariance true, while a
@@ -822,6 +992,7 @@ pub fn extraction_sensor<'a>(
 /// 3.57 against 2.94; 3 is honest; docs/verdict.md).
 pub const FULL_PROFILE_HUBER_K: f64 = 3.0;
 
+/// The refinement options of an estimator's last fit (also its leave-one-out runs').
 pub fn refine_options(estimator: Estimator) -> Options {
     match estimator {
         // Hundreds of points per profile: a stray one (a blend at the rim, a speck) must not

@@ -5,10 +5,6 @@ use crate::rng::gauss;
 use nalgebra::Point3;
 use rand::RngExt;
 
-/// The largest `NoiseModel::depth_weight`: a far point's noise at most this many times a near
-/// one's is what profilers state (0.02 against 0.25 mm is 12.5).
-pub const MAX_DEPTH_WEIGHT: f64 = 25.0;
-
 /// Noise of a triangulation profiler (metres, probabilities 0..1).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct NoiseModel {
@@ -48,18 +44,6 @@ impl NoiseModel {
         self.z_sigma_near + f * (self.z_sigma_far - self.z_sigma_near)
     }
 
-    /// A point's weight in a fit whose rows should share one spread (one robust scale, one
-    /// variance): the largest z sigma of the range over the one at `depth`. Exactly 1 where the
-    /// noise does not vary with depth or is off; at most `MAX_DEPTH_WEIGHT` (a range that
-    /// states no noise at one end still has its quantisation and jitter there).
-    pub fn depth_weight(&self, sensor: &SensorModel, depth: f64) -> f64 {
-        let top = self.z_sigma_near.max(self.z_sigma_far);
-        if self.z_sigma_near == self.z_sigma_far || !(top > 0.0) {
-            return 1.0;
-        }
-        top / self.z_sigma_at(sensor, depth).max(top / MAX_DEPTH_WEIGHT)
-    }
-
     /// Apply the noise to one exact point; None when it drops out.
     pub(crate) fn apply(
         &self,
@@ -88,31 +72,5 @@ impl NoiseModel {
             z += (2.0 * u_amp - 1.0) * self.outlier_amplitude;
         }
         Some(ProfilePoint { x, z, intensity })
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_depth_weight_scales_each_depth_to_the_largest_noise() {
-        let mut sensor = SensorModel::gocator_2340();
-        let (near, far) = (sensor.depth_near, sensor.depth_far);
-        sensor.noise.z_sigma_near = 0.02e-3;
-        sensor.noise.z_sigma_far = 0.25e-3;
-        let w = |s: &SensorModel, d: f64| s.noise.depth_weight(s, d);
-        assert!((w(&sensor, near) - 12.5).abs() < 1e-12);
-        assert_eq!(w(&sensor, far), 1.0);
-        let mid = 0.5 * (near + far);
-        assert!((w(&sensor, mid) - 0.25 / 0.135).abs() < 1e-12);
-        // Uniform or no noise: every weight exactly 1 (the fit runs as without weights).
-        sensor.noise.z_sigma_near = 0.25e-3;
-        assert_eq!(w(&sensor, near), 1.0);
-        sensor.noise = NoiseModel::default();
-        assert_eq!(w(&sensor, mid), 1.0);
-        // No noise stated at one end: capped.
-        sensor.noise.z_sigma_far = 0.1e-3;
-        assert!((w(&sensor, near) - MAX_DEPTH_WEIGHT).abs() < 1e-12);
     }
 }
