@@ -208,6 +208,23 @@ pub struct Noise {
     pub sigma_z: f64,
     /// Probability that a point is missing.
     pub dropout: f64,
+    /// Where above 0: the z noise at the far end of the fan's z range (metres), `sigma_z` being
+    /// the near end's, linear in depth between them (a profiler's noise grows with depth).
+    pub sigma_z_far: f64,
+}
+
+impl Noise {
+    /// The z noise at a point of sensor z `z` (`sigma_z_far`).
+    fn sigma_at(&self, fan: &Fan, z: f64) -> f64 {
+        if !(self.sigma_z_far > 0.0) {
+            return self.sigma_z;
+        }
+        let depth = |z: f64| (z - fan.apex_z) * fan.dir_z;
+        let (a, b) = (depth(fan.z_range.0), depth(fan.z_range.1));
+        let (near, far) = (a.min(b), a.max(b));
+        let f = ((depth(z) - near) / (far - near)).clamp(0.0, 1.0);
+        self.sigma_z + f * (self.sigma_z_far - self.sigma_z)
+    }
 }
 
 /// One profile, in the sensor frame: (x, z) per column, None where nothing is seen.
@@ -243,7 +260,7 @@ pub fn profile(
             if drop < noise.dropout {
                 return None;
             }
-            Some((q.x, q.z + noise.sigma_z * dz))
+            Some((q.x, q.z + noise.sigma_at(fan, q.z) * dz))
         })
         .collect()
 }

@@ -122,6 +122,7 @@ pub(crate) fn random_setup(seed: u64, n: usize, translations: usize, sigma: f64)
         let noise = Noise {
             sigma_z: sigma,
             dropout: 0.0,
+            sigma_z_far: 0.0,
         };
         let pts = profile(&fan, &solids, &base_to_sensor, noise, &mut rng);
         groups.push(Group {
@@ -506,6 +507,7 @@ fn random_face_setup(
         let noise = Noise {
             sigma_z: sigma,
             dropout: 0.0,
+            sigma_z_far: 0.0,
         };
         let pts = profile(&fan, &solids, &base_to_sensor, noise, &mut rng);
         groups.push(Group {

@@ -66,6 +66,7 @@ fn drifting(
         let noise = Noise {
             sigma_z: sigma,
             dropout: 0.0,
+            sigma_z_far: 0.0,
         };
         p.data = common::raw(profile(
             &s.fan,

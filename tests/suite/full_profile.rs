@@ -186,6 +186,7 @@ fn independent_medians(
     let noise = lasercal::testkit::fan::Noise {
         sigma_z: 0.1e-3,
         dropout: 0.0,
+        sigma_z_far: 0.0,
     };
     medians(s, kind, trials, &sensor, &|c, trial| {
         common::regenerate(&c, s, &fan, solids, noise, seed + trial)
