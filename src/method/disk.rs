@@ -821,6 +821,19 @@ fn rim_of(
     rim
 }
 
+/// `DepthNoise` from the scans' noise readings (one list per scan), the scans left out dropped.
+fn kept_noise(
+    samples: &[Vec<(f64, f64, f64)>],
+    reports: &[super::GroupReport],
+) -> Option<DepthNoise> {
+    let kept = (samples.iter().zip(reports)).filter(|(_, r)| !r.left_out);
+    DepthNoise::fit(
+        &kept
+            .flat_map(|(s, _)| s.iter().copied())
+            .collect::<Vec<_>>(),
+    )
+}
+
 /// A chord with, from a raw profile of a disk on a cylinder, the face points it was fitted to and
 /// the points beyond its ends (`features::DiskProfile::beyond`).
 struct Found {
@@ -1178,12 +1191,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     let normal = plane_normal(&ends, &sol.flange_to_sensor, &sensor.apex());
     let specimen = DiskPose::new(sol.centre_in_base.into(), &normal);
     let full_profile = (!face.is_empty()).then(|| {
-        let kept = (samples.iter().zip(&reports)).filter(|(_, r)| !r.left_out);
-        let noise = DepthNoise::fit(
-            &kept
-                .flat_map(|(s, _)| s.iter().copied())
-                .collect::<Vec<_>>(),
-        );
+        let noise = kept_noise(&samples, &reports);
         let rim = rim_of(
             &ends,
             &beyond,

@@ -26,6 +26,14 @@ fn with_sigma(sensor: &SensorModel, sigma_mm: f64) -> SensorModel {
 
 use common::regenerate;
 
+/// Trials per case of the measured tests: `LASERCAL_INDEPENDENT_TRIALS` (default 2).
+fn independent_trials() -> u64 {
+    std::env::var("LASERCAL_INDEPENDENT_TRIALS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(2)
+}
+
 fn scenario(name: &str, edit: &dyn Fn(String) -> String) -> Setup {
     let text = edit(std::fs::read_to_string(common::scen(name)).unwrap());
     let sf = ScenarioFile::parse(&text, name).unwrap();
@@ -1095,10 +1103,7 @@ fn ball_refinement_converges_on_independent_profiles() {
 fn the_verdict_on_the_papers_protocols_from_another_generator() {
     use lasercal::calib::PoseError;
     use lasercal::method::verdict::{Verdict, decide};
-    let n: u64 = std::env::var("LASERCAL_INDEPENDENT_TRIALS")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(2);
+    let n = independent_trials();
     let cases: [(&str, Kind, fn() -> (Setup, Fan, Vec<Solid>)); 3] = [
         ("disk", Kind::Disk, disk_case),
         ("ball", Kind::Ball, ball_case),
@@ -1199,10 +1204,7 @@ fn depth_dependent_noise_from_another_generator_is_read_and_bounded() {
     use lasercal::calib::PoseError;
     use lasercal::method::verdict::{Verdict, judge, quality};
     use lasercal::method::{Estimator, MethodId};
-    let n: u64 = std::env::var("LASERCAL_INDEPENDENT_TRIALS")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(2);
+    let n = independent_trials();
     let (s, fan, solids) = disk_case();
     let sensor = with_sigma(&common::declared(&fan, "fan-295"), 0.25);
     let id = MethodId::new(Kind::Disk, Estimator::FullProfile);
