@@ -780,7 +780,7 @@ fn rim_of(
     sensor: &SensorModel,
     noise: Option<&DepthNoise>,
 ) -> Rim {
-    let weight = |p: &Vector2<f64>| noise.map_or(1.0, |n| n.weight(sensor, p));
+    let weight = |p: &Vector2<f64>| DepthNoise::weight_or_one(noise, sensor, p);
     let n = disk.normal();
     let mut rim = Rim::default();
     let in_disk = |base_to_sensor: &Isometry3<f64>, p: &Vector2<f64>| {
@@ -940,7 +940,7 @@ fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, R
         .filter_map(|v| DepthNoise::sample(sensor, &v.face.points))
         .collect();
     let noise = DepthNoise::fit(&samples);
-    let weight = |p: &Vector2<f64>| noise.map_or(1.0, |n| n.weight(sensor, p));
+    let weight = |p: &Vector2<f64>| DepthNoise::weight_or_one(noise.as_ref(), sensor, p);
     let sol = crate::calib::disk_any::solve(&views, radius, &sensor.apex().coords, &weight)?;
     let cal = super::any_pose_calibration(
         &sol.refined,
@@ -1209,7 +1209,9 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                 end_weights: rim.end_weights,
                 radius,
                 ends: rim.ends,
-                face_weights: face_weights(&face, |p| noise.map_or(1.0, |n| n.weight(sensor, p))),
+                face_weights: face_weights(&face, |p| {
+                    DepthNoise::weight_or_one(noise.as_ref(), sensor, p)
+                }),
                 face,
             },
             specimen,

@@ -739,6 +739,15 @@ impl DepthNoise {
         self.top / self.at(sensor.depth(&Point3::new(p.x, 0.0, p.y)))
     }
 
+    /// `weight` where the noise was read to vary with depth (`noise`), else exactly 1.
+    pub fn weight_or_one(
+        noise: Option<&DepthNoise>,
+        sensor: &SensorModel,
+        p: &Vector2<f64>,
+    ) -> f64 {
+        noise.map_or(1.0, |n| n.weight(sensor, p))
+    }
+
     /// A profile's sample for `fit`: its face points' noise (`features::run_noise`, in column
     /// order) at their median depth, with the number of points.
     pub fn sample(sensor: &SensorModel, face: &[Vector2<f64>]) -> Option<(f64, f64, f64)> {
