@@ -149,32 +149,13 @@ impl Honest {
             return alone;
         };
         let informative = pose_directions(g, p);
-        // With fewer poses than directions to see, some direction rests on one pose (leverage
-        // near 1) and the correction blows up: the few-pose widening below holds those sets.
-        let adjusted = (informative == 6 && !grams.is_empty())
-            .then(|| {
-                leverage_adjusted(
-                    &sums.ata.select_rows(used).select_columns(used),
-                    inv,
-                    &grams,
-                    &sums.scores.select_columns(used),
-                )
-            })
-            .flatten();
-        let (clustered, pooled) = match adjusted {
-            Some(steps) => shrunk_spread(cov, &steps),
-            None => {
-                // The small-sample factor of the clustered sandwich (CR1).
-                let factor = (g as f64 / (g - 1) as f64) * ((n - 1) as f64 / (n - p) as f64);
-                (scores_spread(inv, &sums.scores, used) * factor, 0.0)
-            }
-        };
+        let (clustered, pooled) = clustered(inv, sums, &grams, used, cov, informative);
         // The scores of g poses span at most g - 1 directions, and the specimen's parameters
         // take p - 6 of them: with few poses (8 ball or plane poses) the clustered covariance
         // says nothing in the transform's remaining directions. There the residual-level one is
         // raised by the mean widening of the directions it does see (pose error is no smaller
         // where it cannot be measured).
-        let (covariance, inflation) = larger_of(cov, &clustered, informative);
+        let (covariance, inflation, share) = larger_of(cov, &clustered, informative);
         // Student's t at g - 1 degrees of freedom treats the whole covariance as measured by the
         // poses' scatter alone; where the residual-level one holds it in part (no robot error:
         // the two estimate the same), that over-covered the independent generator's random rigs
@@ -185,11 +166,7 @@ impl Honest {
             // The shrunk part pools its six directions' g - 1 each: from g - 1 (none pooled)
             // to six times as many (all).
             let dof_clustered = ((g - 1) as f64 * 6.0 / (1.0 + 5.0 * (1.0 - pooled))) as usize;
-            effective_dof(
-                share_of_larger(cov, &clustered),
-                dof_clustered.max(g - 1),
-                n - p,
-            )
+            effective_dof(share, dof_clustered.max(g - 1), n - p)
         } else {
             g - 1
         };
@@ -277,6 +254,41 @@ impl Honest {
             translation_mm: std::array::from_fn(|i| Z_975 * t * sd(3 + i) * 1e3),
             rotation_norm_deg: (t * norm_quantile(&rot, Z_JOINT)).to_degrees(),
             translation_norm_mm: t * norm_quantile(&tra, Z_JOINT) * 1e3,
+        }
+    }
+}
+
+/// The pose-clustered covariance of the transform (6 x 6) and the share of its spread over
+/// directions pooled toward their mean (`shrunk_spread`; 0 where not shrunk). With every
+/// direction measured and each pose's gram kept, the poses' leverage-corrected steps (CR2),
+/// shrunk; else the CR1 sandwich. With fewer poses than directions to see, some direction rests
+/// on one pose (leverage near 1) and the correction blows up: the few-pose widening in
+/// `larger_of` holds those sets.
+fn clustered(
+    inv: &DMatrix<f64>,
+    sums: &super::Sums,
+    grams: &[DMatrix<f64>],
+    used: &[usize],
+    cov: &Matrix6<f64>,
+    informative: usize,
+) -> (Matrix6<f64>, f64) {
+    let (n, p, g) = (sums.n, used.len(), sums.scores.nrows());
+    let adjusted = (informative == 6 && !grams.is_empty())
+        .then(|| {
+            leverage_adjusted(
+                &sums.ata.select_rows(used).select_columns(used),
+                inv,
+                grams,
+                &sums.scores.select_columns(used),
+            )
+        })
+        .flatten();
+    match adjusted {
+        Some(steps) => shrunk_spread(cov, &steps),
+        None => {
+            // The small-sample factor of the clustered sandwich (CR1).
+            let factor = (g as f64 / (g - 1) as f64) * ((n - 1) as f64 / (n - p) as f64);
+            (scores_spread(inv, &sums.scores, used) * factor, 0.0)
         }
     }
 }
@@ -772,20 +784,21 @@ fn clusters_by_key(flanges: &[&Isometry3<f64>], n_residuals: usize) -> Vec<u32> 
 /// The smallest covariance that holds both `a` and `b` along `a`'s principal directions: with
 /// a = S S, the eigenvalues of S^-1 b S^-1 are raised to at least 1. When `b` is estimated in
 /// only `informative` (< 6) directions, every eigenvalue is raised to at least the mean of the
-/// largest `informative` ones. Returns it and the square root of the largest raised eigenvalue
-/// (at least 1). Falls back to a + b where `a` is singular (a pivot of its Cholesky factor at
+/// largest `informative` ones. Returns it, the square root of the largest raised eigenvalue
+/// (at least 1) and the share of its whitened trace `b` sets (for `effective_dof`; NaN in the
+/// fallback). Falls back to a + b where `a` is singular (a pivot of its Cholesky factor at
 /// most 1e-24 of its largest diagonal entry).
 ///
 /// Any factor a = L L^T gives the same matrix: L = S Q with Q orthogonal, so L^-1 b L^-T =
 /// Q^T (S^-1 b S^-1) Q has the same eigenvalues, its eigenvectors turned by Q^T, and Q cancels
 /// in L W D W^T L^T. The Cholesky factor costs less than S's eigen decomposition.
-fn larger_of(a: &Matrix6<f64>, b: &Matrix6<f64>, informative: usize) -> (Matrix6<f64>, f64) {
+fn larger_of(a: &Matrix6<f64>, b: &Matrix6<f64>, informative: usize) -> (Matrix6<f64>, f64, f64) {
     let top = a.diagonal().max();
     let Some(l) = a.cholesky().map(|c| c.l()) else {
-        return (a + b, f64::NAN);
+        return (a + b, f64::NAN, f64::NAN);
     };
     if !(top > 0.0) || l.diagonal().iter().any(|&d| !(d * d > 1e-24 * top)) {
-        return (a + b, f64::NAN);
+        return (a + b, f64::NAN, f64::NAN);
     }
     // L^-1 b L^-T by two triangular solves (b symmetric).
     let lb = l.solve_lower_triangular(b).expect("a positive diagonal");
@@ -802,26 +815,10 @@ fn larger_of(a: &Matrix6<f64>, b: &Matrix6<f64>, informative: usize) -> (Matrix6
     };
     let raised = em.eigenvalues.map(|l| l.max(floor));
     let mid = em.eigenvectors * Matrix6::from_diagonal(&raised) * em.eigenvectors.transpose();
-    (l * mid * l.transpose(), raised.max().sqrt())
-}
-
-/// The share of `larger_of(a, b, 6)`'s whitened trace that `b` sets (the directions where it is
-/// the larger): 0 where `b` is nowhere larger, 1 where it is everywhere. NaN where `a` is
-/// singular (`larger_of` then adds them).
-fn share_of_larger(a: &Matrix6<f64>, b: &Matrix6<f64>) -> f64 {
-    let Some(l) = a.cholesky().map(|c| c.l()) else {
-        return f64::NAN;
-    };
-    let (Some(lb), true) = (l.solve_lower_triangular(b), a.diagonal().max() > 0.0) else {
-        return f64::NAN;
-    };
-    let Some(m) = l.solve_lower_triangular(&lb.transpose()) else {
-        return f64::NAN;
-    };
-    let e = SymmetricEigen::new((m + m.transpose()) * 0.5).eigenvalues;
-    let from_b: f64 = e.iter().filter(|&&v| v > 1.0).sum();
-    let total: f64 = e.iter().map(|v| v.max(1.0)).sum();
-    from_b / total
+    // The share of the whitened trace `b` sets (the directions where it is the larger).
+    let from_b: f64 = em.eigenvalues.iter().filter(|&&v| v > 1.0).sum();
+    let share = from_b / em.eigenvalues.iter().map(|v| v.max(1.0)).sum::<f64>();
+    (l * mid * l.transpose(), raised.max().sqrt(), share)
 }
 
 /// Satterthwaite's effective degrees of freedom of a covariance whose share `f` of its trace
@@ -1043,15 +1040,17 @@ mod tests {
         b[(0, 0)] = 9.0;
         b[(0, 1)] = 0.3;
         b[(1, 0)] = 0.3;
-        let (c, f) = larger_of(&a, &b, 6);
+        let (c, f, share) = larger_of(&a, &b, 6);
         for m in [a, b] {
             let d = SymmetricEigen::new(c - m).eigenvalues.min();
             assert!(d > -1e-9, "{d}");
         }
         assert!((f - 3.0).abs() < 0.01, "{f}");
+        // b sets one direction (about 9 in a's units) of a whitened trace of about 9 + 5.
+        assert!((share - 9.0 / 14.0).abs() < 0.01, "{share}");
         // Where b is within a, a itself.
-        let (c, f) = larger_of(&a, &(a * 0.5), 6);
-        assert!((c - a).norm() < 1e-12 && f == 1.0);
+        let (c, f, share) = larger_of(&a, &(a * 0.5), 6);
+        assert!((c - a).norm() < 1e-12 && f == 1.0 && share == 0.0);
     }
 
     #[test]
@@ -1080,7 +1079,7 @@ mod tests {
             let want = half
                 * (em.eigenvectors * Matrix6::from_diagonal(&raised) * em.eigenvectors.transpose())
                 * half;
-            let (got, top) = larger_of(&a, &b, informative);
+            let (got, top, _) = larger_of(&a, &b, informative);
             assert!(
                 (got - want).amax() <= 1e-10 * want.amax(),
                 "{got} vs {want}"
@@ -1092,7 +1091,7 @@ mod tests {
         let mut s = a;
         s.row_mut(2).fill(0.0);
         s.column_mut(2).fill(0.0);
-        let (c, top) = larger_of(&s, &b, 6);
+        let (c, top, _) = larger_of(&s, &b, 6);
         assert!(top.is_nan() && c == s + b);
     }
 
@@ -1182,12 +1181,12 @@ mod tests {
     fn directions_few_poses_cannot_see_take_the_mean_widening() {
         let a = Matrix6::identity();
         let b = Matrix6::from_diagonal(&nalgebra::Vector6::new(9.0, 4.0, 0.0, 0.0, 0.0, 0.0));
-        let (c, f) = larger_of(&a, &b, 2);
+        let (c, f, _) = larger_of(&a, &b, 2);
         let want = nalgebra::Vector6::new(9.0, 6.5, 6.5, 6.5, 6.5, 6.5);
         assert!((c - Matrix6::from_diagonal(&want)).norm() < 1e-9, "{c}");
         assert!((f - 3.0).abs() < 1e-9);
         // Every direction informative: only raised to 1.
-        let (c, _) = larger_of(&a, &b, 6);
+        let (c, _, _) = larger_of(&a, &b, 6);
         let want = nalgebra::Vector6::new(9.0, 4.0, 1.0, 1.0, 1.0, 1.0);
         assert!((c - Matrix6::from_diagonal(&want)).norm() < 1e-9, "{c}");
     }
@@ -1220,6 +1219,20 @@ mod tests {
         }
         let full = inv * meat * inv;
         Matrix6::from_fn(|a, b| full[(a, b)])
+    }
+
+    /// A linear fit's design of `poses` x `per` rows of six uniform columns: the Jacobian, each
+    /// row's pose and (J^T J)^-1.
+    fn random_design(
+        dr: &mut Draws,
+        poses: usize,
+        per: usize,
+    ) -> (DMatrix<f64>, Vec<u32>, DMatrix<f64>) {
+        let n = poses * per;
+        let j = DMatrix::from_fn(n, 6, |_, _| dr.uniform() - 0.5);
+        let cl = (0..n).map(|i| (i / per) as u32).collect();
+        let inv = (j.transpose() * &j).try_inverse().unwrap();
+        (j, cl, inv)
     }
 
     /// Seeded draws: uniform in (0, 1) and standard normal (Box-Muller), one sequence.
@@ -1327,9 +1340,7 @@ mod tests {
         let (poses, per) = (5usize, 40usize);
         let n = poses * per;
         let mut dr = Draws(12345);
-        let j = DMatrix::from_fn(n, 6, |_, _| dr.uniform() - 0.5);
-        let cl: Vec<u32> = (0..n).map(|i| (i / per) as u32).collect();
-        let inv = (j.transpose() * &j).try_inverse().unwrap();
+        let (j, cl, inv) = random_design(&mut dr, poses, per);
         let sums = super::super::Sums::of(&DVector::zeros(n), &j, &cl, poses);
         let used: Vec<usize> = (0..6).collect();
         let h = Honest::of(Some(&inv), &sums, &[], &used, &Matrix6::identity());
@@ -1399,16 +1410,14 @@ mod tests {
     /// Points of 20 poses with independent noise alone: the clustered and the residual-level
     /// covariances estimate the same, the larger of the two is mostly the residual-level one,
     /// and the quantiles' degrees of freedom are well above the poses' 19; half the trace from
-    /// each gives about four times 19, none from the clustered one the residuals..
+    /// each gives about four times 19, none from the clustered one the residuals'.
     #[test]
     fn without_pose_errors_the_quantiles_take_more_degrees_of_freedom() {
         let (poses, per) = (20usize, 50usize);
         let n = poses * per;
         let mut dr = Draws(777);
-        let j = DMatrix::from_fn(n, 6, |_, _| dr.uniform() - 0.5);
+        let (j, cl, inv) = random_design(&mut dr, poses, per);
         let r = DVector::from_fn(n, |_, _| dr.gauss() * 0.01);
-        let cl: Vec<u32> = (0..n).map(|i| (i / per) as u32).collect();
-        let inv = (j.transpose() * &j).try_inverse().unwrap();
         let cov = sandwich(&inv, &j, &r);
         let sums = super::super::Sums::of(&r, &j, &cl, poses);
         let used: Vec<usize> = (0..6).collect();
@@ -1430,14 +1439,12 @@ mod tests {
     fn the_bound_covers_95_percent_with_and_without_a_pose_error() {
         let (poses, per, draws) = (16usize, 30usize, 1500);
         let n = poses * per;
-        let cl: Vec<u32> = (0..n).map(|i| (i / per) as u32).collect();
         let used: Vec<usize> = (0..6).collect();
         for pose_sd in [0.0, 4.0] {
             let mut dr = Draws(2024 + pose_sd as u64);
             let mut covered = 0;
             for _ in 0..draws {
-                let j = DMatrix::from_fn(n, 6, |_, _| dr.uniform() - 0.5);
-                let inv = (j.transpose() * &j).try_inverse().unwrap();
+                let (j, cl, inv) = random_design(&mut dr, poses, per);
                 // One pose's share of the noise on parameter 0 is about sd / sqrt(per / 12).
                 let shift: Vec<f64> = (0..poses)
                     .map(|_| dr.gauss() * pose_sd * 0.01 / (per as f64 / 12.0).sqrt())
