@@ -1432,15 +1432,16 @@ mod tests {
 
     /// Coverage of the joint bound over seeded draws of a linear fit of 16 poses x 30 points
     /// (each draw its own design): with noise alone, and with each pose's points moved by its
-    /// own error along one parameter (a robot's error in one direction, 4 times the noise's
-    /// effect on one pose). The first over-covered at 98-99 % with the clustered covariance's
-    /// eigenvalues raised one by one (`shrunk_spread`) and Student's t at 15.
+    /// own error along one parameter (a robot's error in one direction, 4 and 50 times the
+    /// noise's effect on one pose: 94.5 and 94.2 % covered). The first covered 96.3 %, and
+    /// 99.3 % with the clustered covariance's eigenvalues raised one by one, not shrunk
+    /// (`shrunk_spread`), and Student's t at 15.
     #[test]
     fn the_bound_covers_95_percent_with_and_without_a_pose_error() {
         let (poses, per, draws) = (16usize, 30usize, 1500);
         let n = poses * per;
         let used: Vec<usize> = (0..6).collect();
-        for pose_sd in [0.0, 4.0] {
+        for pose_sd in [0.0, 4.0, 50.0] {
             let mut dr = Draws(2024 + pose_sd as u64);
             let mut covered = 0;
             for _ in 0..draws {
