@@ -316,7 +316,7 @@ fn end_before_wall(
     line: &Line2,
     sensor: &SensorModel,
     forward: bool,
-) -> Option<usize> {
+) -> Option<WallEnds> {
     if sensor.points_only || sensor.resampling().is_some() || last < first + 8 {
         return None;
     }
@@ -382,44 +382,123 @@ fn end_before_wall(
         return None;
     }
     // The face's last points: the wall's where their offset passes the balanced threshold.
-    let t = balanced_threshold(outward, sigma);
-    let mut end = if forward { last } else { first };
-    while end.abs_diff(if forward { first } else { last }) > 8 {
-        if off(end)? <= t {
-            break;
+    let end_at = |t: f64| -> Option<usize> {
+        let mut end = if forward { last } else { first };
+        while end.abs_diff(if forward { first } else { last }) > 8 {
+            if off(end)? <= t {
+                break;
+            }
+            end = if forward { end - 1 } else { end + 1 };
         }
-        end = if forward { end - 1 } else { end + 1 };
-    }
-    Some(end)
+        Some(end)
+    };
+    Some(WallEnds {
+        point: end_at(balanced_threshold(outward, sigma, Balance::Rates))?,
+        interval: end_at(balanced_threshold(outward, sigma, Balance::Violations))?,
+    })
+}
+
+/// Where a face ends before a wall, for the two uses of its end.
+#[derive(Debug, Clone, Copy)]
+struct WallEnds {
+    /// The last face point of a feature placed half a column past it (chord ends, edge points).
+    point: usize,
+    /// The last face point of a censored interval (the rim or edge lies between it and the
+    /// next point).
+    interval: usize,
+}
+
+/// What `balanced_threshold` balances.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Balance {
+    /// How often the end is taken a column out and a column in: a point placed half a column
+    /// past the last face point is then unbiased.
+    Rates,
+    /// How far, on average, the censored interval lies out and in: the fit's pull at the truth
+    /// (a violated interval pulls by its distance) is then zero.
+    Violations,
 }
 
 /// The offset from a face's line beyond which a point at its end is taken for the wall's, for a
-/// wall falling `slope` per column and noise `sigma`: the wall's first point lies (1 - phi)
-/// slope below the face (phi, the rim's place between the two columns, uniform), so one taken
-/// for the face carries the end a column out, and the face's last point taken for the wall a
-/// column in. At the threshold both happen equally often on average over phi, and the end,
-/// placed half a column past the last face point, is unbiased. Taking a point for the wall only
-/// where the wall's line explained it better (offset beyond half the line's) never erred inward
-/// and carried the ends on the wall's side outward by 0.02 columns at z noise 0.12 mm, 0.002 mm
-/// on the comparison rig, the same in every placement: the refined chords' result 0.8 sd off.
-fn balanced_threshold(slope: f64, sigma: f64) -> f64 {
+/// wall falling `slope` per column and noise `sigma`: the wall's first point lies (1 - phi) slope
+/// below the face (phi, the rim's place between the two columns, uniform), so one taken for the
+/// face carries the end a column out, and the face's last point taken for the wall a column in.
+/// `Balance::Rates`: the end's mean column is the face's last, and a point placed half a column
+/// past it is unbiased. (Taking a point for the wall only where the wall's line explained it
+/// better never erred inward and carried the ends on the wall's side outward by 0.02 columns at
+/// z noise 0.12 mm: the refined chords' result 0.8 sd off, the same in every placement.)
+/// `Balance::Violations`: a censored interval taken m columns in lies phi + m - 1 inside the rim,
+/// one taken j out j - phi outside, and the wall's point is let in mostly where 1 - phi is small;
+/// at the rates' threshold the intervals lay inward on average, and disk-any-pose's translation
+/// along the flange's z was half its sd off on every sensor (1,280 to 12,800 columns; 89 %
+/// covered at 12,800). So the mean distance is balanced. Both count every column the end can
+/// move (the rates' first form counted one either way: 0.08 columns out where the wall falls 1.5
+/// sigma per column).
+fn balanced_threshold(slope: f64, sigma: f64, balance: Balance) -> f64 {
     if !(slope > 0.0 && sigma > 0.0) {
         return 0.0;
     }
-    // Phi(-t / sigma) less the mean over phi of Phi((t - v slope) / sigma): falls with t.
+    // The threshold in sigmas depends on slope / sigma alone: tabulated once on a log grid
+    // (each entry a bisection over phi and the wall's columns, too slow for every profile's
+    // ends), read by linear interpolation in log(slope / sigma). Below the grid the wall cannot
+    // be told from the noise anyway (`end_before_wall` needs it 3 sigma clear), above it the
+    // threshold grows as slowly as the noise's tail.
+    const N: usize = 128;
+    const RATIO: (f64, f64) = (0.25, 1000.0);
+    static TABLES: std::sync::OnceLock<[Vec<f64>; 2]> = std::sync::OnceLock::new();
+    let tables = TABLES.get_or_init(|| {
+        let at =
+            |k: usize| (RATIO.0.ln() + (RATIO.1 / RATIO.0).ln() * k as f64 / (N - 1) as f64).exp();
+        [Balance::Rates, Balance::Violations]
+            .map(|b| (0..N).map(|k| threshold_in_sigmas(at(k), b)).collect())
+    });
+    let table = &tables[usize::from(balance == Balance::Violations)];
+    let x = ((slope / sigma).ln() - RATIO.0.ln()) / (RATIO.1 / RATIO.0).ln() * (N - 1) as f64;
+    let x = x.clamp(0.0, (N - 1) as f64);
+    let k = (x.floor() as usize).min(N - 2);
+    let f = x - k as f64;
+    sigma * (table[k] * (1.0 - f) + table[k + 1] * f)
+}
+
+/// `balanced_threshold` in sigmas for a wall falling `ratio` sigmas per column.
+fn threshold_in_sigmas(ratio: f64, balance: Balance) -> f64 {
+    // What lies inward less what lies outward (mean columns, or mean distances), over phi: falls
+    // with t. The end is the farthest point within t of the face's line. With the rim phi past
+    // the last face column and the wall's j-th point (j - phi) ratio below the face, the end lies
+    // j >= 1 columns out when the wall's j-th is the farthest within t, or m >= 1 in when every
+    // point past it is beyond t (the face's each with probability q).
     let gap = |t: f64| {
-        const N: usize = 64;
-        let wall = (0..N)
-            .map(|i| normal_cdf((t - (i as f64 + 0.5) / N as f64 * slope) / sigma))
+        const PHI: usize = 32;
+        let q = normal_cdf(-t).min(0.999);
+        // Wall points past t + 8 sigma are never within it.
+        let columns = (((t + 8.0) / ratio).ceil() as usize + 1).min(64);
+        (0..PHI)
+            .map(|i| {
+                let phi = 1.0 - (i as f64 + 0.5) / PHI as f64;
+                // P(end >= j) = 1 - prod_{i >= j} (1 - p_i), p_i: the wall's i-th within t.
+                let (mut none_beyond, mut out) = (1.0, 0.0);
+                for j in (1..=columns).rev() {
+                    none_beyond *= 1.0 - normal_cdf(t - (j as f64 - phi) * ratio);
+                    out += 1.0 - none_beyond;
+                }
+                match balance {
+                    // E[end] = sum_j P(end >= j) - sum_m P(end <= -m).
+                    Balance::Rates => none_beyond * q / (1.0 - q) - out,
+                    // Out: end - phi; in: phi + m - 1.
+                    Balance::Violations => {
+                        none_beyond * (phi * q + q * q / (1.0 - q))
+                            - (out - phi * (1.0 - none_beyond))
+                    }
+                }
+            })
             .sum::<f64>()
-            / N as f64;
-        normal_cdf(-t / sigma) - wall
+            / PHI as f64
     };
-    let (mut lo, mut hi) = (0.0, 6.0 * sigma);
+    let (mut lo, mut hi) = (0.0, 6.0);
     if gap(lo) <= 0.0 {
         return lo;
     }
-    for _ in 0..50 {
+    for _ in 0..40 {
         let mid = 0.5 * (lo + hi);
         if gap(mid) > 0.0 {
             lo = mid;
@@ -523,10 +602,15 @@ pub fn disk_profile(
     // cylinder wall is curved, so a corner with it would not be exact).
     let (first, last, line) = tighten(&pts, &segs[best], cfg.split_tol, sensor);
     let ends = [false, true].map(|fwd| end_before_wall(&pts, first, last, &line, sensor, fwd));
+    // The rim's censored intervals start from their own last face points (`Balance`).
+    let rim_ends = [
+        ends[0].map_or(first, |e| e.interval),
+        ends[1].map_or(last, |e| e.interval),
+    ];
     let (first, last, line) = match ends {
         [None, None] => (first, last, line),
         [lo, hi] => {
-            let (f, l) = (lo.unwrap_or(first), hi.unwrap_or(last));
+            let (f, l) = (lo.map_or(first, |e| e.point), hi.map_or(last, |e| e.point));
             let face: Vec<Vector2<f64>> = pts[f..=l].iter().map(|p| p.1).collect();
             (f, l, Line2::fit(&face).unwrap_or(line))
         }
@@ -588,14 +672,19 @@ pub fn disk_profile(
             0.0
         };
         let truncated = FeatureError::ChordTruncated { column: k };
+        let rim = rim_ends[usize::from(forward)];
         let beyond = if forward {
-            pts.get(idx + 1)
+            pts.get(rim + 1)
         } else {
-            idx.checked_sub(1).and_then(|i| pts.get(i))
+            rim.checked_sub(1).and_then(|i| pts.get(i))
         }
-        .map_or(k2, |p| p.0);
-        let on = |u: usize| s.line.intersect(&column_line(sensor, u as f64));
-        let interval = on(k).zip(on(beyond)).ok_or(truncated.clone())?;
+        .map_or(pts[rim].0 as isize + if forward { 1 } else { -1 }, |p| {
+            p.0 as isize
+        });
+        let on = |u: isize| s.line.intersect(&column_line(sensor, u as f64));
+        let interval = on(pts[rim].0 as isize)
+            .zip(on(beyond))
+            .ok_or(truncated.clone())?;
         let point = end_beyond(sensor, &s.line, k, k2, extra).ok_or(truncated)?;
         Ok((point, interval))
     };
@@ -1296,11 +1385,18 @@ fn walk_to_edge(
         // wall's first points within the noise were taken for the face and the end lay 0.036 mm
         // (a third of a column) outward on average at z noise 0.12 mm where a wall 5-15 deg past
         // vertical showed: edge-refined's translation 1 sd off, the same on every placement.
-        let (idx, line) = match end_before_wall(pts, first, last, &line, sensor, forward) {
-            Some(end) if end != idx => {
-                let (f, l) = if forward { (first, end) } else { (end, last) };
+        // The censored interval from its own last face point (`Balance`).
+        let wall = end_before_wall(pts, first, last, &line, sensor, forward);
+        let interval_idx = wall.map_or(idx, |e| e.interval);
+        let (idx, line) = match wall {
+            Some(end) if end.point != idx => {
+                let (f, l) = if forward {
+                    (first, end.point)
+                } else {
+                    (end.point, last)
+                };
                 let face: Vec<Vector2<f64>> = pts[f..=l].iter().map(|p| p.1).collect();
-                (end, Line2::fit(&face).unwrap_or(line))
+                (end.point, Line2::fit(&face).unwrap_or(line))
             }
             _ => (idx, line),
         };
@@ -1355,15 +1451,13 @@ fn walk_to_edge(
         let parallel = || FeatureError::NoEdge {
             reason: "face parallel to the ray".into(),
         };
-        let on = |u: usize| {
-            line.intersect(&column_line(sensor, u as f64))
-                .ok_or_else(parallel)
-        };
+        let on = |u: f64| line.intersect(&column_line(sensor, u)).ok_or_else(parallel);
+        let ki = pts[interval_idx].0 as f64;
         return Ok((
             EdgeEnd {
                 point: end_between(sensor, &line, k, k2).ok_or_else(parallel)?,
-                from: on(k)?,
-                to: on(k2)?,
+                from: on(ki)?,
+                to: on(if forward { ki + 1.0 } else { ki - 1.0 })?,
             },
             next,
         ));
@@ -1418,5 +1512,70 @@ mod tests {
         let exact: Vec<Vector2<f64>> = (0..22).map(|k| Vector2::new(k as f64, 0.5)).collect();
         assert_eq!(run_noise(&exact), Some(0.0));
         assert_eq!(run_noise(&exact[..21]), None);
+    }
+
+    /// The mean signed distance (columns) between a censored interval and the rim, and the mean
+    /// end of a point placed half a column past the last face point, over `n` seeded face ends:
+    /// face offsets N(0, sigma) up to column 0, the rim at phi (uniform) past it, the wall's
+    /// points (j - phi) slope below the face's line at column j >= 1. The end as
+    /// `end_before_wall` finds it: walked outward within 4 sigma, then inward past `t`.
+    fn end_errors(slope: f64, sigma: f64, t: f64, n: usize, seed: u64) -> (f64, f64) {
+        let mut rng = crate::testkit::rng(seed);
+        let (mut interval, mut point) = (0.0, 0.0);
+        for _ in 0..n {
+            let phi: f64 = rand::RngExt::random(&mut rng);
+            let off = |j: i32, rng: &mut crate::rng::Rng| {
+                let wall = if j >= 1 {
+                    (j as f64 - phi) * slope
+                } else {
+                    0.0
+                };
+                wall + sigma * crate::rng::gauss(rng)
+            };
+            let offs: Vec<f64> = (-10..=6).map(|j| off(j, &mut rng)).collect();
+            let at = |j: i32| offs[(j + 10) as usize];
+            let mut end = 0;
+            while end < 6 && at(end + 1).abs() <= 4.0 * sigma {
+                end += 1;
+            }
+            while end > -10 && at(end) > t {
+                end -= 1;
+            }
+            // The interval [end, end + 1] against the rim at phi: out > 0, in < 0.
+            let e = end as f64;
+            interval += if e > phi {
+                e - phi
+            } else if e + 1.0 < phi {
+                e + 1.0 - phi
+            } else {
+                0.0
+            };
+            point += e + 0.5 - phi;
+        }
+        (interval / n as f64, point / n as f64)
+    }
+
+    #[test]
+    fn each_threshold_balances_what_its_end_is_used_for() {
+        // A point half a column past the end is unbiased with the rates balanced, and a censored
+        // interval with the distances balanced; the rates' threshold leaves the interval inward
+        // (what biased disk-any-pose).
+        let sigma = 1.0;
+        for (i, slope) in [10.0, 3.0, 1.5].into_iter().enumerate() {
+            let rates = balanced_threshold(slope, sigma, Balance::Rates);
+            let violations = balanced_threshold(slope, sigma, Balance::Violations);
+            assert!(violations > rates, "{slope}: {violations} <= {rates}");
+            let (in_r, pt_r) = end_errors(slope, sigma, rates, 40_000, 90 + i as u64);
+            let (in_v, _) = end_errors(slope, sigma, violations, 40_000, 90 + i as u64);
+            assert!(pt_r.abs() < 0.03, "slope {slope}: point {pt_r:+.4} columns");
+            assert!(
+                in_v.abs() < 0.01,
+                "slope {slope}: interval {in_v:+.4} columns"
+            );
+            assert!(
+                in_r < -0.015,
+                "slope {slope}: interval {in_r:+.4} columns with the rates"
+            );
+        }
     }
 }
