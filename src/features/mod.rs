@@ -326,8 +326,22 @@ fn end_before_wall(
         let q = line.intersect(&column_line(sensor, k as f64))?;
         Some(sensor.dir_z * (p.y - q.y))
     };
-    let face: Vec<f64> = (first..=last).filter_map(off).collect();
-    let sigma = (face.iter().map(|o| o * o).sum::<f64>() / face.len() as f64)
+    // The noise where the face ends: its points next to the end (not the last few, which may be
+    // the wall's). Over the whole face, a noise growing with depth read too low at a chord's
+    // deeper end and too high at the other, and their thresholds moved the two ends apart.
+    const LOCAL: usize = 64;
+    const SKIP: usize = 4;
+    let window = if last - first + 1 >= 2 * (LOCAL + SKIP) {
+        if forward {
+            last - SKIP - LOCAL + 1..=last - SKIP
+        } else {
+            first + SKIP..=first + SKIP + LOCAL - 1
+        }
+    } else {
+        first..=last
+    };
+    let face: Vec<f64> = window.filter_map(off).collect();
+    let sigma = (face.iter().map(|o| o * o).sum::<f64>() / face.len().max(1) as f64)
         .sqrt()
         .max(sensor.z_quantum.unwrap_or(0.0) / 12f64.sqrt())
         .max(1e-9);
