@@ -65,7 +65,8 @@ pub fn run_trial(setup: &Setup, method: MethodId, seed: u64, trial: u64) -> Tria
                 &caps,
                 &setup.rig.sensor,
             ));
-            let mut s = score(setup, method.kind, &cal, validation_seed, judged);
+            let slid = placement(setup.placement_jitter, seed, trial);
+            let mut s = score(setup, method.kind, &cal, validation_seed, slid, judged);
             s.refined = refined;
             (Ok(s), cal.missed)
         }
@@ -191,12 +192,15 @@ fn with_verdict(m: Metrics, j: &crate::method::verdict::Judged) -> Metrics {
         .with(Metric::TranslationErrorOk, ok(Metric::TranslationError))
 }
 
-/// Score a calibration of a specimen method against the scenario's truth.
+/// Score a calibration of a specimen method against the scenario's truth. `placement`: the
+/// trial's slide of every pose (`placement`), which the captures' poses do not show: through
+/// them the specimen sits that much the other way.
 pub fn score(
     setup: &Setup,
     kind: Kind,
     cal: &Calibration,
     validation_seed: u64,
+    placement: nalgebra::Vector3<f64>,
     judged: crate::method::verdict::Judged,
 ) -> Score {
     let e = PoseError::between(&cal.flange_to_sensor, &setup.rig.flange_to_sensor);
@@ -209,7 +213,7 @@ pub fn score(
         Metric::CentreError,
         cal.centre_in_base
             .zip(plan.and_then(|p| p.true_centre()))
-            .map(|(c, t)| (c - t.coords).norm() * 1e3),
+            .map(|(c, t)| (c - (t.coords - placement)).norm() * 1e3),
     );
     if let Some(p) = plan {
         for (m, v) in p
