@@ -686,7 +686,11 @@ pub fn disk_profile(
             0.0
         };
         let truncated = FeatureError::ChordTruncated { column: k };
-        let rim = rim_ends[usize::from(forward)];
+        // The interval's own end, unless its next column lies off the sensor (then the point's).
+        let rim = match rim_ends[usize::from(forward)] {
+            r if (forward && pts[r].0 + 1 >= sensor.columns) || (!forward && pts[r].0 == 0) => idx,
+            r => r,
+        };
         let beyond = if forward {
             pts.get(rim + 1)
         } else {
@@ -1466,7 +1470,13 @@ fn walk_to_edge(
             reason: "face parallel to the ray".into(),
         };
         let on = |u: f64| line.intersect(&column_line(sensor, u)).ok_or_else(parallel);
-        let ki = pts[interval_idx].0 as f64;
+        // The interval's own end, unless its next column lies off the sensor (then the point's).
+        let ki = pts[interval_idx].0;
+        let ki = if (forward && ki + 1 >= sensor.columns) || (!forward && ki == 0) {
+            k
+        } else {
+            ki
+        } as f64;
         return Ok((
             EdgeEnd {
                 point: end_between(sensor, &line, k, k2).ok_or_else(parallel)?,
