@@ -412,6 +412,23 @@ fn end_before_wall(
     })
 }
 
+/// The last face point of a censored interval: its own (`WallEnds::interval`), unless the column
+/// past it lies off the sensor, then the point's end (which the callers have checked).
+fn interval_end(
+    pts: &[(usize, Vector2<f64>)],
+    interval: usize,
+    point: usize,
+    forward: bool,
+    sensor: &SensorModel,
+) -> usize {
+    let k = pts[interval].0;
+    if (forward && k + 1 >= sensor.columns) || (!forward && k == 0) {
+        point
+    } else {
+        interval
+    }
+}
+
 /// Where a face ends before a wall, for the two uses of its end.
 #[derive(Debug, Clone, Copy)]
 struct WallEnds {
@@ -686,11 +703,7 @@ pub fn disk_profile(
             0.0
         };
         let truncated = FeatureError::ChordTruncated { column: k };
-        // The interval's own end, unless its next column lies off the sensor (then the point's).
-        let rim = match rim_ends[usize::from(forward)] {
-            r if (forward && pts[r].0 + 1 >= sensor.columns) || (!forward && pts[r].0 == 0) => idx,
-            r => r,
-        };
+        let rim = interval_end(&pts, rim_ends[usize::from(forward)], idx, forward, sensor);
         let beyond = if forward {
             pts.get(rim + 1)
         } else {
@@ -1470,13 +1483,7 @@ fn walk_to_edge(
             reason: "face parallel to the ray".into(),
         };
         let on = |u: f64| line.intersect(&column_line(sensor, u)).ok_or_else(parallel);
-        // The interval's own end, unless its next column lies off the sensor (then the point's).
-        let ki = pts[interval_idx].0;
-        let ki = if (forward && ki + 1 >= sensor.columns) || (!forward && ki == 0) {
-            k
-        } else {
-            ki
-        } as f64;
+        let ki = pts[interval_end(pts, interval_idx, idx, forward, sensor)].0 as f64;
         return Ok((
             EdgeEnd {
                 point: end_between(sensor, &line, k, k2).ok_or_else(parallel)?,
