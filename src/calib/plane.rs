@@ -68,8 +68,8 @@ pub fn solve(views: &[LineView], apex: &Vector3<f64>) -> Result<PlaneSolution, C
     solve_from_starts(views, apex, 3)
 }
 
-/// `solve` screening the best `count` normals, then `count` more at a time (up to
-/// `MAX_STARTS`) while the best fits the profiles clearly worse than their own lines do: with
+/// `solve` screening the best `count` normals, then as many again as tried so far each round (up
+/// to `MAX_STARTS`) while the best fits the profiles clearly worse than their own lines do: with
 /// four orientations of the disk's four-scan protocol the truth's basin ranked between the
 /// ninth and sixteenth normal once (12,800 columns, exact data), and the best of the first eight
 /// left 2.3 mm where each profile's line fits its points exactly. Only the rank of the starts

@@ -442,8 +442,8 @@ struct WallEnds {
 /// What `balanced_threshold` balances.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Balance {
-    /// How often the end is taken a column out and a column in: a point placed half a column
-    /// past the last face point is then unbiased.
+    /// Where the end lies on average (every column it can move, out or in): at the face's last
+    /// column, so that a point placed half a column past it is unbiased.
     Rates,
     /// How far, on average, the censored interval lies out and in: the fit's pull at the truth
     /// (a violated interval pulls by its distance) is then zero.
