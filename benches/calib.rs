@@ -58,6 +58,7 @@ fn bench(c: &mut Criterion) {
                 black_box(lasercal::method::verdict::quality(
                     black_box(&cal),
                     None,
+                    lasercal::method::Estimator::ClosedForm,
                     &caps,
                     sensor,
                 ))
