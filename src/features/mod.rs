@@ -1369,34 +1369,20 @@ fn walk_to_edge(
                         reason: "the face meets a wall rising toward the sensor".into(),
                     });
                 }
-                let mut corner = line.intersect(&line2).ok_or_else(|| FeatureError::NoEdge {
+                let corner = line.intersect(&line2).ok_or_else(|| FeatureError::NoEdge {
                     reason: "parallel faces".into(),
                 })?;
-                if !sensor.points_only {
-                    // Near the corner the points lie near both lines, and each walk takes some of
-                    // the other's: at 0.25 mm of noise the wall's took the face's last points and
-                    // carried the corner a column out in a fifth of the views. Each line from the
-                    // points on its own side of the corner (by column), twice.
-                    let (lo, hi) = (first.min(f2), last.max(l2));
-                    for _ in 0..2 {
-                        let Some(u) = sensor.column_of(corner.x, corner.y) else {
-                            break;
-                        };
-                        let face_side = |k: usize| ((k as f64) < u) == forward;
-                        let (mut fp, mut wp) = (Vec::new(), Vec::new());
-                        for &(k, p) in &pts[lo..=hi] {
-                            if face_side(k) { fp.push(p) } else { wp.push(p) }
-                        }
-                        if wp.len() < 2 * cfg.min_points {
-                            break;
-                        }
-                        let (Some(lf), Some(lw)) = (Line2::fit(&fp), Line2::fit(&wp)) else {
-                            break;
-                        };
-                        let Some(c) = lf.intersect(&lw) else { break };
-                        corner = c;
-                    }
-                }
+                let corner = if sensor.points_only {
+                    corner
+                } else {
+                    split_corner(
+                        &pts[first.min(f2)..=last.max(l2)],
+                        corner,
+                        sensor,
+                        forward,
+                        cfg,
+                    )
+                };
                 return Ok((
                     EdgeEnd {
                         point: corner,
@@ -1431,68 +1417,135 @@ fn walk_to_edge(
             }
             _ => (idx, line),
         };
-        let (k, next) = (pts[idx].0, after(idx));
+        let next = after(idx);
         if sensor.points_only {
-            if next >= pts.len() {
-                return Err(FeatureError::NoEdge {
-                    reason: "nothing measured beyond the face: it may run on unseen".into(),
-                });
-            }
-            // No rays to continue the face along: what lies beyond must be no nearer the sensor
-            // than the face's end point.
-            if sensor.dir_z * (pts[next].1.y - pts[idx].1.y) < -cfg.split_tol {
-                return Err(FeatureError::NoEdge {
-                    reason: "the profile rises toward the sensor beyond the face".into(),
-                });
-            }
-            let inner = if forward { idx - 1 } else { idx + 1 };
-            let (from, to, point) = end_without_rays(&line, &pts[idx].1, &pts[inner].1, 0.5);
-            let depth = sensor.dir_z * (to.y - sensor.apex_z);
-            if !(sensor.depth_near..=sensor.depth_far).contains(&depth) {
-                return Err(FeatureError::NoEdge {
-                    reason: "the face runs out of the range the points show".into(),
-                });
-            }
-            return Ok((EdgeEnd { point, from, to }, next));
+            return points_only_end(pts, idx, next, &line, sensor, forward, cfg)
+                .map(|end| (end, next));
         }
-        let k2 = if forward { k + 1 } else { k.wrapping_sub(1) };
-        if k2 >= sensor.columns {
-            return Err(FeatureError::NoEdge {
-                reason: "the face runs off the field of view".into(),
-            });
-        }
-        if let Some(&p) = pts.get(next)
-            && nearer_than_line(sensor, &line, p, cfg.split_tol)
-        {
-            return Err(FeatureError::NoEdge {
-                reason: "the profile rises toward the sensor beyond the face".into(),
-            });
-        }
-        // Nothing measured at the next column, where the face continued would lie beyond the
-        // measuring range: the face may go on unseen.
-        let measured = pts.get(next).is_some_and(|p| p.0 == k2);
-        if !measured && let Some(q) = line.intersect(&column_line(sensor, k2 as f64)) {
-            let depth = sensor.dir_z * (q.y - sensor.apex_z);
-            if !(sensor.depth_near..=sensor.depth_far).contains(&depth) {
-                return Err(FeatureError::NoEdge {
-                    reason: "the face runs out of the measuring range".into(),
-                });
-            }
-        }
-        let parallel = || FeatureError::NoEdge {
-            reason: "face parallel to the ray".into(),
-        };
-        let on = |u: f64| line.intersect(&column_line(sensor, u)).ok_or_else(parallel);
-        let ki = pts[interval_end(pts, interval_idx, idx, forward, sensor)].0 as f64;
-        return Ok((
-            EdgeEnd {
-                point: end_between(sensor, &line, k, k2).ok_or_else(parallel)?,
-                from: on(ki)?,
-                to: on(if forward { ki + 1.0 } else { ki - 1.0 })?,
-            },
-            next,
-        ));
+        return ray_end(pts, idx, interval_idx, &line, sensor, forward, cfg).map(|end| (end, next));
     }
+}
+
+/// A face's end on a sensor with rays, where no corner was found: halfway between the face's last
+/// column and the next, with the censored interval from `interval_idx`'s column to the next
+/// (`end_before_wall`). Err where the face may go on unseen or meets something nearer.
+fn ray_end(
+    pts: &[(usize, Vector2<f64>)],
+    idx: usize,
+    interval_idx: usize,
+    line: &Line2,
+    sensor: &SensorModel,
+    forward: bool,
+    cfg: &SplitMerge,
+) -> Result<EdgeEnd, FeatureError> {
+    let (k, next) = (
+        pts[idx].0,
+        if forward {
+            idx + 1
+        } else {
+            idx.wrapping_sub(1)
+        },
+    );
+    let k2 = if forward { k + 1 } else { k.wrapping_sub(1) };
+    if k2 >= sensor.columns {
+        return Err(FeatureError::NoEdge {
+            reason: "the face runs off the field of view".into(),
+        });
+    }
+    if let Some(&p) = pts.get(next)
+        && nearer_than_line(sensor, line, p, cfg.split_tol)
+    {
+        return Err(FeatureError::NoEdge {
+            reason: "the profile rises toward the sensor beyond the face".into(),
+        });
+    }
+    // Nothing measured at the next column, where the face continued would lie beyond the
+    // measuring range: the face may go on unseen.
+    let measured = pts.get(next).is_some_and(|p| p.0 == k2);
+    if !measured && let Some(q) = line.intersect(&column_line(sensor, k2 as f64)) {
+        let depth = sensor.dir_z * (q.y - sensor.apex_z);
+        if !(sensor.depth_near..=sensor.depth_far).contains(&depth) {
+            return Err(FeatureError::NoEdge {
+                reason: "the face runs out of the measuring range".into(),
+            });
+        }
+    }
+    let parallel = || FeatureError::NoEdge {
+        reason: "face parallel to the ray".into(),
+    };
+    let on = |u: f64| line.intersect(&column_line(sensor, u)).ok_or_else(parallel);
+    let ki = pts[interval_end(pts, interval_idx, idx, forward, sensor)].0 as f64;
+    Ok(EdgeEnd {
+        point: end_between(sensor, line, k, k2).ok_or_else(parallel)?,
+        from: on(ki)?,
+        to: on(if forward { ki + 1.0 } else { ki - 1.0 })?,
+    })
+}
+
+/// A corner between a face and a well-sampled wall, each line refitted from the points on its own
+/// side of `corner` (by column), twice: near the corner the points lie near both lines, and each
+/// walk takes some of the other's (at 0.25 mm of noise the wall's took the face's last points
+/// and carried the corner a column out in a fifth of the views). `span` runs from the face's
+/// first point to the wall's last.
+fn split_corner(
+    span: &[(usize, Vector2<f64>)],
+    mut corner: Vector2<f64>,
+    sensor: &SensorModel,
+    forward: bool,
+    cfg: &SplitMerge,
+) -> Vector2<f64> {
+    for _ in 0..2 {
+        let Some(u) = sensor.column_of(corner.x, corner.y) else {
+            break;
+        };
+        let face_side = |k: usize| ((k as f64) < u) == forward;
+        let (mut fp, mut wp) = (Vec::new(), Vec::new());
+        for &(k, p) in span {
+            if face_side(k) { fp.push(p) } else { wp.push(p) }
+        }
+        if wp.len() < 2 * cfg.min_points {
+            break;
+        }
+        let (Some(lf), Some(lw)) = (Line2::fit(&fp), Line2::fit(&wp)) else {
+            break;
+        };
+        let Some(c) = lf.intersect(&lw) else { break };
+        corner = c;
+    }
+    corner
+}
+
+/// A face's end on a sensor that gives points only (no rays to continue the face along): what
+/// lies beyond, at `next`, must be no nearer the sensor than the face's end point `idx`, and the
+/// end lies halfway to it along the face's `line`.
+fn points_only_end(
+    pts: &[(usize, Vector2<f64>)],
+    idx: usize,
+    next: usize,
+    line: &Line2,
+    sensor: &SensorModel,
+    forward: bool,
+    cfg: &SplitMerge,
+) -> Result<EdgeEnd, FeatureError> {
+    if next >= pts.len() {
+        return Err(FeatureError::NoEdge {
+            reason: "nothing measured beyond the face: it may run on unseen".into(),
+        });
+    }
+    if sensor.dir_z * (pts[next].1.y - pts[idx].1.y) < -cfg.split_tol {
+        return Err(FeatureError::NoEdge {
+            reason: "the profile rises toward the sensor beyond the face".into(),
+        });
+    }
+    let inner = if forward { idx - 1 } else { idx + 1 };
+    let (from, to, point) = end_without_rays(line, &pts[idx].1, &pts[inner].1, 0.5);
+    let depth = sensor.dir_z * (to.y - sensor.apex_z);
+    if !(sensor.depth_near..=sensor.depth_far).contains(&depth) {
+        return Err(FeatureError::NoEdge {
+            reason: "the face runs out of the range the points show".into(),
+        });
+    }
+    Ok(EdgeEnd { point, from, to })
 }
 
 #[cfg(test)]
