@@ -500,7 +500,7 @@ fn threshold_in_sigmas(ratio: f64, balance: Balance) -> f64 {
     // point past it is beyond t (the face's each with probability q).
     let gap = |t: f64| {
         const PHI: usize = 32;
-        let q = normal_cdf(-t).min(0.999);
+        let q = crate::math::normal_cdf(-t).min(0.999);
         // Wall points past t + 8 sigma are never within it.
         let columns = (((t + 8.0) / ratio).ceil() as usize + 1).min(64);
         (0..PHI)
@@ -509,7 +509,7 @@ fn threshold_in_sigmas(ratio: f64, balance: Balance) -> f64 {
                 // P(end >= j) = 1 - prod_{i >= j} (1 - p_i), p_i: the wall's i-th within t.
                 let (mut none_beyond, mut out) = (1.0, 0.0);
                 for j in (1..=columns).rev() {
-                    none_beyond *= 1.0 - normal_cdf(t - (j as f64 - phi) * ratio);
+                    none_beyond *= 1.0 - crate::math::normal_cdf(t - (j as f64 - phi) * ratio);
                     out += 1.0 - none_beyond;
                 }
                 match balance {
@@ -538,23 +538,6 @@ fn threshold_in_sigmas(ratio: f64, balance: Balance) -> f64 {
         }
     }
     0.5 * (lo + hi)
-}
-
-/// The standard normal distribution function (Abramowitz and Stegun 7.1.26: within 1.5e-7). By
-/// hand: one function, not worth a crate.
-fn normal_cdf(x: f64) -> f64 {
-    let z = x.abs() / std::f64::consts::SQRT_2;
-    let t = 1.0 / (1.0 + 0.327_591_1 * z);
-    let poly = t
-        * (0.254_829_592
-            + t * (-0.284_496_736
-                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
-    let erf = 1.0 - poly * (-z * z).exp();
-    if x >= 0.0 {
-        0.5 * (1.0 + erf)
-    } else {
-        0.5 * (1.0 - erf)
-    }
 }
 
 /// Chord of a disk on a cylinder (a step at the rim): split-and-merge; the chord is the segment, no
