@@ -65,7 +65,34 @@ pub struct Start {
 
 /// `apex`: the sensor's laser apex in its own frame (which side of the plane the sensor is on).
 pub fn solve(views: &[LineView], apex: &Vector3<f64>) -> Result<PlaneSolution, CalibError> {
-    solve_from_starts(views, apex, 3)
+    along_depth(solve_from_starts(views, apex, 3)?)
+}
+
+/// A solution across the plane refined again along the sensor's depth (`refine::AlongDepth`:
+/// no pull from the noise). Only the plane method's own result: where the plane is a start (a
+/// bar's, a disk's face) the specimen's own fit is along the depth, and from a start that missed
+/// (a bar's wall taken for its face) this fit can wander where that one no longer recovers.
+fn along_depth(sol: PlaneSolution) -> Result<PlaneSolution, CalibError> {
+    let model = PlaneModel {
+        across: false,
+        ..sol.problem.model
+    };
+    let (refined, plane) = refine(
+        &model,
+        &sol.flange_to_sensor,
+        &sol.plane,
+        &Options::default(),
+    )
+    .map_err(with_plane_advice)?;
+    Ok(PlaneSolution {
+        flange_to_sensor: refined.flange_to_sensor,
+        plane,
+        refined,
+        problem: Problem {
+            model,
+            specimen: plane,
+        },
+    })
 }
 
 /// `solve` screening the best `count` normals, then as many again as tried so far each round (up
@@ -249,7 +276,7 @@ pub fn solve_faces<'a, V>(
 /// Every profile's points against the plane from a screened start.
 pub fn refine_from(views: &[LineView], start: &Start) -> Result<PlaneSolution, CalibError> {
     let keep = points_per_view(views, usize::MAX);
-    let model = model_of(views, &|v| super::stride_for(v.points.len(), keep));
+    let model = model_of(views, &|v| super::stride_for(v.points.len(), keep), true);
     let (refined, plane) = refine(
         &model,
         &start.flange_to_sensor,
@@ -275,8 +302,9 @@ fn points_per_view(views: &[LineView], most: usize) -> usize {
 }
 
 /// The points of every profile, every `stride`-th.
-fn model_of(views: &[LineView], stride: &dyn Fn(&LineView) -> usize) -> PlaneModel {
+fn model_of(views: &[LineView], stride: &dyn Fn(&LineView) -> usize, across: bool) -> PlaneModel {
     PlaneModel {
+        across,
         points: views
             .iter()
             .flat_map(|v| {
@@ -329,7 +357,7 @@ impl<'a> Screening<'a> {
             }
         }
         let keep = points_per_view(&views, 64);
-        let screen = model_of(&views, &|v| super::stride_for(v.points.len(), keep));
+        let screen = model_of(&views, &|v| super::stride_for(v.points.len(), keep), true);
         Ok(Screening {
             views,
             normals,

@@ -10,7 +10,7 @@
 //! where in the gap the edge is, so exact data give the exact answer).
 
 use super::slant::{self, SlantNoise, Slanted};
-use super::{Model, Transform, depth_in_base, exp, transform_columns};
+use super::{AlongDepth, Model, Transform, depth_in_base, exp, transform_columns};
 use nalgebra::{DMatrix, DVector, Isometry3, Rotation3, Vector2, Vector3};
 
 /// One edge seen in one profile: the flange pose, the edge's interval on the face (sensor x, z;
@@ -134,13 +134,19 @@ impl Model for BarModel {
         let jac = j.is_some();
         for (i, (f, p)) in self.face.iter().enumerate() {
             let (qb, dq_dw, dq_dt) = seer.point(f, p, jac);
-            r[i] = ez.dot(&qb) - s.offset;
+            let a = ez.dot(&qb) - s.offset;
+            let depth = AlongDepth::new(x, f, &ez, jac);
+            r[i] = a * depth.scale;
             if let Some(j) = j.as_deref_mut() {
+                for c in 0..j.ncols() {
+                    j[(i, c)] = 0.0;
+                }
                 transform_columns(j, i, &ez, &dq_dw, &dq_dt);
                 // Q exp([w]) z: dn/da = -Q y, dn/db = Q x, dn/dc = 0.
                 j[(i, 6)] = -ey.dot(&qb);
                 j[(i, 7)] = ex.dot(&qb);
                 j[(i, 9)] = -1.0;
+                depth.apply(j, i, a, &[(6, -ey), (7, ex)]);
             }
         }
         let n = self.face.len();

@@ -5,7 +5,7 @@
 //! b, 0]), and its offset d_k along n_k. Residual per point q (base frame) on face k: n_k.q - d_k.
 
 use super::plane::Plane;
-use super::{Model, Transform, exp, transform_columns};
+use super::{AlongDepth, Model, Transform, exp, transform_columns};
 use nalgebra::{DMatrix, DVector, Isometry3, Vector2, Vector3};
 
 #[derive(Debug, Clone, PartialEq)]
@@ -68,7 +68,10 @@ impl Model for FacesModel {
         let e = s.map(|p| (p.frame * Vector3::x(), p.frame * Vector3::y()));
         for (i, (f, p, k)) in self.points.iter().enumerate() {
             let (qb, dq_dw, dq_dt) = seer.point(f, p, j.is_some());
-            r[i] = n[*k].dot(&qb) - s[*k].offset;
+            // Along the depth (`AlongDepth`): the distance across biased the faces' fit.
+            let a = n[*k].dot(&qb) - s[*k].offset;
+            let depth = AlongDepth::new(x, f, &n[*k], j.is_some());
+            r[i] = a * depth.scale;
             if let Some(j) = j.as_deref_mut() {
                 transform_columns(j, i, &n[*k], &dq_dw, &dq_dt);
                 // As `refine::plane`: dn/da = -Q y, dn/db = Q x; the other face's columns 0.
@@ -80,6 +83,7 @@ impl Model for FacesModel {
                 for c in o..o + 3 {
                     j[(i, c)] = 0.0;
                 }
+                depth.apply(j, i, a, &[(c, -e[*k].1), (c + 1, e[*k].0)]);
             }
         }
     }

@@ -133,6 +133,80 @@ impl Seer<'_> {
     }
 }
 
+/// A surface point's residual measured along the sensor's depth (its z) rather than across the
+/// surface: the distance a z-noise draw moves it off the surface (a / |n . u|, u the depth
+/// direction in the base frame), with its gradient. The distance across (a) carries the noise as
+/// sigma |n . u|, which depends on the transform and the surface's normal: the squared
+/// distances' expected sum then falls as the fit turns the surfaces toward the depth, a pull of
+/// order sigma^2 that more points do not average away (edge-any-pose on the independent kit's bar
+/// protocol: 0.5 sd at z noise 0.1 mm, 0.1 sd at 0.03 mm). Along the depth the expected sum is
+/// sigma^2 per point whatever the fit: consistent (Gauss-Newton with the full gradient, the
+/// division's included). |n . u| is held at `MIN_DEPTH_COSINE` or more (a surface seen at a
+/// graze) with no gradient there.
+#[derive(Debug, Clone, Copy)]
+pub struct AlongDepth {
+    /// 1 / |n . u|.
+    pub scale: f64,
+    /// d(scale)/dw (the transform's rotation) and d(scale)/dn (the surface's normal).
+    pub dscale_dw: Vector3<f64>,
+    pub dscale_dn: Vector3<f64>,
+}
+
+/// The least |n . u| `AlongDepth` divides by (78 deg from the depth).
+pub const MIN_DEPTH_COSINE: f64 = 0.2;
+
+impl AlongDepth {
+    /// No change: the distance across.
+    pub const ACROSS: AlongDepth = AlongDepth {
+        scale: 1.0,
+        dscale_dw: Vector3::new(0.0, 0.0, 0.0),
+        dscale_dn: Vector3::new(0.0, 0.0, 0.0),
+    };
+
+    pub fn new(x: &Transform, f: &Isometry3<f64>, n: &Vector3<f64>, jac: bool) -> AlongDepth {
+        let frr = f.rotation.to_rotation_matrix().matrix() * x.rot.matrix();
+        let u = frr * Vector3::z();
+        let b = n.dot(&u);
+        let (abs, sign) = (b.abs(), if b < 0.0 { -1.0 } else { 1.0 });
+        if abs < MIN_DEPTH_COSINE || !jac {
+            return AlongDepth {
+                scale: 1.0 / abs.max(MIN_DEPTH_COSINE),
+                dscale_dw: Vector3::zeros(),
+                dscale_dn: Vector3::zeros(),
+            };
+        }
+        // u(w) = F_R R exp([w]) z: du/dw = -F_R R [z]x.
+        let db_dw = (n.transpose() * (-frr * skew(&Vector3::z()))).transpose();
+        let k = -sign / (abs * abs);
+        AlongDepth {
+            scale: 1.0 / abs,
+            dscale_dw: db_dw * k,
+            dscale_dn: u * k,
+        }
+    }
+
+    /// A Jacobian row of the residual a (its value `a`, row `row`, already written) turned into
+    /// that of a * scale: the row scaled, the rotation's columns and each normal column `c` (with
+    /// dn/dc) given the division's part.
+    pub fn apply(
+        &self,
+        j: &mut DMatrix<f64>,
+        row: usize,
+        a: f64,
+        normal_columns: &[(usize, Vector3<f64>)],
+    ) {
+        for c in 0..j.ncols() {
+            j[(row, c)] *= self.scale;
+        }
+        for c in 0..3 {
+            j[(row, c)] += a * self.dscale_dw[c];
+        }
+        for (c, dn) in normal_columns {
+            j[(row, *c)] += a * self.dscale_dn.dot(dn);
+        }
+    }
+}
+
 /// A specimen's residual model: what the generic Levenberg-Marquardt drives.
 pub trait Model: Clone + Send + Sync + fmt::Debug {
     /// The specimen's estimated pose (in the model's own parametrisation).
