@@ -10,7 +10,7 @@
 //! where in the gap the edge is, so exact data give the exact answer).
 
 use super::slant::{self, SlantNoise, Slanted};
-use super::{AlongDepth, Model, Transform, depth_in_base, exp, transform_columns};
+use super::{Model, Transform, depth_in_base, exp, transform_columns};
 use nalgebra::{DMatrix, DVector, Isometry3, Rotation3, Vector2, Vector3};
 
 /// One edge seen in one profile: the flange pose, the edge's interval on the face (sensor x, z;
@@ -135,7 +135,7 @@ impl Model for BarModel {
         for (i, (f, p)) in self.face.iter().enumerate() {
             let (qb, dq_dw, dq_dt) = seer.point(f, p, jac);
             let a = ez.dot(&qb) - s.offset;
-            let depth = AlongDepth::new(x, f, &ez, jac);
+            let depth = seer.along_depth(f, &ez, jac);
             r[i] = a * depth.scale;
             if let Some(j) = j.as_deref_mut() {
                 for c in 0..j.ncols() {

@@ -5,7 +5,7 @@
 //! b, 0]), and its offset d_k along n_k. Residual per point q (base frame) on face k: n_k.q - d_k.
 
 use super::plane::Plane;
-use super::{AlongDepth, Model, Transform, exp, transform_columns};
+use super::{Model, Transform, exp, transform_columns};
 use nalgebra::{DMatrix, DVector, Isometry3, Vector2, Vector3};
 
 #[derive(Debug, Clone, PartialEq)]
@@ -70,7 +70,7 @@ impl Model for FacesModel {
             let (qb, dq_dw, dq_dt) = seer.point(f, p, j.is_some());
             // Along the depth (`AlongDepth`): the distance across biased the faces' fit.
             let a = n[*k].dot(&qb) - s[*k].offset;
-            let depth = AlongDepth::new(x, f, &n[*k], j.is_some());
+            let depth = seer.along_depth(f, &n[*k], j.is_some());
             r[i] = a * depth.scale;
             if let Some(j) = j.as_deref_mut() {
                 transform_columns(j, i, &n[*k], &dq_dw, &dq_dt);

@@ -103,13 +103,9 @@ struct PoseProducts {
 }
 
 impl Seer<'_> {
-    pub fn point(
-        &mut self,
-        f: &Isometry3<f64>,
-        p: &Vector2<f64>,
-        jac: bool,
-    ) -> (Vector3<f64>, Matrix3<f64>, Matrix3<f64>) {
-        let (fr, frr, frt) = match &self.pose {
+    /// F_R, F_R R and F_R t for flange pose `f`, from the last pose's if it is the same.
+    fn products(&mut self, f: &Isometry3<f64>) -> (Matrix3<f64>, Matrix3<f64>, Vector3<f64>) {
+        match &self.pose {
             Some(k) if k.flange == *f => (k.fr, k.frr, k.frt),
             _ => {
                 let fr = *f.rotation.to_rotation_matrix().matrix();
@@ -123,7 +119,22 @@ impl Seer<'_> {
                 });
                 (fr, frr, frt)
             }
-        };
+        }
+    }
+
+    /// `AlongDepth` for a surface of normal `n` seen from flange pose `f`.
+    pub fn along_depth(&mut self, f: &Isometry3<f64>, n: &Vector3<f64>, jac: bool) -> AlongDepth {
+        let (_, frr, _) = self.products(f);
+        AlongDepth::of_axes(&frr, n, jac)
+    }
+
+    pub fn point(
+        &mut self,
+        f: &Isometry3<f64>,
+        p: &Vector2<f64>,
+        jac: bool,
+    ) -> (Vector3<f64>, Matrix3<f64>, Matrix3<f64>) {
+        let (fr, frr, frt) = self.products(f);
         let ps = Vector3::new(p.x, 0.0, p.y);
         let q = frr * ps + frt + f.translation.vector;
         if !jac {
@@ -164,8 +175,16 @@ impl AlongDepth {
     };
 
     pub fn new(x: &Transform, f: &Isometry3<f64>, n: &Vector3<f64>, jac: bool) -> AlongDepth {
-        let frr = f.rotation.to_rotation_matrix().matrix() * x.rot.matrix();
-        let u = frr * Vector3::z();
+        AlongDepth::of_axes(
+            &(f.rotation.to_rotation_matrix().matrix() * x.rot.matrix()),
+            n,
+            jac,
+        )
+    }
+
+    /// From the sensor's axes in the base frame (F_R R, columns x, y, z).
+    fn of_axes(frr: &Matrix3<f64>, n: &Vector3<f64>, jac: bool) -> AlongDepth {
+        let u = frr.column(2).into_owned();
         let b = n.dot(&u);
         let (abs, sign) = (b.abs(), if b < 0.0 { -1.0 } else { 1.0 });
         if abs < MIN_DEPTH_COSINE || !jac {
@@ -175,8 +194,8 @@ impl AlongDepth {
                 dscale_dn: Vector3::zeros(),
             };
         }
-        // u(w) = F_R R exp([w]) z: du/dw = -F_R R [z]x.
-        let db_dw = (n.transpose() * (-frr * skew(&Vector3::z()))).transpose();
+        // u(w) = F_R R exp([w]) z: du/dw = -F_R R [z]x = (-F_R R y, F_R R x, 0).
+        let db_dw = Vector3::new(-n.dot(&frr.column(1)), n.dot(&frr.column(0)), 0.0);
         let k = -sign / (abs * abs);
         AlongDepth {
             scale: 1.0 / abs,

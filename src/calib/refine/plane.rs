@@ -92,7 +92,7 @@ impl Model for PlaneModel {
             let depth = if self.across {
                 AlongDepth::ACROSS
             } else {
-                AlongDepth::new(x, f, &n, j.is_some())
+                seer.along_depth(f, &n, j.is_some())
             };
             r[i] = a * depth.scale;
             if let Some(j) = j.as_deref_mut() {
