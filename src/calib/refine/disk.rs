@@ -9,7 +9,7 @@
 //! face points'.
 
 use super::plane::{row_in_base, weighted_moment_rows};
-use super::{AlongDepth, Model, Options, Refined, Transform, exp, frame_with, transform_columns};
+use super::{Model, Options, Refined, Transform, exp, frame_with, transform_columns};
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Point3, Rotation3, Vector2, Vector3};
 
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -97,23 +97,6 @@ impl Geometry {
             }
             j[(k, 9)] = v.dot(&self.dn[0]);
             j[(k, 10)] = v.dot(&self.dn[1]);
-        }
-    }
-
-    /// Row k, a distance from the plane seen from flange pose `f`, turned into the distance along
-    /// the sensor's depth (`AlongDepth`).
-    fn along_depth(
-        &self,
-        depth: impl FnOnce(&Vector3<f64>, bool) -> AlongDepth,
-        r: &mut DVector<f64>,
-        j: Option<&mut DMatrix<f64>>,
-        k: usize,
-    ) {
-        let a = r[k];
-        let depth = depth(&self.n, j.is_some());
-        r[k] = a * depth.scale;
-        if let Some(j) = j {
-            depth.apply(j, k, a, &[(9, self.dn[0]), (10, self.dn[1])]);
         }
     }
 
@@ -454,24 +437,12 @@ impl DiskModel {
             let weight = self.end_weights.get(i).copied().unwrap_or(1.0);
             let point = seer.point(f, p, j.is_some());
             disk.plane_row(r, j.as_deref_mut(), 2 * i, &point);
-            disk.along_depth(
-                |n, jac| seer.along_depth(f, n, jac),
-                r,
-                j.as_deref_mut(),
-                2 * i,
-            );
             disk.rim_row(self.radius, r, j.as_deref_mut(), 2 * i + 1, &point, weight);
         }
         let base = 2 * self.ends.len();
         for (i, (f, p)) in self.face.iter().enumerate() {
             let point = seer.point(f, p, j.is_some());
             disk.plane_row(r, j.as_deref_mut(), base + i, &point);
-            disk.along_depth(
-                |n, jac| seer.along_depth(f, n, jac),
-                r,
-                j.as_deref_mut(),
-                base + i,
-            );
             if let Some(&w) = self.face_weights.get(i) {
                 r[base + i] *= w;
                 if let Some(j) = j.as_deref_mut() {
@@ -662,13 +633,6 @@ impl Model for DiskReduced {
                 j[(k, 9)] = from_centre.dot(&disk.dn[0]);
                 j[(k, 10)] = from_centre.dot(&disk.dn[1]);
             }
-            // One scale per pose: the moment rows still sum to the points' normal equations.
-            disk.along_depth(
-                |n, jac| AlongDepth::new(x, f, n, jac),
-                r,
-                j.as_deref_mut(),
-                k,
-            );
         }
     }
 

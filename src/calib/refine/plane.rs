@@ -411,10 +411,11 @@ mod tests {
         let (via, _) = refine(&m, &start, &plane, &opts).unwrap();
         assert!(matches!(via.status, Status::Converged { .. }));
         // Both converged: within the refinement's own tolerance of each other (a gain under
-        // 1e-12 of the cost stops either), and exact on exact points.
+        // 1e-12 of the cost stops either; along the depth the cost is less nearly quadratic and
+        // the two stopped 6e-9 rad apart at z noise 0.1 mm), and exact on exact points.
         let d = rows.flange_to_sensor.inverse() * via.flange_to_sensor;
         assert!(
-            d.translation.vector.norm() < 1e-9 && d.rotation.angle() < 1e-9,
+            d.translation.vector.norm() < 1e-8 && d.rotation.angle() < 2e-8,
             "{d}"
         );
         if noise == 0.0 {
