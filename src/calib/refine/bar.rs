@@ -138,15 +138,11 @@ impl Model for BarModel {
             let depth = seer.along_depth(f, &ez, jac);
             r[i] = a * depth.scale;
             if let Some(j) = j.as_deref_mut() {
-                for c in 0..j.ncols() {
-                    j[(i, c)] = 0.0;
-                }
-                transform_columns(j, i, &ez, &dq_dw, &dq_dt);
+                depth.transform_columns(j, i, &ez, &dq_dw, &dq_dt, a);
                 // Q exp([w]) z: dn/da = -Q y, dn/db = Q x, dn/dc = 0.
-                j[(i, 6)] = -ey.dot(&qb);
-                j[(i, 7)] = ex.dot(&qb);
-                j[(i, 9)] = -1.0;
-                depth.apply(j, i, a, &[(6, -ey), (7, ex)]);
+                j[(i, 6)] = depth.column(-ey.dot(&qb), a, &-ey);
+                j[(i, 7)] = depth.column(ex.dot(&qb), a, &ex);
+                j[(i, 9)] = -depth.scale;
             }
         }
         let n = self.face.len();

@@ -5,7 +5,7 @@
 //! b, 0]), and its offset d_k along n_k. Residual per point q (base frame) on face k: n_k.q - d_k.
 
 use super::plane::Plane;
-use super::{Model, Transform, exp, transform_columns};
+use super::{Model, Transform, exp};
 use nalgebra::{DMatrix, DVector, Isometry3, Vector2, Vector3};
 
 #[derive(Debug, Clone, PartialEq)]
@@ -73,17 +73,16 @@ impl Model for FacesModel {
             let depth = seer.along_depth(f, &n[*k], j.is_some());
             r[i] = a * depth.scale;
             if let Some(j) = j.as_deref_mut() {
-                transform_columns(j, i, &n[*k], &dq_dw, &dq_dt);
+                depth.transform_columns(j, i, &n[*k], &dq_dw, &dq_dt, a);
                 // As `refine::plane`: dn/da = -Q y, dn/db = Q x; the other face's columns 0.
                 let c = 6 + 3 * k;
-                j[(i, c)] = -e[*k].1.dot(&qb);
-                j[(i, c + 1)] = e[*k].0.dot(&qb);
-                j[(i, c + 2)] = -1.0;
+                j[(i, c)] = depth.column(-e[*k].1.dot(&qb), a, &-e[*k].1);
+                j[(i, c + 1)] = depth.column(e[*k].0.dot(&qb), a, &e[*k].0);
+                j[(i, c + 2)] = -depth.scale;
                 let o = 6 + 3 * (1 - k);
                 for c in o..o + 3 {
                     j[(i, c)] = 0.0;
                 }
-                depth.apply(j, i, a, &[(c, -e[*k].1), (c + 1, e[*k].0)]);
             }
         }
     }

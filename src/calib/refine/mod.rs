@@ -82,6 +82,7 @@ impl Transform {
         Seer {
             x: self,
             pose: None,
+            depth: None,
         }
     }
 }
@@ -92,6 +93,9 @@ impl Transform {
 pub struct Seer<'a> {
     x: &'a Transform,
     pose: Option<PoseProducts>,
+    /// The last `along_depth` for the current pose: its normal, whether with the gradient, and
+    /// the result (one per pose and face; per point it took an eighth of a line target's time).
+    depth: Option<(Vector3<f64>, bool, AlongDepth)>,
 }
 
 /// A flange pose F with F_R, F_R R and F_R t.
@@ -104,6 +108,7 @@ struct PoseProducts {
 
 impl Seer<'_> {
     /// F_R, F_R R and F_R t for flange pose `f`, from the last pose's if it is the same.
+    #[inline]
     fn products(&mut self, f: &Isometry3<f64>) -> (Matrix3<f64>, Matrix3<f64>, Vector3<f64>) {
         match &self.pose {
             Some(k) if k.flange == *f => (k.fr, k.frr, k.frt),
@@ -111,6 +116,7 @@ impl Seer<'_> {
                 let fr = *f.rotation.to_rotation_matrix().matrix();
                 let frr = fr * self.x.rot.matrix();
                 let frt = fr * self.x.t;
+                self.depth = None;
                 self.pose = Some(PoseProducts {
                     flange: *f,
                     fr,
@@ -123,9 +129,18 @@ impl Seer<'_> {
     }
 
     /// `AlongDepth` for a surface of normal `n` seen from flange pose `f`.
+    #[inline]
     pub fn along_depth(&mut self, f: &Isometry3<f64>, n: &Vector3<f64>, jac: bool) -> AlongDepth {
         let (_, frr, _) = self.products(f);
-        AlongDepth::of_axes(&frr, n, jac)
+        if let Some((m, j, d)) = &self.depth
+            && m == n
+            && *j == jac
+        {
+            return *d;
+        }
+        let d = AlongDepth::of_axes(&frr, n, jac);
+        self.depth = Some((*n, jac, d));
+        d
     }
 
     pub fn point(
@@ -183,6 +198,7 @@ impl AlongDepth {
     }
 
     /// From the sensor's axes in the base frame (F_R R, columns x, y, z).
+    #[inline]
     fn of_axes(frr: &Matrix3<f64>, n: &Vector3<f64>, jac: bool) -> AlongDepth {
         let u = frr.column(2).into_owned();
         let b = n.dot(&u);
@@ -204,25 +220,31 @@ impl AlongDepth {
         }
     }
 
-    /// A Jacobian row of the residual a (its value `a`, row `row`, already written) turned into
-    /// that of a * scale: the row scaled, the rotation's columns and each normal column `c` (with
-    /// dn/dc) given the division's part.
-    pub fn apply(
+    /// The transform's six columns of the row of a * scale, the residual a's gradient being
+    /// g . dq (`transform_columns`): scaled, and the rotation's given the division's part.
+    #[inline]
+    pub fn transform_columns(
         &self,
         j: &mut DMatrix<f64>,
         row: usize,
+        g: &Vector3<f64>,
+        dq_dw: &Matrix3<f64>,
+        dq_dt: &Matrix3<f64>,
         a: f64,
-        normal_columns: &[(usize, Vector3<f64>)],
     ) {
-        for c in 0..j.ncols() {
-            j[(row, c)] *= self.scale;
-        }
+        let gw = (g.transpose() * dq_dw) * self.scale + (self.dscale_dw * a).transpose();
+        let gt = (g.transpose() * dq_dt) * self.scale;
         for c in 0..3 {
-            j[(row, c)] += a * self.dscale_dw[c];
+            j[(row, c)] = gw[c];
+            j[(row, 3 + c)] = gt[c];
         }
-        for (c, dn) in normal_columns {
-            j[(row, *c)] += a * self.dscale_dn.dot(dn);
-        }
+    }
+
+    /// A specimen column of the row of a * scale where a's is `da` and the normal moves by `dn`
+    /// along it (zero for an offset).
+    #[inline]
+    pub fn column(&self, da: f64, a: f64, dn: &Vector3<f64>) -> f64 {
+        self.scale * da + a * self.dscale_dn.dot(dn)
     }
 }
 

@@ -4,9 +4,7 @@
 //! offset d along n (1). Residual per point q (base frame): its signed distance n.q - d, which is
 //! along the surface normal.
 
-use super::{
-    AlongDepth, Model, Options, Refined, Transform, exp, frame_with, skew, transform_columns,
-};
+use super::{AlongDepth, Model, Options, Refined, Transform, exp, frame_with, skew};
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Rotation3, SymmetricEigen, Vector2, Vector3};
 
 #[derive(Debug, Clone, PartialEq)]
@@ -96,12 +94,11 @@ impl Model for PlaneModel {
             };
             r[i] = a * depth.scale;
             if let Some(j) = j.as_deref_mut() {
-                transform_columns(j, i, &n, &dq_dw, &dq_dt);
+                depth.transform_columns(j, i, &n, &dq_dw, &dq_dt, a);
                 // n(a, b) = Q exp([a, b, 0]) z: dn/da = -Q y, dn/db = Q x.
-                j[(i, 6)] = -e2.dot(&qb);
-                j[(i, 7)] = e1.dot(&qb);
-                j[(i, 8)] = -1.0;
-                depth.apply(j, i, a, &[(6, -e2), (7, e1)]);
+                j[(i, 6)] = depth.column(-e2.dot(&qb), a, &-e2);
+                j[(i, 7)] = depth.column(e1.dot(&qb), a, &e1);
+                j[(i, 8)] = -depth.scale;
             }
         }
     }
@@ -268,11 +265,10 @@ impl Model for Moments {
             };
             r[i] = a * depth.scale;
             if let Some(j) = j.as_deref_mut() {
-                transform_columns(j, i, &n, &dq_dw, &dq_dt);
-                j[(i, 6)] = -e2.dot(&qb);
-                j[(i, 7)] = e1.dot(&qb);
-                j[(i, 8)] = -c;
-                depth.apply(j, i, a, &[(6, -e2), (7, e1)]);
+                depth.transform_columns(j, i, &n, &dq_dw, &dq_dt, a);
+                j[(i, 6)] = depth.column(-e2.dot(&qb), a, &-e2);
+                j[(i, 7)] = depth.column(e1.dot(&qb), a, &e1);
+                j[(i, 8)] = -c * depth.scale;
             }
         }
     }
