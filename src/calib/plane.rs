@@ -77,13 +77,17 @@ fn along_depth(sol: PlaneSolution) -> Result<PlaneSolution, CalibError> {
         across: false,
         ..sol.problem.model
     };
-    let (refined, plane) = refine(
-        &model,
-        &sol.flange_to_sensor,
-        &sol.plane,
-        &Options::default(),
-    )
-    .map_err(with_plane_advice)?;
+    refined(model, &sol.flange_to_sensor, &sol.plane)
+}
+
+/// `model` refined from (x, plane), as a solution.
+fn refined(
+    model: PlaneModel,
+    x: &Isometry3<f64>,
+    plane: &Plane,
+) -> Result<PlaneSolution, CalibError> {
+    let (refined, plane) =
+        refine(&model, x, plane, &Options::default()).map_err(with_plane_advice)?;
     Ok(PlaneSolution {
         flange_to_sensor: refined.flange_to_sensor,
         plane,
@@ -277,22 +281,7 @@ pub fn solve_faces<'a, V>(
 pub fn refine_from(views: &[LineView], start: &Start) -> Result<PlaneSolution, CalibError> {
     let keep = points_per_view(views, usize::MAX);
     let model = model_of(views, &|v| super::stride_for(v.points.len(), keep), true);
-    let (refined, plane) = refine(
-        &model,
-        &start.flange_to_sensor,
-        &start.plane,
-        &Options::default(),
-    )
-    .map_err(with_plane_advice)?;
-    Ok(PlaneSolution {
-        flange_to_sensor: refined.flange_to_sensor,
-        plane,
-        refined,
-        problem: Problem {
-            model,
-            specimen: plane,
-        },
-    })
+    refined(model, &start.flange_to_sensor, &start.plane)
 }
 
 /// Points per view the fits keep (at most `most`; fewer past `super::POINT_BUDGET`).
