@@ -1028,4 +1028,47 @@ mod tests {
         let err = |y: &Isometry3<f64>| (x.inverse() * y).translation.vector.norm();
         assert!(err(&fit.flange_to_sensor) < 0.5 * err(&ls.flange_to_sensor));
     }
+    /// A closed form's figures are the fit's (`refine::assess`): from a transform several
+    /// spreads off the least-squares fit of noisy chord ends, the same covariance as at the
+    /// fit, where the middle term at the transform itself has grown with its distance.
+    #[test]
+    fn a_transform_off_its_fit_is_judged_by_the_fits_covariance() {
+        use crate::calib::refine::{Options, Problem, Refinable, assess};
+        let (mut m, x, disk) = model(0.0);
+        m.face.clear();
+        for (i, (_, p)) in m.ends.iter_mut().enumerate() {
+            p.y += 2e-6 * (1.7 * i as f64).sin();
+        }
+        let p = Problem {
+            model: m,
+            specimen: disk,
+        };
+        let fit = p.refine(&x, &Options::default()).unwrap();
+        // Five spreads off, along the fit's own covariance (its axes are strongly coupled).
+        let l = fit.covariance.cholesky().unwrap().l();
+        let d = l * nalgebra::Vector6::new(3.0, -2.0, 1.0, 2.0, -2.0, 1.0);
+        let off = Transform::from_isometry(&fit.flange_to_sensor)
+            .step(d.as_slice())
+            .to_isometry();
+        let (at_off, step) = assess(&p, &off, fit.status);
+        // The step is the way back to the fit.
+        assert!(
+            (step + d.fixed_rows::<6>(0)).norm() < 1e-2 * d.norm(),
+            "{step}"
+        );
+        let (at_fit, _) = assess(&p, &fit.flange_to_sensor, fit.status);
+        let rel =
+            |a: &nalgebra::Matrix6<f64>| (a - at_fit.covariance).norm() / at_fit.covariance.norm();
+        // Taken at the transform itself, as before.
+        let sums = p.sums(&off);
+        let normal = super::super::Normal::of(&sums.ata);
+        let there = super::super::covariance_from(&normal, &sums);
+        assert!(
+            rel(&at_off.covariance) < 1e-2,
+            "{}",
+            rel(&at_off.covariance)
+        );
+        assert!(rel(&there) > 1.0, "{}", rel(&there));
+        assert!(at_off.residual_rms > 1.1 * at_fit.residual_rms);
+    }
 }
