@@ -1287,6 +1287,136 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
     );
 }
 
+/// The gross mistakes of docs/verdict.md (`verdict::mistake`: pairing one record apart, metres,
+/// quaternion order, mirrored profiles, the radius 5 % and 20 % off, every orientation 3 deg off)
+/// made on the papers' protocols as another generator makes them (the disk paper's four scans,
+/// its ball's rotation and translation sets, the edge paper's parallel bar; `testkit::fan`, z
+/// noise 0.1 mm, the specimen placed anew each trial), every variant run and judged as
+/// `calibrate` does: each wrong answer (more than 1 deg or 1 mm off) must be flagged (suspect or
+/// imprecise) or refused. Trials per case: `LASERCAL_INDEPENDENT_TRIALS` (default 2;
+/// docs/verdict.md has a release run).
+#[test]
+fn gross_mistakes_on_the_papers_protocols_from_another_generator_are_flagged() {
+    use crate::verdict::mistake;
+    use lasercal::calib::PoseError;
+    use lasercal::method::verdict::{Verdict, decide};
+    use rayon::prelude::*;
+    let n = independent_trials();
+    type Mutate = fn(&mut Captures);
+    let mistakes: [(&str, &str, Mutate); 7] = [
+        (
+            "paired one record apart",
+            "paired one record apart",
+            mistake::pairing,
+        ),
+        ("positions in metres", "in metres", mistake::metres),
+        ("quaternions x, y, z, w", "x, y, z, w order", mistake::xyzw),
+        ("profiles mirrored in x", "mirrored in x", mistake::mirrored),
+        ("radius +5 %", "specimen's size", mistake::radius_5),
+        ("radius +20 %", "specimen's size", mistake::radius_20),
+        ("every orientation 3 deg off", "", mistake::turned_3deg),
+    ];
+    let cases: [(&str, Kind, fn() -> (Setup, Fan, Vec<Solid>)); 3] = [
+        ("disk", Kind::Disk, disk_case),
+        ("ball", Kind::Ball, ball_case),
+        ("edge", Kind::Edge, edge_case),
+    ];
+    // results, wrong, wrong flagged, refused, suspect, suspect naming the cause
+    let mut all = [0usize; 6];
+    let mut missed = Vec::new();
+    println!(
+        "| mistake | protocol | results | wrong | wrong, flagged | refused | suspect | cause named first |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    for (name, kind, case) in cases {
+        let (s, fan, solids) = case();
+        let sensor = with_sigma(&common::declared(&fan, "fan-295"), 0.1);
+        let truth = s.rig.flange_to_sensor;
+        // The trials' files, made once and mistaken seven ways.
+        let files: Vec<Captures> = (0..n)
+            .into_par_iter()
+            .map(|t| {
+                let caps = trial_captures(&s, kind, 27, t).0.unwrap();
+                let noise = Noise {
+                    sigma_z: 0.1e-3,
+                    dropout: 0.0,
+                    sigma_z_far: 0.0,
+                };
+                regenerate(&caps, &s, &fan, &placed(&solids, t), noise, 7000 + t)
+            })
+            .collect();
+        for (what, cause, mutate) in &mistakes {
+            if files[0].specimen_radius.is_none() && what.starts_with("radius") {
+                continue;
+            }
+            let rows: Vec<([usize; 6], Option<String>)> = files
+                .par_iter()
+                .enumerate()
+                .map(|(t, file)| {
+                    let mut row = [1, 0, 0, 0, 0, 0];
+                    let mut file = file.clone();
+                    mutate(&mut file);
+                    let Ok(d) = decide(&file, &sensor, None) else {
+                        row[3] = 1;
+                        return (row, None);
+                    };
+                    let e = PoseError::between(&d.assessed().calibration.flange_to_sensor, &truth);
+                    let wrong = !(e.rotation_error_deg <= 1.0 && e.translation_error_mm <= 1.0);
+                    let mut missed = None;
+                    if wrong {
+                        row[1] = 1;
+                        if d.judged.verdict != Verdict::Ok {
+                            row[2] = 1;
+                        } else {
+                            let lines = d.judged.lines().cloned().collect::<Vec<_>>().join(" | ");
+                            missed = Some(format!(
+                                "{what}, {name} trial {t}: {} {:.3} deg / {:.3} mm off, judged ok: {lines}",
+                                d.method(),
+                                e.rotation_error_deg,
+                                e.translation_error_mm
+                            ));
+                        }
+                    }
+                    if d.judged.verdict == Verdict::Suspect {
+                        row[4] = 1;
+                        row[5] = usize::from(!cause.is_empty() && d.judged.reasons[0].contains(cause));
+                    }
+                    (row, missed)
+                })
+                .collect();
+            let mut sum = [0usize; 6];
+            for (row, m) in rows {
+                for k in 0..6 {
+                    sum[k] += row[k];
+                }
+                missed.extend(m);
+            }
+            println!(
+                "| {what} | {name} | {} | {} | {} | {} | {} | {} |",
+                sum[0], sum[1], sum[2], sum[3], sum[4], sum[5]
+            );
+            for k in 0..6 {
+                all[k] += sum[k];
+            }
+        }
+    }
+    println!(
+        "| all | | {} | {} | {} | {} | {} | {} |",
+        all[0], all[1], all[2], all[3], all[4], all[5]
+    );
+    assert!(
+        all[1] > 0,
+        "no mistake gave a wrong answer: the cases test nothing"
+    );
+    assert!(
+        missed.is_empty(),
+        "{} of {} wrong answers judged ok:\n{}",
+        missed.len(),
+        all[1],
+        missed.join("\n")
+    );
+}
+
 /// The disk paper's four scans from the independent generator with z noise growing from 0.02 mm
 /// at the near end of the fan's range to 0.25 mm at the far end, the file stating one number
 /// (0.25 mm) for the whole range, as a datasheet's headline does: `disk-full` reads how the

@@ -469,7 +469,7 @@ fn nearly_collinear_translations_are_refused_relative_to_their_length() {
 
 /// Gross mistakes made as a file would make them: each returns the captures as a reader would
 /// take them from a file with that mistake (independent of `method::cause`, which undoes them).
-mod mistake {
+pub(crate) mod mistake {
     use lasercal::captures::{Captures, ProfileData};
     use nalgebra::{Quaternion, Rotation3, UnitQuaternion, Vector3};
 
