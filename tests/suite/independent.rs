@@ -1380,6 +1380,9 @@ fn gross_mistakes_on_the_papers_protocols_from_another_generator_are_flagged() {
                     if d.judged.verdict == Verdict::Suspect {
                         row[4] = 1;
                         row[5] = usize::from(!cause.is_empty() && d.judged.reasons[0].contains(cause));
+                        if row[5] == 0 && !cause.is_empty() {
+                            println!("  {what}, {name} trial {t}: {}", d.judged.reasons[0]);
+                        }
                     }
                     (row, missed)
                 })
