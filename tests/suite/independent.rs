@@ -1293,7 +1293,7 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
 /// its ball's rotation and translation sets, the edge paper's parallel bar; `testkit::fan`, z
 /// noise 0.1 mm, the specimen placed anew each trial), every variant run and judged as
 /// `calibrate` does: each wrong answer (more than 1 deg or 1 mm off) must be flagged (suspect or
-/// imprecise) or refused. Trials per case: `LASERCAL_INDEPENDENT_TRIALS` (default 2;
+/// imprecise) or refused. Trials per case: `LASERCAL_INDEPENDENT_TRIALS` (default 1;
 /// docs/verdict.md has a release run).
 #[test]
 fn gross_mistakes_on_the_papers_protocols_from_another_generator_are_flagged() {
@@ -1301,7 +1301,12 @@ fn gross_mistakes_on_the_papers_protocols_from_another_generator_are_flagged() {
     use lasercal::calib::PoseError;
     use lasercal::method::verdict::{Verdict, decide};
     use rayon::prelude::*;
-    let n = independent_trials();
+    // One placement a case by default: an edge file turned 3 deg takes most of a minute to judge
+    // (docs/verdict.md).
+    let n: u64 = std::env::var("LASERCAL_INDEPENDENT_TRIALS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1);
     type Mutate = fn(&mut Captures);
     let mistakes: [(&str, &str, Mutate); 7] = [
         (
