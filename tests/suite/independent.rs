@@ -1307,20 +1307,7 @@ fn gross_mistakes_on_the_papers_protocols_from_another_generator_are_flagged() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(1);
-    type Mutate = fn(&mut Captures);
-    let mistakes: [(&str, &str, Mutate); 7] = [
-        (
-            "paired one record apart",
-            "paired one record apart",
-            mistake::pairing,
-        ),
-        ("positions in metres", "in metres", mistake::metres),
-        ("quaternions x, y, z, w", "x, y, z, w order", mistake::xyzw),
-        ("profiles mirrored in x", "mirrored in x", mistake::mirrored),
-        ("radius +5 %", "specimen's size", mistake::radius_5),
-        ("radius +20 %", "specimen's size", mistake::radius_20),
-        ("every orientation 3 deg off", "", mistake::turned_3deg),
-    ];
+    let mistakes = mistake::ALL;
     let cases: [(&str, Kind, fn() -> (Setup, Fan, Vec<Solid>)); 3] = [
         ("disk", Kind::Disk, disk_case),
         ("ball", Kind::Ball, ball_case),

@@ -473,6 +473,23 @@ pub(crate) mod mistake {
     use lasercal::captures::{Captures, ProfileData};
     use nalgebra::{Quaternion, Rotation3, UnitQuaternion, Vector3};
 
+    /// Each mistake: its name, the words a reason naming its cause holds ("": none undoes
+    /// it) and how a file makes it.
+    pub type Mutate = fn(&mut Captures);
+    pub const ALL: [(&str, &str, Mutate); 7] = [
+        (
+            "paired one record apart",
+            "paired one record apart",
+            pairing,
+        ),
+        ("positions in metres", "in metres", metres),
+        ("quaternions x, y, z, w", "x, y, z, w order", xyzw),
+        ("profiles mirrored in x", "mirrored in x", mirrored),
+        ("radius +5 %", "specimen's size", radius_5),
+        ("radius +20 %", "specimen's size", radius_20),
+        ("every orientation 3 deg off", "", turned_3deg),
+    ];
+
     /// Each profile logged with the pose of the next record (the last one dropped).
     pub fn pairing(c: &mut Captures) {
         let poses: Vec<_> = c.profiles.iter().map(|p| p.base_to_flange).collect();
@@ -553,20 +570,7 @@ fn gross_mistakes_are_flagged_and_their_cause_named() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(1);
-    type Mutate = fn(&mut Captures);
-    let mistakes: [(&str, &str, Mutate); 7] = [
-        (
-            "pairing shifted",
-            "paired one record apart",
-            mistake::pairing,
-        ),
-        ("metres", "in metres", mistake::metres),
-        ("quaternion x,y,z,w", "x, y, z, w order", mistake::xyzw),
-        ("mirrored in x", "mirrored in x", mistake::mirrored),
-        ("radius +5 %", "specimen's size", mistake::radius_5),
-        ("radius +20 %", "specimen's size", mistake::radius_20),
-        ("orientations 3 deg off", "", mistake::turned_3deg),
-    ];
+    let mistakes = mistake::ALL;
     // The disk and the edge from analytic features (the ray-cast comparison rig's, with every
     // variant and refit over raw profiles, cost a minute a case in a debug build; release runs of
     // them are in docs/verdict.md).
