@@ -1269,13 +1269,33 @@ pub fn decide(
     judged.add_notes(loo.as_ref().map(leave_one_out_notes).unwrap_or_default());
     // The refits cost a calibration each: only when the residuals themselves do not fit (the
     // mistakes they look for all show there).
-    let misfit = a
-        .judged
-        .quality
-        .noise_ratio
-        .zip(a.judged.quality.noise_ratio_bound)
-        .is_some_and(|(r, b)| !(r <= b));
-    if misfit && let Some(c) = super::cause::likely_cause(caps, sensor, a) {
+    let misfit = |a: &Assessed| {
+        a.judged
+            .quality
+            .noise_ratio
+            .zip(a.judged.quality.noise_ratio_bound)
+            .map(|(r, b)| r / b)
+            .filter(|f| !(*f <= 1.0))
+    };
+    // A kept result that fits while the verdict is suspect (a group that does not fit, variants
+    // that disagree): an estimator free in more directions can absorb a wrong label (the
+    // any-pose disk a radius 5 % off, with the residuals at the noise) that a variant using it
+    // cannot. The variant misfitting most is then the one a correction shows on.
+    let probe = if misfit(a).is_some() {
+        Some(a)
+    } else if judged.verdict == Verdict::Suspect {
+        results
+            .iter()
+            .filter_map(|(_, r)| r.as_ref().ok())
+            .filter_map(|b| misfit(b).map(|f| (b, f)))
+            .max_by(|x, y| x.1.total_cmp(&y.1))
+            .map(|(b, _)| b)
+    } else {
+        None
+    };
+    if let Some(p) = probe
+        && let Some(c) = super::cause::likely_cause(caps, sensor, p)
+    {
         judged.reasons.insert(0, c);
     }
     // A held clock offset: one more refit, only for a suspect result placed by time stamps.
