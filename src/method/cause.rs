@@ -11,6 +11,9 @@ use crate::features::EdgeSense;
 use crate::sensor::SensorModel;
 use nalgebra::{Quaternion, UnitQuaternion, Vector2};
 
+/// The farthest a flange can be from the robot's base (m): no serial arm reaches 10 m.
+const MAX_REACH_M: f64 = 10.0;
+
 /// A gross mistake in a capture file, named by what the file got wrong.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Mistake {
@@ -98,6 +101,17 @@ impl Mistake {
                 c.profiles = profiles;
             }
             Mistake::Metres => {
+                // Read as metres, every position lies within 10 m of the base (no arm reaches
+                // farther); a file with a flange farther out than 10 mm is in millimetres
+                // already, and a refit 1,000 times out only costs time.
+                let far = caps
+                    .profiles
+                    .iter()
+                    .map(|p| p.base_to_flange.translation.vector.norm())
+                    .fold(0.0, f64::max);
+                if !(far * 1e3 <= MAX_REACH_M) {
+                    return None;
+                }
                 for p in &mut c.profiles {
                     p.base_to_flange.translation.vector *= 1e3;
                 }
@@ -216,7 +230,9 @@ pub fn likely_cause(caps: &Captures, sensor: &SensorModel, a: &Assessed) -> Opti
         Mistake::QuaternionXyzw,
         Mistake::Mirrored,
     ];
-    if caps.edge_sense.is_some() {
+    // The any-pose estimators read the edge sense from the data: flipping the label refits the
+    // same problem.
+    if caps.edge_sense.is_some() && a.method.estimator != super::Estimator::AnyPose {
         tries.push(Mistake::EdgeSense);
     }
     // The refits are independent: side by side, collected in the order above.

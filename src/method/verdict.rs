@@ -1016,10 +1016,17 @@ fn without_group(
     if hits.get() == 0 {
         return super::estimate(a.method, reduced, sensor);
     }
-    let r = problem.refine(
-        &cal.flange_to_sensor,
-        &super::refine_options(a.method.estimator),
-    )?;
+    let mut opts = super::refine_options(a.method.estimator);
+    // A kept result whose residuals do not fit is suspect whatever a group's run says, and its
+    // runs can creep (censored edges converge only linearly; an edge file with every
+    // orientation 3 deg off took 500 iterations a run, 25 runs, most of a minute): the default
+    // cap, the move so far still points at a group that does not fit.
+    if misfit(a).is_some() {
+        opts.max_iterations = opts
+            .max_iterations
+            .min(crate::calib::refine::Options::default().max_iterations);
+    }
+    let r = problem.refine(&cal.flange_to_sensor, &opts)?;
     let run = Calibration {
         flange_to_sensor: r.flange_to_sensor,
         centre_in_base: r.centre.map(|c| c.coords),
@@ -1041,6 +1048,17 @@ fn without_group(
         full_profile: None,
     };
     Ok((run, Some(r)))
+}
+
+/// How many times the residuals exceed what the noise and the robot's accuracy explain, when
+/// they do (the residual test fails), else None.
+fn misfit(a: &Assessed) -> Option<f64> {
+    a.judged
+        .quality
+        .noise_ratio
+        .zip(a.judged.quality.noise_ratio_bound)
+        .map(|(r, b)| r / b)
+        .filter(|f| !(*f <= 1.0))
 }
 
 /// The leave-one-out run's reason, when one group moves the result beyond what the honest
@@ -1269,14 +1287,6 @@ pub fn decide(
     judged.add_notes(loo.as_ref().map(leave_one_out_notes).unwrap_or_default());
     // The refits cost a calibration each: only when the residuals themselves do not fit (the
     // mistakes they look for all show there).
-    let misfit = |a: &Assessed| {
-        a.judged
-            .quality
-            .noise_ratio
-            .zip(a.judged.quality.noise_ratio_bound)
-            .map(|(r, b)| r / b)
-            .filter(|f| !(*f <= 1.0))
-    };
     // A kept result that fits while the verdict is suspect (a group that does not fit, variants
     // that disagree): an estimator free in more directions can absorb a wrong label (the
     // any-pose disk a radius 5 % off, with the residuals at the noise) that a variant using it
