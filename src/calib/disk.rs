@@ -7,7 +7,7 @@ use nalgebra::{
     DMatrix, DVector, Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector2, Vector3,
 };
 
-const METHOD: &str = "disk";
+pub const METHOD: &str = "disk";
 
 /// One chord (Eq. 4): its ends (x, z) in the sensor frame, and where along the scan it was taken
 /// (`u` = 0 at T-bar, 1 at T-tilde; the paper's (j-1)/(m-1)).

@@ -72,7 +72,7 @@ pub fn line_spread(points: &[nalgebra::Vector3<f64>]) -> (f64, f64, f64) {
 
 /// The orientation a protocol's "one orientation" captures share: their chordal mean, or, when
 /// one lies more than `tolerance_deg` from it (`ORIENTATION_TOLERANCE_DEG` unless the user says
-/// otherwise), (its index, its angle in deg).
+/// otherwise), the farthest one's (index, angle in deg).
 pub fn shared_orientation(
     rotations: &[Rotation3<f64>],
     tolerance_deg: f64,
@@ -90,11 +90,15 @@ pub fn shared_orientation(
     }
     let sum: Matrix3<f64> = rotations.iter().map(|r| *r.matrix()).sum();
     let mean = crate::math::nearest_rotation(&sum);
-    for (i, r) in rotations.iter().enumerate() {
-        let angle = mean.angle_to(r).to_degrees();
-        if angle > tolerance_deg {
-            return Err((i, angle));
-        }
+    // The capture farthest from the mean is named: one turned far pulls the mean off the
+    // others, and the first beyond the tolerance may be one of them.
+    let (i, angle) = rotations
+        .iter()
+        .map(|r| mean.angle_to(r).to_degrees())
+        .enumerate()
+        .fold((0, 0.0), |w, (i, a)| if a > w.1 { (i, a) } else { w });
+    if angle > tolerance_deg {
+        return Err((i, angle));
     }
     Ok(mean)
 }

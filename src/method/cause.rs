@@ -34,11 +34,18 @@ pub enum Mistake {
 impl Mistake {
     /// What the data show and how to check it, with the improvement that shows it.
     fn explain(&self, caps: &Captures, method: super::MethodId, before: f64, after: f64) -> String {
-        let fit = format!(
-            "with that undone {method} fits {:.0} times better (residual RMS {before:.4} -> \
-             {after:.4} mm)",
-            before / after
-        );
+        self.explain_with(
+            caps,
+            &format!(
+                "with that undone {method} fits {:.0} times better (residual RMS {before:.4} -> \
+                 {after:.4} mm)",
+                before / after
+            ),
+        )
+    }
+
+    /// What the data show (`fit`: the evidence) and how to check it.
+    fn explain_with(&self, caps: &Captures, fit: &str) -> String {
         match *self {
             Mistake::Pairing(k) => format!(
                 "likely cause: poses and profiles are paired one record apart (each profile's pose \
@@ -252,6 +259,38 @@ pub fn likely_cause(caps: &Captures, sensor: &SensorModel, a: &Assessed) -> Opti
         .filter(|(_, r)| r * CLEARLY_BETTER < before)
         .min_by(|x, y| x.1.total_cmp(&y.1))?;
     Some(t.explain(caps, a.method, before, after))
+}
+
+/// The likely cause where the kept result fits but is suspect and variants could not run (the
+/// disk's closed form refuses a scan whose poses are paired one record apart: a pose of the next
+/// scan's orientation): the correction with which `refused` runs, is not suspect and fits best,
+/// in words, or None. Only mistakes that move poses or profiles are tried (a size or a sense
+/// does not stop a variant running).
+pub fn lets_run(caps: &Captures, sensor: &SensorModel, refused: super::MethodId) -> Option<String> {
+    use rayon::prelude::*;
+    let tries = [
+        Mistake::Pairing(1),
+        Mistake::Pairing(-1),
+        Mistake::Metres,
+        Mistake::QuaternionXyzw,
+        Mistake::Mirrored,
+    ];
+    let (t, r) = tries
+        .into_par_iter()
+        .filter_map(|t| {
+            let r = assess(refused, &t.undo(caps)?, sensor).ok()?;
+            (r.judged.verdict != Verdict::Suspect).then_some((t, r.judged.quality.residual_rms_mm?))
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .min_by(|x, y| x.1.total_cmp(&y.1))?;
+    Some(t.explain_with(
+        caps,
+        &format!(
+            "with that undone {refused}, which could not run, runs and fits (residual RMS {r:.4} \
+             mm)"
+        ),
+    ))
 }
 
 /// A held clock offset the data contradict (scanning on the move, the offset taken as stated):

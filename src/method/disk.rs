@@ -1106,6 +1106,27 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         let (Some(first), Some(last)) = (ps.first(), ps.last()) else {
             continue;
         };
+        // Eq. 2's scan is a straight move at one orientation: a capture turned away (a pose
+        // paired with the next scan's profile, a scan split wrongly) is named, not read as a
+        // scan direction the disk cannot have.
+        let rotations: Vec<_> = ps
+            .iter()
+            .map(|p| p.base_to_flange.rotation.to_rotation_matrix())
+            .collect();
+        crate::calib::shared_orientation(&rotations, c.orientation_tolerance_deg).map_err(
+            |(i, angle)| crate::calib::CalibError::Degenerate {
+                method: crate::calib::disk::METHOD,
+                what: format!(
+                    "scan {}: capture {i} is {angle:.3} deg from the scan's mean orientation \
+                     (tolerance {} deg)",
+                    g.id, c.orientation_tolerance_deg
+                ),
+                part: "rotation",
+                fix: "keep the orientation fixed during a scan (check the pairing of poses and \
+                      profiles at the scan's ends), allow the controller's jitter (calibrate \
+                      --orientation-tolerance-deg), or use disk-any-pose",
+            },
+        )?;
         let (t0, t1) = (
             first.base_to_flange.translation.vector,
             last.base_to_flange.translation.vector,

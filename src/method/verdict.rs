@@ -1307,6 +1307,14 @@ pub fn decide(
         && let Some(c) = super::cause::likely_cause(caps, sensor, p)
     {
         judged.reasons.insert(0, c);
+    } else if probe.is_none()
+        && judged.verdict == Verdict::Suspect
+        && let Some(c) = results
+            .iter()
+            .filter(|(_, r)| r.is_err())
+            .find_map(|(id, _)| super::cause::lets_run(caps, sensor, *id))
+    {
+        judged.reasons.insert(0, c);
     }
     // A held clock offset: one more refit, only for a suspect result placed by time stamps.
     if judged.verdict == Verdict::Suspect

@@ -887,3 +887,28 @@ fn a_stated_straightness_is_written_read_and_in_the_bound() {
         "{e}"
     );
 }
+
+/// A disk scan whose last profile carries the next scan's pose (poses and profiles paired one
+/// record apart): the closed form refuses it naming that capture and its turn, not a scan
+/// direction the disk cannot have. (On raw profiles, where `disk-any-pose` runs and is
+/// suspect, the verdict names the pairing: `independent::gross_mistakes_...`.)
+#[test]
+fn a_disk_scan_paired_one_record_apart_is_named() {
+    let s = setup("chen2018-disk", &|t| t.to_string());
+    let mut caps = trial_captures(&s, Kind::Disk, 27, 0).0.unwrap();
+    let last_of_first = caps.profiles.iter().filter(|p| p.group == 0).count() - 1;
+    mistake::pairing(&mut caps);
+    let err = estimate(
+        MethodId::new(Kind::Disk, Estimator::ClosedForm),
+        &caps,
+        &s.rig.sensor,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        err.contains(&format!("scan 0: capture {last_of_first} is"))
+            && err.contains("from the scan's mean orientation")
+            && err.contains("pairing"),
+        "{err}"
+    );
+}
