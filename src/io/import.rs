@@ -115,6 +115,7 @@ pub fn pose_list(
         ));
     }
     Ok(super::poses::PoseList {
+        warnings: Vec::new(),
         key,
         at: (0..rows.len()).map(|i| format!("line {}", i + 2)).collect(),
         summary: format!("{} poses ({key})", rows.len()),

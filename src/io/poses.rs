@@ -18,6 +18,9 @@ pub struct PoseList {
     pub rows: Vec<Vec<f64>>,
     pub at: Vec<String>,
     pub summary: String,
+    /// What the file holds that the poses leave out and may spoil them (a FANUC program's
+    /// extended axes moving between poses), for the user to check.
+    pub warnings: Vec<String>,
 }
 
 /// At most this many poses in one list.
@@ -88,6 +91,7 @@ pub fn read(text: &str, file: &str, format: &str) -> Result<PoseList, FormatErro
         "halcon" => {
             let row = halcon(text, file)?;
             PoseList {
+                warnings: Vec::new(),
                 key: "matrix_mm",
                 rows: vec![row],
                 at: vec!["pose".into()],
@@ -155,6 +159,7 @@ pub fn halcon_folder(dir: &Path) -> Result<PoseList, FormatError> {
         at.push(fname);
     }
     Ok(PoseList {
+        warnings: Vec::new(),
         key: "matrix_mm",
         summary: format!(
             "{} HALCON pose files (f 0: R = Rx Ry Rz; f 2: Rz Ry Rx; f 4: Rodriguez; t in m)",
@@ -245,6 +250,7 @@ fn json(text: &str, file: &str) -> Result<PoseList, FormatError> {
         }
     }
     Ok(PoseList {
+        warnings: Vec::new(),
         key: "tcp_mm_wpr_deg",
         at: (1..=rows.len()).map(|i| format!("pose {i}")).collect(),
         summary: format!(
@@ -289,6 +295,7 @@ fn text_list(text: &str, file: &str) -> Result<PoseList, FormatError> {
         at.push(here);
     }
     Ok(PoseList {
+        warnings: Vec::new(),
         key: "tcp_mm_wpr_deg",
         summary: format!(
             "{} poses from a text list, read as x, y, z mm and FANUC W, P, R deg \
@@ -311,6 +318,10 @@ fn fanuc(text: &str, file: &str) -> Result<PoseList, FormatError> {
     let (mut rows, mut at) = (Vec::new(), Vec::new());
     let mut frames: Option<(String, String)> = None;
     let mut joints: Option<bool> = None;
+    // Each extended axis of group 2: its unit, and its least and greatest value with the pose.
+    type Extreme = (f64, String);
+    let mut extended: std::collections::BTreeMap<String, (&str, Extreme, Extreme)> =
+        Default::default();
     let mut from = 0;
     while let Some(k) = text[from..].find("P[") {
         let start = from + k;
@@ -331,7 +342,38 @@ fn fanuc(text: &str, file: &str) -> Result<PoseList, FormatError> {
             .map(|c| open + c)
             .ok_or_else(|| field(file, &here, format!("{label}: block not closed with }}")))?;
         let body = &text[open + 1..close];
-        // Group 1 only (other groups are extended axes).
+        // Group 1 only (other groups are extended axes: their values kept to see whether they
+        // move between poses).
+        if let Some(g) = body.find("GP2") {
+            for piece in body[g + 3..].split([',', '\n', '\r', '\t']) {
+                let piece = piece.trim();
+                let Some((name, value)) = piece.split_once('=') else {
+                    continue;
+                };
+                let name = name.trim().to_ascii_uppercase();
+                let unit = if value.contains("mm") { "mm" } else { "deg" };
+                let v = value
+                    .trim()
+                    .trim_end_matches("deg")
+                    .trim_end_matches("mm")
+                    .trim();
+                if let Ok(v) = v.parse::<f64>()
+                    && v.is_finite()
+                {
+                    let e = extended.entry(name).or_insert((
+                        unit,
+                        (v, label.to_string()),
+                        (v, label.to_string()),
+                    ));
+                    if v < e.1.0 {
+                        e.1 = (v, label.to_string());
+                    }
+                    if v > e.2.0 {
+                        e.2 = (v, label.to_string());
+                    }
+                }
+            }
+        }
         let gp1 = match body.find("GP1") {
             Some(g) => {
                 let rest = &body[g + 3..];
@@ -402,7 +444,25 @@ fn fanuc(text: &str, file: &str) -> Result<PoseList, FormatError> {
     } else {
         "positions (x, y, z mm; W, P, R deg: R = Rz(r) Ry(p) Rx(w))"
     };
+    // An extended axis that moves between poses moves the robot or the part (a track, a
+    // positioner) in a way the group 1 poses do not hold. FANUC prints three decimals: a
+    // change of more than one in the last is a move.
+    let warnings = extended
+        .iter()
+        .filter(|(_, (_, lo, hi))| hi.0 - lo.0 > 1.5e-3)
+        .map(|(name, (unit, lo, hi))| {
+            format!(
+                "{file}: group 2's {name} moves between poses, {:.3} {unit} ({}) to {:.3} {unit} \
+                 ({}); lasercal reads group 1 only. If that axis carries the robot or the \
+                 specimen (a track, a positioner), the poses do not place the sensor in one \
+                 frame and the calibration will not fit: keep it still while calibrating, or \
+                 give poses in a frame that includes it",
+                lo.0, lo.1, hi.0, hi.1
+            )
+        })
+        .collect();
     Ok(PoseList {
+        warnings,
         key: if joints == Some(true) {
             "joints_deg"
         } else {
@@ -475,6 +535,7 @@ fn rapid(text: &str, file: &str) -> Result<PoseList, FormatError> {
         from = assign + 2 + end;
     }
     Ok(PoseList {
+        warnings: Vec::new(),
         key: "tcp_mm_wxyz",
         summary: format!(
             "{} ABB RAPID robtargets (x, y, z mm; q1..q4 = w, x, y, z)",

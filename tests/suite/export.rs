@@ -562,6 +562,35 @@ fn import_reads_the_controllers_own_pose_files() {
         }
         assert_calibrates_to(&out, dir.path(), name, &want);
     }
+    // A second motion group (a track, a positioner): read past, and named when it moves between
+    // poses, which group 1's poses do not hold. FANUC's three decimals: 0.001 is no move.
+    for (name, step, warned) in [("track.ls", 0.05, true), ("still.ls", 0.0, false)] {
+        let mut k = 0;
+        let with_gp2 = ls
+            .split("\n};\n")
+            .map(|block| {
+                if !block.contains("GP1") {
+                    return block.to_string();
+                }
+                k += 1;
+                format!(
+                    "{block}\n   GP2:\n\tUF : 1, UT : 2,\n\tJ1=     {:.3} deg",
+                    6.345 - step * k as f64 + if k % 2 == 0 { 0.001 } else { 0.0 }
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("\n};\n");
+        let path = dir.path().join(name);
+        std::fs::write(&path, with_gp2).unwrap();
+        let ((code, _, err), out) = import(&path, name);
+        assert_eq!(code, 0, "{name}: {err}");
+        assert_eq!(
+            err.contains("warning:") && err.contains("group 2's J1 moves between poses"),
+            warned,
+            "{name}: {err}"
+        );
+        assert_calibrates_to(&out, dir.path(), name, &want);
+    }
     // Mistakes: poses in two frames, a HALCON pose of another type, an empty list, a short row.
     let bad = [
         (

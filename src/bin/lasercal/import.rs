@@ -104,6 +104,9 @@ pub fn run(a: Args) -> Result<()> {
         .transpose()?;
     let poses = flange_poses(list.key, &list.rows, &list.at, robot.as_ref(), &pname)?;
     note!("{pname}: {}", list.summary);
+    for w in &list.warnings {
+        eprintln!("warning: {w}");
+    }
     for (v, name) in [(a.radius_mm, "--radius-mm"), (a.z_sigma_mm, "--z-sigma-mm")] {
         if let Some(x) = v
             && !(x > 0.0 && x <= 1e5)
