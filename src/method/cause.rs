@@ -1,7 +1,8 @@
 //! The likely cause of a result judged suspect: the verdict says what the data show, not the
 //! first check that tripped. Each gross mistake a capture file can hold (poses and profiles paired
-//! one record apart, positions in metres, quaternions in x, y, z, w order, profiles mirrored in
-//! x, the other edge sense, a wrong specimen size) is undone in turn and the kept variant re-run;
+//! one record apart, positions in metres, quaternions in x, y, z, w order, Euler angles in
+//! radians or in another order, profiles mirrored in x, the other edge sense, a wrong specimen
+//! size) is undone in turn and the kept variant re-run;
 //! a correction that makes the model fit `CLEARLY_BETTER` times better and no longer suspect
 //! names the cause. Refits cost one calibration each and run only for suspect results.
 
@@ -23,6 +24,13 @@ pub enum Mistake {
     Metres,
     /// Quaternions in x, y, z, w order where the file wants w, x, y, z.
     QuaternionXyzw,
+    /// Orientation angles in radians where the list wants degrees.
+    RadiansAsDegrees,
+    /// Euler angles listed in the other order: KUKA's A, B, C (about z, y, x) read as FANUC's
+    /// W, P, R (about x, y, z), or the other way round.
+    EulerSwapped,
+    /// Euler angles that compose the other way: R = Rx Ry Rz (moving axes) read as Rz Ry Rx.
+    EulerProductOrder,
     /// Profiles mirrored in x (a sensor frame turned 180 deg about its z, or x read reversed).
     Mirrored,
     /// The other edge sense.
@@ -60,6 +68,20 @@ impl Mistake {
             Mistake::QuaternionXyzw => format!(
                 "likely cause: the quaternions are in x, y, z, w order: {fit}; give \
                  tcp_quaternion_wxyz as w, x, y, z (ABB RAPID order; ROS and Eigen write x, y, z, w)"
+            ),
+            Mistake::RadiansAsDegrees => format!(
+                "likely cause: the poses' orientation angles are in radians, not degrees: {fit}; \
+                 give them in degrees (or a list whose convention says _rad)"
+            ),
+            Mistake::EulerSwapped => format!(
+                "likely cause: the Euler angles are listed in the other order (KUKA's A, B, C, \
+                 about z, y, x, read as W, P, R, about x, y, z, or the other way round): {fit}; \
+                 check the pose list's convention (tcp_mm_abc_deg against tcp_mm_wpr_deg)"
+            ),
+            Mistake::EulerProductOrder => format!(
+                "likely cause: the Euler angles compose the other way (R = Rx Ry Rz, about moving \
+                 axes, read as R = Rz Ry Rx): {fit}; convert the poses to R = Rz(r) Ry(p) Rx(w) \
+                 or give quaternions"
             ),
             Mistake::Mirrored => format!(
                 "likely cause: the profiles are mirrored in x (the labels fit a sensor turned \
@@ -131,6 +153,42 @@ impl Mistake {
                     p.base_to_flange.rotation = UnitQuaternion::from_quaternion(Quaternion::new(
                         read[3], read[0], read[1], read[2],
                     ));
+                }
+            }
+            Mistake::RadiansAsDegrees => {
+                // Read as degrees, angles given in radians are at most pi degrees each: a pose
+                // turned farther cannot come from that mistake.
+                let angles: Vec<(f64, f64, f64)> = caps
+                    .profiles
+                    .iter()
+                    .map(|p| p.base_to_flange.rotation.euler_angles())
+                    .collect();
+                let most = std::f64::consts::PI.to_radians() * (1.0 + 1e-9);
+                if !angles
+                    .iter()
+                    .all(|&(w, p, r)| w.abs().max(p.abs()).max(r.abs()) <= most)
+                {
+                    return None;
+                }
+                let k = 180.0 / std::f64::consts::PI;
+                for (p, (w, pp, r)) in c.profiles.iter_mut().zip(angles) {
+                    p.base_to_flange.rotation =
+                        UnitQuaternion::from_euler_angles(w * k, pp * k, r * k);
+                }
+            }
+            Mistake::EulerSwapped => {
+                // The first and the third angle trade places (its own inverse).
+                for p in &mut c.profiles {
+                    let (w, pp, r) = p.base_to_flange.rotation.euler_angles();
+                    p.base_to_flange.rotation = UnitQuaternion::from_euler_angles(r, pp, w);
+                }
+            }
+            Mistake::EulerProductOrder => {
+                // Read: Rz(c) Ry(b) Rx(a); meant: Rx(a) Ry(b) Rz(c) = (Rz(-c) Ry(-b) Rx(-a))^-1.
+                for p in &mut c.profiles {
+                    let (a, b, cc) = p.base_to_flange.rotation.euler_angles();
+                    p.base_to_flange.rotation =
+                        UnitQuaternion::from_euler_angles(-a, -b, -cc).inverse();
                 }
             }
             Mistake::Mirrored => {
@@ -235,6 +293,9 @@ pub fn likely_cause(caps: &Captures, sensor: &SensorModel, a: &Assessed) -> Opti
         Mistake::Pairing(-1),
         Mistake::Metres,
         Mistake::QuaternionXyzw,
+        Mistake::RadiansAsDegrees,
+        Mistake::EulerSwapped,
+        Mistake::EulerProductOrder,
         Mistake::Mirrored,
     ];
     // The any-pose estimators read the edge sense from the data: flipping the label refits the

@@ -476,7 +476,7 @@ pub(crate) mod mistake {
     /// Each mistake: its name, the words a reason naming its cause holds ("": none undoes
     /// it) and how a file makes it.
     pub type Mutate = fn(&mut Captures);
-    pub const ALL: [(&str, &str, Mutate); 7] = [
+    pub const ALL: [(&str, &str, Mutate); 10] = [
         (
             "paired one record apart",
             "paired one record apart",
@@ -484,6 +484,17 @@ pub(crate) mod mistake {
         ),
         ("positions in metres", "in metres", metres),
         ("quaternions x, y, z, w", "x, y, z, w order", xyzw),
+        ("angles in radians", "in radians, not degrees", radians),
+        (
+            "Euler A, B, C as W, P, R",
+            "listed in the other order",
+            abc_as_wpr,
+        ),
+        (
+            "Euler Rx Ry Rz as Rz Ry Rx",
+            "compose the other way",
+            xyz_as_zyx,
+        ),
         ("profiles mirrored in x", "mirrored in x", mirrored),
         ("radius +5 %", "specimen's size", radius_5),
         ("radius +20 %", "specimen's size", radius_20),
@@ -512,6 +523,33 @@ pub(crate) mod mistake {
             let q = *p.base_to_flange.rotation.quaternion();
             p.base_to_flange.rotation =
                 UnitQuaternion::from_quaternion(Quaternion::new(q.i, q.j, q.k, q.w));
+        }
+    }
+
+    /// W, P, R (R = Rz(r) Ry(p) Rx(w)) written in radians in a list of degrees.
+    pub fn radians(c: &mut Captures) {
+        for p in &mut c.profiles {
+            let (w, pp, r) = p.base_to_flange.rotation.euler_angles();
+            let d = |v: f64| v.to_radians();
+            p.base_to_flange.rotation = UnitQuaternion::from_euler_angles(d(w), d(pp), d(r));
+        }
+    }
+
+    /// KUKA's A, B, C (R = Rz(a) Ry(b) Rx(c), listed a, b, c) read as W, P, R.
+    pub fn abc_as_wpr(c: &mut Captures) {
+        for p in &mut c.profiles {
+            let (roll, pitch, yaw) = p.base_to_flange.rotation.euler_angles();
+            let (a, b, cc) = (yaw, pitch, roll);
+            p.base_to_flange.rotation = UnitQuaternion::from_euler_angles(a, b, cc);
+        }
+    }
+
+    /// Angles of R = Rx(a) Ry(b) Rz(c), listed a, b, c, read as W, P, R (R = Rz(r) Ry(p) Rx(w)).
+    pub fn xyz_as_zyx(c: &mut Captures) {
+        for p in &mut c.profiles {
+            // R^-1 = Rz(-c) Ry(-b) Rx(-a).
+            let (na, nb, nc) = p.base_to_flange.rotation.inverse().euler_angles();
+            p.base_to_flange.rotation = UnitQuaternion::from_euler_angles(-na, -nb, -nc);
         }
     }
 
