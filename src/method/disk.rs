@@ -1109,10 +1109,16 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         // Eq. 2's scan is a straight move at one orientation: a capture turned away (a pose
         // paired with the next scan's profile, a scan split wrongly) is named, not read as a
         // scan direction the disk cannot have.
-        let rotations: Vec<_> = ps
-            .iter()
-            .map(|p| p.base_to_flange.rotation.to_rotation_matrix())
-            .collect();
+        // Equal quaternions (simulated scans, a controller holding the orientation) need no
+        // mean: the check costs nothing per trial in a sweep.
+        let r0 = first.base_to_flange.rotation;
+        let rotations: Vec<_> = if ps.iter().all(|p| p.base_to_flange.rotation == r0) {
+            Vec::new()
+        } else {
+            ps.iter()
+                .map(|p| p.base_to_flange.rotation.to_rotation_matrix())
+                .collect()
+        };
         crate::calib::shared_orientation(&rotations, c.orientation_tolerance_deg).map_err(
             |(i, angle)| crate::calib::CalibError::Degenerate {
                 method: crate::calib::disk::METHOD,
