@@ -996,6 +996,40 @@ fn inferred_scans(c: &Captures, sensor: &SensorModel) -> Result<Captures, Error>
     Ok(out)
 }
 
+/// Eq. 2's scan is a straight move at one orientation: a capture turned away (a pose paired with
+/// the next scan's profile, a scan split wrongly) is named, not read as a scan direction the disk
+/// cannot have.
+fn same_orientation(c: &Captures, scan: usize, ps: &[&CaptureProfile]) -> Result<(), Error> {
+    let Some(first) = ps.first() else {
+        return Ok(());
+    };
+    // Equal quaternions (simulated scans, a controller holding the orientation) need no mean:
+    // the check costs nothing per trial in a sweep.
+    let r0 = first.base_to_flange.rotation;
+    if ps.iter().all(|p| p.base_to_flange.rotation == r0) {
+        return Ok(());
+    }
+    let rotations: Vec<_> = ps
+        .iter()
+        .map(|p| p.base_to_flange.rotation.to_rotation_matrix())
+        .collect();
+    crate::calib::shared_orientation(&rotations, c.orientation_tolerance_deg).map_err(
+        |(i, angle)| crate::calib::CalibError::Degenerate {
+            method: crate::calib::disk::METHOD,
+            what: format!(
+                "scan {scan}: capture {i} is {angle:.3} deg from the scan's mean orientation \
+                 (tolerance {} deg)",
+                c.orientation_tolerance_deg
+            ),
+            part: "rotation",
+            fix: "keep the orientation fixed during a scan (check the pairing of poses and \
+                  profiles at the scan's ends), allow the controller's jitter (calibrate \
+                  --orientation-tolerance-deg), or use disk-any-pose",
+        },
+    )?;
+    Ok(())
+}
+
 /// Whether a given chord has no length next to the disk's `radius` (a recording error).
 fn no_length(a: &Vector2<f64>, b: &Vector2<f64>, radius: f64) -> bool {
     (b - a).norm() <= 1e-9 * radius
@@ -1106,33 +1140,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         let (Some(first), Some(last)) = (ps.first(), ps.last()) else {
             continue;
         };
-        // Eq. 2's scan is a straight move at one orientation: a capture turned away (a pose
-        // paired with the next scan's profile, a scan split wrongly) is named, not read as a
-        // scan direction the disk cannot have.
-        // Equal quaternions (simulated scans, a controller holding the orientation) need no
-        // mean: the check costs nothing per trial in a sweep.
-        let r0 = first.base_to_flange.rotation;
-        let rotations: Vec<_> = if ps.iter().all(|p| p.base_to_flange.rotation == r0) {
-            Vec::new()
-        } else {
-            ps.iter()
-                .map(|p| p.base_to_flange.rotation.to_rotation_matrix())
-                .collect()
-        };
-        crate::calib::shared_orientation(&rotations, c.orientation_tolerance_deg).map_err(
-            |(i, angle)| crate::calib::CalibError::Degenerate {
-                method: crate::calib::disk::METHOD,
-                what: format!(
-                    "scan {}: capture {i} is {angle:.3} deg from the scan's mean orientation \
-                     (tolerance {} deg)",
-                    g.id, c.orientation_tolerance_deg
-                ),
-                part: "rotation",
-                fix: "keep the orientation fixed during a scan (check the pairing of poses and \
-                      profiles at the scan's ends), allow the controller's jitter (calibrate \
-                      --orientation-tolerance-deg), or use disk-any-pose",
-            },
-        )?;
+        same_orientation(c, g.id, &ps)?;
         let (t0, t1) = (
             first.base_to_flange.translation.vector,
             last.base_to_flange.translation.vector,
