@@ -312,16 +312,73 @@ fn line_of(text: &str, pos: usize) -> usize {
     text[..pos.min(text.len())].matches('\n').count() + 1
 }
 
+/// Each extended axis of a FANUC program's group 2: its unit, and its least and greatest value
+/// with the pose that holds it.
+#[derive(Default)]
+struct Extended(std::collections::BTreeMap<String, (&'static str, (f64, String), (f64, String))>);
+
+impl Extended {
+    /// The axes' values in one `P[n]{ ... }` block's body.
+    fn note(&mut self, body: &str, label: &str) {
+        let Some(g) = body.find("GP2") else {
+            return;
+        };
+        for piece in body[g + 3..].split([',', '\n', '\r', '\t']) {
+            let Some((name, value)) = piece.trim().split_once('=') else {
+                continue;
+            };
+            let unit = if value.contains("mm") { "mm" } else { "deg" };
+            let v = value
+                .trim()
+                .trim_end_matches("deg")
+                .trim_end_matches("mm")
+                .trim();
+            if let Ok(v) = v.parse::<f64>()
+                && v.is_finite()
+            {
+                let at = || (v, label.to_string());
+                let e = self
+                    .0
+                    .entry(name.trim().to_ascii_uppercase())
+                    .or_insert_with(|| (unit, at(), at()));
+                if v < e.1.0 {
+                    e.1 = at();
+                }
+                if v > e.2.0 {
+                    e.2 = at();
+                }
+            }
+        }
+    }
+
+    /// An extended axis that moves between poses moves the robot or the part (a track, a
+    /// positioner) in a way the group 1 poses do not hold. FANUC prints three decimals: a change
+    /// of more than one in the last is a move.
+    fn warnings(&self, file: &str) -> Vec<String> {
+        self.0
+            .iter()
+            .filter(|(_, (_, lo, hi))| hi.0 - lo.0 > 1.5e-3)
+            .map(|(name, (unit, lo, hi))| {
+                format!(
+                    "{file}: group 2's {name} moves between poses, {:.3} {unit} ({}) to {:.3} \
+                     {unit} ({}); lasercal reads group 1 only. If that axis carries the robot or \
+                     the specimen (a track, a positioner), the poses do not place the sensor in \
+                     one frame and the calibration will not fit: keep it still while \
+                     calibrating, or give poses in a frame that includes it",
+                    lo.0, lo.1, hi.0, hi.1
+                )
+            })
+            .collect()
+    }
+}
+
 /// FANUC `.ls`: every `P[n]{ ... };` block's group 1, Cartesian (X..R) or joints (J1..J6). The
 /// user and tool frame numbers are reported; poses in different frames are refused.
 fn fanuc(text: &str, file: &str) -> Result<PoseList, FormatError> {
     let (mut rows, mut at) = (Vec::new(), Vec::new());
     let mut frames: Option<(String, String)> = None;
     let mut joints: Option<bool> = None;
-    // Each extended axis of group 2: its unit, and its least and greatest value with the pose.
-    type Extreme = (f64, String);
-    let mut extended: std::collections::BTreeMap<String, (&str, Extreme, Extreme)> =
-        Default::default();
+    let mut extended = Extended::default();
     let mut from = 0;
     while let Some(k) = text[from..].find("P[") {
         let start = from + k;
@@ -342,38 +399,8 @@ fn fanuc(text: &str, file: &str) -> Result<PoseList, FormatError> {
             .map(|c| open + c)
             .ok_or_else(|| field(file, &here, format!("{label}: block not closed with }}")))?;
         let body = &text[open + 1..close];
-        // Group 1 only (other groups are extended axes: their values kept to see whether they
-        // move between poses).
-        if let Some(g) = body.find("GP2") {
-            for piece in body[g + 3..].split([',', '\n', '\r', '\t']) {
-                let piece = piece.trim();
-                let Some((name, value)) = piece.split_once('=') else {
-                    continue;
-                };
-                let name = name.trim().to_ascii_uppercase();
-                let unit = if value.contains("mm") { "mm" } else { "deg" };
-                let v = value
-                    .trim()
-                    .trim_end_matches("deg")
-                    .trim_end_matches("mm")
-                    .trim();
-                if let Ok(v) = v.parse::<f64>()
-                    && v.is_finite()
-                {
-                    let e = extended.entry(name).or_insert((
-                        unit,
-                        (v, label.to_string()),
-                        (v, label.to_string()),
-                    ));
-                    if v < e.1.0 {
-                        e.1 = (v, label.to_string());
-                    }
-                    if v > e.2.0 {
-                        e.2 = (v, label.to_string());
-                    }
-                }
-            }
-        }
+        // Group 1 only; other groups are extended axes, kept to see whether they move.
+        extended.note(body, label);
         let gp1 = match body.find("GP1") {
             Some(g) => {
                 let rest = &body[g + 3..];
@@ -444,23 +471,7 @@ fn fanuc(text: &str, file: &str) -> Result<PoseList, FormatError> {
     } else {
         "positions (x, y, z mm; W, P, R deg: R = Rz(r) Ry(p) Rx(w))"
     };
-    // An extended axis that moves between poses moves the robot or the part (a track, a
-    // positioner) in a way the group 1 poses do not hold. FANUC prints three decimals: a
-    // change of more than one in the last is a move.
-    let warnings = extended
-        .iter()
-        .filter(|(_, (_, lo, hi))| hi.0 - lo.0 > 1.5e-3)
-        .map(|(name, (unit, lo, hi))| {
-            format!(
-                "{file}: group 2's {name} moves between poses, {:.3} {unit} ({}) to {:.3} {unit} \
-                 ({}); lasercal reads group 1 only. If that axis carries the robot or the \
-                 specimen (a track, a positioner), the poses do not place the sensor in one \
-                 frame and the calibration will not fit: keep it still while calibrating, or \
-                 give poses in a frame that includes it",
-                lo.0, lo.1, hi.0, hi.1
-            )
-        })
-        .collect();
+    let warnings = extended.warnings(file);
     Ok(PoseList {
         warnings,
         key: if joints == Some(true) {
