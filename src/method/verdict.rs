@@ -1019,7 +1019,7 @@ fn without_group(
     let mut opts = super::refine_options(a.method.estimator);
     // A kept result whose residuals do not fit is suspect whatever a group's run says, and its
     // runs can creep (censored edges converge only linearly; an edge file with every
-    // orientation 3 deg off took 500 iterations a run, 25 runs, most of a minute): the default
+    // orientation 3 deg off took up to 500 iterations a run, 25 runs, 26 s in all): the default
     // cap, the move so far still points at a group that does not fit.
     if misfit(a).is_some() {
         opts.max_iterations = opts
@@ -1285,8 +1285,8 @@ pub fn decide(
     let loo = leave_one_out(a, caps, sensor);
     judged.add_reasons(loo.as_ref().and_then(leave_one_out_reason));
     judged.add_notes(loo.as_ref().map(leave_one_out_notes).unwrap_or_default());
-    // The refits cost a calibration each: only when the residuals themselves do not fit (the
-    // mistakes they look for all show there).
+    // The refits cost a calibration each: only when the kept result's residuals do not fit or
+    // the verdict is suspect.
     // A kept result that fits while the verdict is suspect (a group that does not fit, variants
     // that disagree): an estimator free in more directions can absorb a wrong label (the
     // any-pose disk a radius 5 % off, with the residuals at the noise) that a variant using it
