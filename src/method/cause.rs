@@ -12,6 +12,24 @@ use crate::features::EdgeSense;
 use crate::sensor::SensorModel;
 use nalgebra::{Quaternion, UnitQuaternion, Vector2};
 
+/// The mistakes that move poses against profiles or profiles themselves: each can stop a
+/// variant running (a group no longer at one orientation, a scan of the wrong length).
+const MOVES: [Mistake; 5] = [
+    Mistake::Pairing(1),
+    Mistake::Pairing(-1),
+    Mistake::Metres,
+    Mistake::QuaternionXyzw,
+    Mistake::Mirrored,
+];
+
+/// The Euler mistakes: they turn every pose by a rule of its orientation alone, so poses that
+/// shared an orientation still share one (no refused variant runs after undoing them).
+const TURNS: [Mistake; 3] = [
+    Mistake::RadiansAsDegrees,
+    Mistake::EulerSwapped,
+    Mistake::EulerProductOrder,
+];
+
 /// The farthest a flange can be from the robot's base (m): no serial arm reaches 10 m.
 const MAX_REACH_M: f64 = 10.0;
 
@@ -288,16 +306,7 @@ fn best_radius(caps: &Captures, sensor: &SensorModel, a: &Assessed) -> Option<(f
 pub fn likely_cause(caps: &Captures, sensor: &SensorModel, a: &Assessed) -> Option<String> {
     let before = a.judged.quality.residual_rms_mm?;
     let m = super::method(caps.method);
-    let mut tries = vec![
-        Mistake::Pairing(1),
-        Mistake::Pairing(-1),
-        Mistake::Metres,
-        Mistake::QuaternionXyzw,
-        Mistake::RadiansAsDegrees,
-        Mistake::EulerSwapped,
-        Mistake::EulerProductOrder,
-        Mistake::Mirrored,
-    ];
+    let mut tries = [MOVES.as_slice(), TURNS.as_slice()].concat();
     // The any-pose estimators read the edge sense from the data: flipping the label refits the
     // same problem.
     if caps.edge_sense.is_some() && a.method.estimator != super::Estimator::AnyPose {
@@ -325,18 +334,11 @@ pub fn likely_cause(caps: &Captures, sensor: &SensorModel, a: &Assessed) -> Opti
 /// The likely cause where the kept result fits but is suspect and variants could not run (the
 /// disk's closed form refuses a scan whose poses are paired one record apart: a pose of the next
 /// scan's orientation): the correction with which `refused` runs, is not suspect and fits best,
-/// in words, or None. Only mistakes that move poses or profiles are tried (a size or a sense
-/// does not stop a variant running).
+/// in words, or None. Only `MOVES` are tried (a size, a sense or an Euler convention does not
+/// stop a variant running).
 pub fn lets_run(caps: &Captures, sensor: &SensorModel, refused: super::MethodId) -> Option<String> {
     use rayon::prelude::*;
-    let tries = [
-        Mistake::Pairing(1),
-        Mistake::Pairing(-1),
-        Mistake::Metres,
-        Mistake::QuaternionXyzw,
-        Mistake::Mirrored,
-    ];
-    let (t, r) = tries
+    let (t, r) = MOVES
         .into_par_iter()
         .filter_map(|t| {
             let r = assess(refused, &t.undo(caps)?, sensor).ok()?;
