@@ -147,6 +147,14 @@ impl Model for DiskModel {
     fn n_residuals(&self) -> usize {
         2 * self.ends.len() + self.face.len() + self.rims.len() + self.walls.len()
     }
+    fn scale_runs(&self) -> Vec<usize> {
+        vec![
+            2 * self.ends.len(),
+            self.face.len(),
+            self.rims.len(),
+            self.walls.len(),
+        ]
+    }
 
     fn residual_flanges(&self) -> Vec<&Isometry3<f64>> {
         let ends = self.ends.iter().flat_map(|(f, _)| [f, f]);
@@ -353,7 +361,7 @@ impl Model for DiskModel {
         s: &DiskPose,
         labels: &[f64],
         opts: &Options,
-        scale: f64,
+        scale: &super::Scale,
         r: DVector<f64>,
     ) -> Option<(Transform, DiskPose)> {
         // Worth it where each pose holds tens of face points: a round costs a 3 x 3
@@ -385,7 +393,15 @@ impl Model for DiskModel {
             }
             let reduced = self.reweighted_rows(&super::robust_weights(&r, opts.loss, scale))?;
             let (r, j) = super::eval(&reduced, &x, &s, labels, true);
-            let fit = super::minimise(&reduced, x, s, labels, &squared, 1.0, (r, j, None));
+            let fit = super::minimise(
+                &reduced,
+                x,
+                s,
+                labels,
+                &squared,
+                &super::Scale::one(1.0),
+                (r, j, None),
+            );
             (x, s) = (fit.x, fit.s);
         }
         best.map(|(_, x, s)| (x, s))
@@ -1014,10 +1030,10 @@ mod tests {
         let (ls, s_ls) = refine_rows(&m, &start, &disk, &squared).unwrap();
         let x_ls = Transform::from_isometry(&ls.flange_to_sensor);
         let r = eval(&m, &x_ls, &s_ls, &[], false).0;
-        let scale = crate::calib::refine::mad(&r);
+        let scale = crate::calib::refine::Scale::of(&r, &m.scale_runs());
         let (r, j) = eval(&m, &x_ls, &s_ls, &[], true);
         let plain =
-            crate::calib::refine::minimise(&m, x_ls, s_ls, &[], &huber, scale, (r, j, None));
+            crate::calib::refine::minimise(&m, x_ls, s_ls, &[], &huber, &scale, (r, j, None));
         assert!(matches!(plain.status, Status::Converged { iterations } if iterations > 2));
         let d = fit.flange_to_sensor.inverse() * plain.x.to_isometry();
         assert!(

@@ -313,6 +313,14 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
         None
     }
 
+    /// The lengths of the runs of rows that share one robust scale, in row order (all rows one
+    /// run by default). A model that mixes kinds of rows (the disk's chord ends and face points)
+    /// gives each kind its own: the ends' residuals hold the robot's error across the profile,
+    /// which the face's do not, and one scale clipped 12-14 % of them.
+    fn scale_runs(&self) -> Vec<usize> {
+        vec![self.n_residuals()]
+    }
+
     /// A robust fit's start near its optimum, from the least-squares one (x, s), whose
     /// residuals are `r`, with robust scale `scale`, found on a smaller model (`disk`: each
     /// round's weights fixed, the face points by their weighted moments), for the robust fit to
@@ -323,7 +331,7 @@ pub trait Model: Clone + Send + Sync + fmt::Debug {
         _s: &Self::Specimen,
         _labels: &[f64],
         _opts: &Options,
-        _scale: f64,
+        _scale: &Scale,
         _r: DVector<f64>,
     ) -> Option<(Transform, Self::Specimen)> {
         None
@@ -1141,31 +1149,99 @@ fn apply<M: Model>(
     (x.step(dx), m.step(s, &dx[6..]))
 }
 
-fn robust_weights(r: &DVector<f64>, loss: Loss, scale: f64) -> DVector<f64> {
+fn robust_weights(r: &DVector<f64>, loss: Loss, scale: &Scale) -> DVector<f64> {
     match loss {
         Loss::Squared => DVector::from_element(r.len(), 1.0),
-        Loss::Huber { k } => r.map(|v| {
-            let c = k * scale;
-            if v.abs() <= c { 1.0 } else { c / v.abs() }
-        }),
+        Loss::Huber { k } => {
+            let mut w = DVector::from_element(r.len(), 1.0);
+            for (rows, sd) in scale.runs(r.len()) {
+                let c = k * sd;
+                for i in rows {
+                    if r[i].abs() > c {
+                        w[i] = c / r[i].abs();
+                    }
+                }
+            }
+            w
+        }
     }
 }
 
-fn cost_of(r: &DVector<f64>, loss: Loss, scale: f64) -> f64 {
+fn cost_of(r: &DVector<f64>, loss: Loss, scale: &Scale) -> f64 {
     match loss {
         Loss::Squared => 0.5 * r.norm_squared(),
-        Loss::Huber { k } => {
-            let c = k * scale;
-            r.iter()
-                .map(|v| {
-                    if v.abs() <= c {
-                        0.5 * v * v
-                    } else {
-                        c * (v.abs() - 0.5 * c)
-                    }
-                })
-                .sum()
+        Loss::Huber { k } => scale
+            .runs(r.len())
+            .map(|(rows, sd)| {
+                let c = k * sd;
+                r.as_slice()[rows]
+                    .iter()
+                    .map(|v| {
+                        if v.abs() <= c {
+                            0.5 * v * v
+                        } else {
+                            c * (v.abs() - 0.5 * c)
+                        }
+                    })
+                    .sum::<f64>()
+            })
+            .sum(),
+    }
+}
+
+/// A robust loss's scale: one robust standard deviation per run of rows (`Model::scale_runs`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scale {
+    /// Each run's length and scale, in row order.
+    runs: Vec<(usize, f64)>,
+}
+
+/// Fewer rows than this take the pooled scale: a median of a few says little.
+const MIN_SCALE_ROWS: usize = 50;
+
+impl Scale {
+    /// One scale for every row.
+    pub fn one(sd: f64) -> Scale {
+        Scale {
+            runs: vec![(usize::MAX, sd)],
         }
+    }
+
+    /// From residuals `r`: the pooled robust scale (`mad`), and each run of `runs` (lengths,
+    /// summing to r's) with its own where it has rows enough and it is larger. Never below the
+    /// pooled one: a run mostly at zero (censored rows inside their intervals) would clip every
+    /// row it has that is not.
+    pub fn of(r: &DVector<f64>, runs: &[usize]) -> Scale {
+        let pooled = mad(r);
+        if runs.len() < 2 || runs.iter().sum::<usize>() != r.len() {
+            return Scale::one(pooled);
+        }
+        let mut at = 0;
+        let runs = runs
+            .iter()
+            .map(|&n| {
+                let part = r.rows(at, n).into_owned();
+                at += n;
+                let sd = if n >= MIN_SCALE_ROWS {
+                    mad(&part).max(pooled)
+                } else {
+                    pooled
+                };
+                (n, sd)
+            })
+            .collect();
+        Scale { runs }
+    }
+
+    /// The rows of each run and its scale, over `n` rows.
+    fn runs(&self, n: usize) -> impl Iterator<Item = (std::ops::Range<usize>, f64)> + '_ {
+        let mut at: usize = 0;
+        self.runs.iter().map(move |&(len, sd)| {
+            let end = at.saturating_add(len).min(n);
+            let rows = at..end;
+            at = end;
+            (rows, sd)
+        })
     }
 }
 
@@ -1270,7 +1346,7 @@ pub fn refine<M: Model>(
         let r0 = eval(model, &x0, specimen, &model.labels(&x0, specimen), false).0;
         return Ok((
             Refined {
-                initial_cost: cost_of(&r0, Loss::Squared, 1.0),
+                initial_cost: cost_of(&r0, Loss::Squared, &Scale::one(1.0)),
                 // The iterations of both fits: the reduced one did the work.
                 status: match (reduced.status, refined.status) {
                     (Status::Converged { iterations: a }, Status::Converged { iterations: b }) => {
@@ -1305,7 +1381,7 @@ fn least_squares_start<M: Model>(
         return (Transform::from_isometry(&ls.flange_to_sensor), s, None);
     }
     let x0 = Transform::from_isometry(flange_to_sensor);
-    let ls = minimise(model, x0, *specimen, labels, squared, 1.0, at);
+    let ls = minimise(model, x0, *specimen, labels, squared, &Scale::one(1.0), at);
     (ls.x, ls.s, ls.last_j)
 }
 
@@ -1319,7 +1395,7 @@ fn robust_fit<M: Model>(
     labels: &[f64],
     opts: &Options,
     at: (DVector<f64>, DMatrix<f64>, Option<DMatrix<f64>>),
-) -> (f64, Fit<M::Specimen>) {
+) -> (Scale, Fit<M::Specimen>) {
     let squared = Options {
         loss: Loss::Squared,
         ..*opts
@@ -1328,15 +1404,13 @@ fn robust_fit<M: Model>(
         least_squares_start(model, flange_to_sensor, specimen, labels, &squared, at);
     // The residuals alone first: a model with a robust start needs no Jacobian here.
     let r = eval(model, &x_ls, &s_ls, labels, false).0;
-    let scale = mad(&r);
+    let scale = Scale::of(&r, &model.scale_runs());
     let (x_h, s_h) = model
-        .robust_start(&x_ls, &s_ls, labels, opts, scale, r)
+        .robust_start(&x_ls, &s_ls, labels, opts, &scale, r)
         .unwrap_or((x_ls, s_ls));
     let (r, j) = eval_into(model, &x_h, &s_h, labels, last_j);
-    (
-        scale,
-        minimise(model, x_h, s_h, labels, opts, scale, (r, j, None)),
-    )
+    let fit = minimise(model, x_h, s_h, labels, opts, &scale, (r, j, None));
+    (scale, fit)
 }
 
 /// `refine` over the model's own rows.
@@ -1373,14 +1447,14 @@ pub(crate) fn refine_rows<M: Model>(
     let (scale, fit) = match opts.loss {
         // The squared loss has no scale.
         Loss::Squared => (
-            1.0,
+            Scale::one(1.0),
             minimise(
                 model,
                 x0,
                 *specimen,
                 &labels,
                 opts,
-                1.0,
+                &Scale::one(1.0),
                 (r0.clone(), j0, Some(a0)),
             ),
         ),
@@ -1435,7 +1509,7 @@ pub(crate) fn refine_rows<M: Model>(
             flange_to_sensor: x.to_isometry(),
             centre: model.centre(&s),
             status,
-            initial_cost: cost_of(&r0, opts.loss, scale),
+            initial_cost: cost_of(&r0, opts.loss, &scale),
             cost,
             residual_rms: (r.norm_squared() / n as f64).sqrt(),
             n_residuals: n,
@@ -1612,7 +1686,7 @@ fn minimise<M: Model>(
     mut s: M::Specimen,
     labels: &[f64],
     opts: &Options,
-    scale: f64,
+    scale: &Scale,
     at: (DVector<f64>, DMatrix<f64>, Option<DMatrix<f64>>),
 ) -> Fit<M::Specimen> {
     let p = 6 + model.n_specimen_params();
@@ -1821,6 +1895,61 @@ pub fn transform_columns(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn each_kind_of_row_is_clipped_at_its_own_scale() {
+        // 200 chord-end rows of robust sd 0.3 (a robot's error across the profile) before
+        // 20,000 face rows of 0.1, by a deterministic spread of equal quantiles.
+        let spread = |n: usize, sd: f64| {
+            (0..n).map(move |i| {
+                let u = (i as f64 + 0.5) / n as f64;
+                // Uniform on (-sd * sqrt(3), sd * sqrt(3)): its MAD is sd * sqrt(3) / 2.
+                (2.0 * u - 1.0) * sd * 3f64.sqrt()
+            })
+        };
+        let mad_of = |sd: f64| 1.4826 * sd * 3f64.sqrt() / 2.0;
+        let r = DVector::from_iterator(20_200, spread(200, 0.3).chain(spread(20_000, 0.1)));
+        let one = Scale::of(&r, &[20_200]);
+        let runs = Scale::of(&r, &[200, 20_000]);
+        let pooled = mad(&r);
+        assert_eq!(one, Scale::one(pooled));
+        let sds: Vec<f64> = runs.runs(r.len()).map(|(_, sd)| sd).collect();
+        assert!((sds[0] / mad_of(0.3) - 1.0).abs() < 0.02, "{sds:?}");
+        // The face run's own MAD is a little below the pooled one: the pooled one holds.
+        assert_eq!(sds[1], pooled);
+        // At k = 1.5 one scale clips the ends' outer rows; each its own clips only the uniform
+        // spread's tails beyond 1.5 robust sd of it (none here: sqrt(3) / (1.4826 sqrt(3) / 2)
+        // is 1.35).
+        let loss = Loss::Huber { k: 1.5 };
+        let clipped = |s: &Scale| {
+            robust_weights(&r, loss, s)
+                .iter()
+                .take(200)
+                .filter(|w| **w < 1.0)
+                .count()
+        };
+        assert!(clipped(&one) > 50, "{}", clipped(&one));
+        assert_eq!(clipped(&runs), 0);
+        // The cost is the sum of each run's at its own scale.
+        let split = cost_of(&r.rows(0, 200).into_owned(), loss, &Scale::one(sds[0]))
+            + cost_of(&r.rows(200, 20_000).into_owned(), loss, &Scale::one(sds[1]));
+        assert!((cost_of(&r, loss, &runs) / split - 1.0).abs() < 1e-12);
+        // A short run, or one mostly at zero (censored rows inside their intervals), takes the
+        // pooled scale; lengths that do not add up to the rows give one scale.
+        let mut z = r.clone();
+        z.rows_mut(0, 200).fill(0.0);
+        let zs: Vec<f64> = Scale::of(&z, &[200, 20_000])
+            .runs(z.len())
+            .map(|(_, sd)| sd)
+            .collect();
+        assert_eq!(zs[0], mad(&z));
+        let short: Vec<f64> = Scale::of(&r, &[20, 20_180])
+            .runs(r.len())
+            .map(|(_, sd)| sd)
+            .collect();
+        assert_eq!(short[0], pooled);
+        assert_eq!(Scale::of(&r, &[200, 100]), Scale::one(pooled));
+    }
 
     /// A tall matrix of awkward values (not a multiple of 8 rows, more than two blocks).
     fn tall(n: usize, p: usize) -> DMatrix<f64> {

@@ -301,6 +301,9 @@ impl<M: Model + 'static> Model for Timed<M> {
     fn n_residuals(&self) -> usize {
         self.base.n_residuals()
     }
+    fn scale_runs(&self) -> Vec<usize> {
+        self.base.scale_runs()
+    }
     fn labels(&self, x: &Transform, s: &Self::Specimen) -> Vec<f64> {
         self.base.labels(x, &s.0)
     }
