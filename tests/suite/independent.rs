@@ -1121,7 +1121,7 @@ fn ball_refinement_converges_on_independent_profiles() {
 /// trial (`placed`). Counts right answers called suspect (false alarms), wrong answers (more than
 /// 1 deg or 1 mm off) judged ok, and how often the chosen result's 95 % bound, and each variant's
 /// own, holds its error. Trials per case: `LASERCAL_INDEPENDENT_TRIALS` (default 2;
-/// docs/verdict.md has a release run of 1,000).
+/// docs/verdict.md has a release run of 1,000); one case alone: `LASERCAL_INDEPENDENT_CASE`.
 #[test]
 fn the_verdict_on_the_papers_protocols_from_another_generator() {
     use lasercal::calib::PoseError;
@@ -1151,7 +1151,12 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
         "| specimen | robot error | results | right | suspect of right | imprecise of right | wrong | wrong judged ok | refused | covered | covered per variant |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    // One protocol alone: `LASERCAL_INDEPENDENT_CASE=disk` (ball, edge); all by default.
+    let only = std::env::var("LASERCAL_INDEPENDENT_CASE").ok();
     for (name, kind, case) in cases {
+        if only.as_deref().is_some_and(|c| c != name) {
+            continue;
+        }
         let (s, fan, solids) = case();
         let sensor = with_sigma(&common::declared(&fan, "fan-295"), 0.1);
         for (robot_mm, stated_mm) in [(0.0, 0.0), (0.3, 0.2)] {
