@@ -121,6 +121,11 @@ pub struct Quality {
     /// part of `inflation`).
     pub orientation_groups: usize,
     pub group_widening: Option<f64>,
+    /// Where the robot's accuracy is stated and the poses are a few scans (2 to
+    /// `MAX_FEW_SCANS` flange orientations, each of several poses): their number. An arm's
+    /// error shared within a scan and different between scans is in no bound (docs/verdict.md,
+    /// "The disk's four scans with an uncalibrated arm"): a note says so.
+    pub few_scans: Option<usize>,
     /// Where the captures state the specimen's radius tolerance: how far the result moves per
     /// mm of error in the radius (deg per mm, mm per mm); the bounds include it.
     pub radius_shift: Option<(f64, f64)>,
@@ -355,6 +360,7 @@ pub fn quality(
         inflation: finite.map(|f| f.honest.inflation),
         orientation_groups: figures.map_or(0, |f| f.honest.orientation_groups),
         group_widening: finite.map(|f| f.honest.group_widening),
+        few_scans: few_scans(caps),
         judging: caps.judging,
         from_nominal: caps
             .judging
@@ -469,6 +475,22 @@ fn jitter_clause(q: &Quality, rms: f64, noise: f64) -> String {
     )
 }
 
+/// Most flange orientations read as a few scans (`Quality::few_scans`): with seven or more the
+/// groups measure their own scatter in every direction of the transform (`group_widening`).
+pub const MAX_FEW_SCANS: usize = 6;
+
+/// The number of scans where the robot's accuracy is stated and the poses are 2 to
+/// `MAX_FEW_SCANS` orientations of at least four poses each on average (the disk paper's four
+/// scans), else None.
+fn few_scans(caps: &Captures) -> Option<usize> {
+    if !(caps.judging.robot_accuracy > 0.0) {
+        return None;
+    }
+    let n =
+        crate::calib::refine::honest::orientations(caps.profiles.iter().map(|p| &p.base_to_flange));
+    ((2..=MAX_FEW_SCANS).contains(&n) && caps.profiles.len() >= 4 * n).then_some(n)
+}
+
 /// Judge a result from its quality figures.
 pub fn judge(q: Quality) -> Judged {
     let mut reasons = Vec::new();
@@ -500,6 +522,16 @@ pub fn judge(q: Quality) -> Judged {
     }
     if let Some(note) = clock_note(&q) {
         notes.push(note);
+    }
+    if let Some(n) = q.few_scans {
+        notes.push(format!(
+            "the poses are {n} scans, each at one flange orientation: an arm's error that moves \
+             each scan as a whole and the scans by different amounts (link-length and joint-zero \
+             errors of an arm whose kinematics are not calibrated) turns the result, and neither \
+             the residuals nor {n} scans show it, so the rotation's bound does not hold it (on the \
+             comparison rig it held 22-83 % of such results; docs/verdict.md); with such an arm, \
+             calibrate from many orientations (disk-any-pose from free poses, a ball or a plane)"
+        ));
     }
     if let Some((deg, mm)) = q.radius_shift {
         let t = q.judging.radius_tolerance * 1e3;

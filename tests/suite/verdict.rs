@@ -950,3 +950,36 @@ fn a_disk_scan_paired_one_record_apart_is_named() {
         "{err}"
     );
 }
+
+/// The disk paper's four scans on an arm with link-length and joint-zero errors: the rotation's
+/// bound cannot hold what the arm's error shared within each scan does (docs/verdict.md, "The
+/// disk's four scans with an uncalibrated arm"), and the verdict says so in a note; not where
+/// the robot's accuracy is stated as 0 (a rig without robot error), nor for poses of many
+/// orientations (the 16 free ball poses of `verdict-coverage`).
+#[test]
+fn a_few_scans_with_robot_error_are_told_their_rotation_bound_misses_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let note = "scans, each at one flange orientation";
+    let run = |scenario: &str, method: &str, extra: &[&str]| {
+        let (caps, _) = common::simulated_capture(dir.path(), scenario, "caps.json");
+        let mut args = vec!["calibrate", caps.to_str().unwrap(), "--method", method];
+        args.extend_from_slice(extra);
+        let (code, out, err) = common::lasercal(&args);
+        assert!([0, 3, 4].contains(&code), "{scenario}: {err}");
+        out
+    };
+    let out = run("disk-kinematic-error.toml", "disk-refined", &[]);
+    assert!(
+        out.contains(&format!("the poses are 4 {note}")) && out.contains("rotation's bound"),
+        "{out}"
+    );
+    // The same file stating no robot error: nothing to warn of.
+    let out = run(
+        "disk-kinematic-error.toml",
+        "disk-refined",
+        &["--robot-accuracy-mm", "0"],
+    );
+    assert!(!out.contains(note), "{out}");
+    let out = run("verdict-coverage.toml", "ball-any-pose", &[]);
+    assert!(!out.contains(note), "{out}");
+}
