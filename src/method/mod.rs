@@ -1000,9 +1000,9 @@ pub fn extraction_sensor<'a>(
 /// 0.25 mm far came out 10 % wider than least squares' and 15 % wider than its bound. At 3
 /// (0.3 %) it was honest without robot error, but a robot's error shifts whole profiles and
 /// puts the residuals' tails beyond 3: on the independent kit's disk with 0.3 mm of it, the
-/// rotation's variance about the flange's x came out 1.42 times least squares' (its bound's
-/// z-scores likewise), 1.19 at 4.5, 1.10 at 6 (docs/verdict.md). Without robot error the three
-/// give the same errors.
+/// rotation's variance about the flange's x came out 1.56 times least squares' with one scale
+/// for every row, 1.42 with one per kind (its bound's z-scores likewise), 1.19 clipping at 4.5,
+/// 1.09 at 6 (docs/verdict.md). Without robot error the three give the same errors.
 pub const FULL_PROFILE_HUBER_K: f64 = 6.0;
 
 /// The refinement options of an estimator's last fit (also its leave-one-out runs').
