@@ -1480,3 +1480,36 @@ fn depth_dependent_noise_from_another_generator_is_read_and_bounded() {
         "{covered} of {n} covered"
     );
 }
+
+/// The few-scans note (`verdict::few_scans`) on another generator's captures: the disk paper's
+/// four scans get it once a robot accuracy is stated, the edge paper's 25 orientations never,
+/// nor the disk stating none.
+#[test]
+fn the_few_scans_note_on_the_papers_protocols_from_another_generator() {
+    use lasercal::method::verdict::decide;
+    let note = "scans, each at one flange orientation";
+    let cases: [(Kind, fn() -> (Setup, Fan, Vec<Solid>), f64, bool); 3] = [
+        (Kind::Disk, disk_case, 0.2, true),
+        (Kind::Disk, disk_case, 0.0, false),
+        (Kind::Edge, edge_case, 0.2, false),
+    ];
+    for (kind, case, stated_mm, want) in cases {
+        let (s, fan, solids) = case();
+        let sensor = with_sigma(&common::declared(&fan, "fan-295"), 0.1);
+        let caps = trial_captures(&s, kind, 27, 0).0.unwrap();
+        let noise = Noise {
+            sigma_z: 0.1e-3,
+            dropout: 0.0,
+            sigma_z_far: 0.0,
+        };
+        let mut file = regenerate(&caps, &s, &fan, &placed(&solids, 0), noise, 7000);
+        file.judging.robot_accuracy = stated_mm * 1e-3;
+        let d = decide(&file, &sensor, None).unwrap();
+        let lines: Vec<&String> = d.judged.lines().collect();
+        assert_eq!(
+            lines.iter().any(|l| l.contains(note)),
+            want,
+            "{kind:?} stating {stated_mm} mm: {lines:#?}"
+        );
+    }
+}
