@@ -96,6 +96,9 @@ pub struct Captures {
     pub feature_sigma: Option<f64>,
     /// What the verdict judges a result against (tolerance, the robot's accuracy).
     pub judging: Judging,
+    /// The arm that took the poses and its kinematic error, where stated: the verdict's bound
+    /// then carries that error through each pose's joint configuration.
+    pub kinematic: Option<Kinematic>,
     /// Scanning on the move: the controller's pose log and each profile's time stamp, when the
     /// profiles were placed by time (None: each at a stated pose).
     pub timing: Option<Timing>,
@@ -219,10 +222,126 @@ impl Captures {
             orientation_tolerance_deg: self.orientation_tolerance_deg,
             feature_sigma: self.feature_sigma,
             judging: self.judging,
+            kinematic: self.kinematic.clone(),
             timing: None,
         }
     }
 }
+
+/// An arm's kinematic error as a user states it: one standard deviation of each joint origin's
+/// offset along each axis (a link-length error) and of each joint's zero, the same for every
+/// joint (`sim::disturb::RobotError` draws the same). Unlike the stated accuracy, which the bound
+/// takes as the same at every pose, this error moves each pose by its own joint configuration:
+/// a few scans at few configurations share most of it (docs/verdict.md).
+#[derive(Debug, Clone)]
+pub struct Kinematic {
+    /// The arm as the file names it (a built-in arm's name or a URDF's path).
+    pub robot_name: String,
+    pub robot: std::sync::Arc<crate::robot::Robot>,
+    /// Joint origin offset, metres, per axis.
+    pub link_sd: f64,
+    /// Joint zero offset, radians.
+    pub joint_zero_sd: f64,
+    /// Each pose's error twists (`Kinematic::new`).
+    twists: std::sync::Arc<Twists>,
+}
+
+impl PartialEq for Kinematic {
+    fn eq(&self, o: &Kinematic) -> bool {
+        self.robot_name == o.robot_name
+            && self.link_sd == o.link_sd
+            && self.joint_zero_sd == o.joint_zero_sd
+    }
+}
+
+impl Kinematic {
+    /// The arm's error stated for `poses`: each pose's joint configuration as a controller
+    /// reaches it moving through the poses in order (the inverse kinematics' solution nearest
+    /// the last, from all joints at zero) and its error twists. Err: the index of the first pose
+    /// the arm cannot reach, and why.
+    pub fn new<'a>(
+        robot_name: String,
+        robot: std::sync::Arc<crate::robot::Robot>,
+        link_sd: f64,
+        joint_zero_sd: f64,
+        poses: impl IntoIterator<Item = &'a Isometry3<f64>>,
+    ) -> Result<Kinematic, (usize, crate::robot::RobotError)> {
+        let mut q = [0.0; 6];
+        let mut twists = Twists::default();
+        for (i, f) in poses.into_iter().enumerate() {
+            let key = crate::calib::refine::honest::pose_key(f);
+            if twists.contains_key(&key) {
+                continue;
+            }
+            q = robot.ik_nearest(f, &q).map_err(|e| (i, e))?;
+            twists.insert(key, robot.error_twists(&q));
+        }
+        Ok(Kinematic {
+            robot_name,
+            robot,
+            link_sd,
+            joint_zero_sd,
+            twists: std::sync::Arc::new(twists),
+        })
+    }
+
+    /// Whether any error is stated (an arm named alone only checks the poses' reach).
+    pub fn is_stated(&self) -> bool {
+        self.link_sd > 0.0 || self.joint_zero_sd > 0.0
+    }
+
+    /// About one standard deviation of a point's offset along one direction that this error
+    /// makes (metres), as `sim::disturb::RobotError::point_sd` counts it: the part of a stated
+    /// accuracy that the kinematic error already explains.
+    pub fn point_sd(&self) -> f64 {
+        point_sd_of(&self.robot, self.link_sd, self.joint_zero_sd)
+    }
+
+    /// Each error's standard deviation, in `robot::Robot::error_twists`' order.
+    pub fn sds(&self) -> Vec<f64> {
+        let per = crate::robot::kinematics::ERRORS_PER_JOINT;
+        (0..self.robot.joints.len() * per)
+            .map(|e| {
+                if e % per == per - 1 {
+                    self.joint_zero_sd
+                } else {
+                    self.link_sd
+                }
+            })
+            .collect()
+    }
+
+    /// Pose `f`'s error twists: from the configurations `new` found, or (a pose between them,
+    /// as a pose stream interpolates) the solution nearest all joints at zero.
+    pub fn twists_at(&self, f: &Isometry3<f64>) -> Option<Vec<nalgebra::Vector6<f64>>> {
+        match self.twists.get(&crate::calib::refine::honest::pose_key(f)) {
+            Some(t) => Some(t.clone()),
+            None => {
+                let q = self.robot.ik_nearest(f, &[0.0; 6]).ok()?;
+                Some(self.robot.error_twists(&q))
+            }
+        }
+    }
+}
+
+/// One standard deviation of a point's offset along one direction (metres) that link errors
+/// `link_sd` (per axis) and angle errors `angle_sd` (rad) at each joint make: each joint's link
+/// error whole along any direction, its angle error over half the arm's reach (the sum of its
+/// link lengths, a joint's typical distance from the flange) spread over three directions. An
+/// allowance, not a model of the arm.
+pub fn point_sd_of(robot: &crate::robot::Robot, link_sd: f64, angle_sd: f64) -> f64 {
+    let reach: f64 = robot
+        .joints
+        .iter()
+        .map(|j| j.prev_to_joint.translation.vector.norm())
+        .sum();
+    let n = robot.joints.len() as f64;
+    let lever = reach / 2.0;
+    (n * link_sd * link_sd + n * angle_sd * angle_sd * lever * lever / 3.0).sqrt()
+}
+
+/// Each pose's kinematic error twists (`Kinematic::new`).
+pub type Twists = std::collections::HashMap<[u64; 7], Vec<nalgebra::Vector6<f64>>>;
 
 /// Captures that a method cannot use as they are.
 #[derive(Debug, Error, Clone, PartialEq)]

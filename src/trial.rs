@@ -155,6 +155,18 @@ fn simulate(
         },
     );
     caps.judging.robot_accuracy = robot.hypot(vibration);
+    // And its arm's kinematic error, which the bound carries through each pose's configuration.
+    let err = &setup.robot_error;
+    if err.link_error > 0.0 || err.joint_offset_error > 0.0 {
+        caps.kinematic = crate::captures::Kinematic::new(
+            setup.rig.robot.source.clone(),
+            std::sync::Arc::new(setup.rig.robot.clone()),
+            err.link_error,
+            err.joint_offset_error,
+            caps.profiles.iter().map(|p| &p.base_to_flange),
+        )
+        .ok();
+    }
     // The rig's mounting as designed: what a drawing of a real cell states.
     caps.judging.nominal = Some(setup.rig.flange_to_sensor);
     Ok(caps)

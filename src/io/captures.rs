@@ -61,6 +61,19 @@ struct FileV1 {
     /// test allows beside the sensor noise (default 0.5).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     robot_accuracy_mm: Option<f64>,
+    /// The arm that took the poses: irb120, irb2600 or a URDF file's path (relative to this
+    /// file). Named, every pose is checked to be within its reach; with `link_error_mm` or
+    /// `joint_offset_error_deg` the verdict's bound carries the arm's kinematic error through
+    /// each pose's joint configuration (docs/verdict.md).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    robot: Option<String>,
+    /// One standard deviation of each joint origin's offset along each axis (a link-length
+    /// error), mm.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    link_error_mm: Option<f64>,
+    /// One standard deviation of each joint's zero, deg.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    joint_offset_error_deg: Option<f64>,
     /// The raw profiles' points in a compressed array beside this file (`io::points_file`),
     /// each profile naming its row.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -268,6 +281,17 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
         tolerance_mm: (c.judging.tolerance_mm != Judging::DEFAULT_TOLERANCE_MM)
             .then_some(c.judging.tolerance_mm),
         robot_accuracy_mm: Some(c.judging.robot_accuracy * 1e3),
+        robot: c.kinematic.as_ref().map(|k| k.robot_name.clone()),
+        link_error_mm: c
+            .kinematic
+            .as_ref()
+            .filter(|k| k.is_stated())
+            .map(|k| k.link_sd * 1e3),
+        joint_offset_error_deg: c
+            .kinematic
+            .as_ref()
+            .filter(|k| k.is_stated())
+            .map(|k| k.joint_zero_sd.to_degrees()),
         sensor: Some(if sensor.points_only {
             SensorV1::PointsOnly {
                 points_only: PointsOnlyV1 {
@@ -611,12 +635,24 @@ fn from_file(mut f: FileV1, file: &str) -> Result<(Captures, SensorModel), Forma
         .map(|(i, p)| profile_of(&p, i, &groups, &sensor, &clock, file))
         .collect::<Result<Vec<_>, _>>()?;
     let sensor = with_measured_noise(sensor, &profiles, f.sensor_noise.is_some());
+    let kinematic = kinematic_of(
+        &Stated {
+            robot: f.robot.as_deref(),
+            link_error_mm: f.link_error_mm,
+            joint_offset_error_deg: f.joint_offset_error_deg,
+            flags: false,
+        },
+        profiles.iter().map(|p| &p.base_to_flange),
+        file,
+        Path::new(file).parent(),
+    )?;
     Ok((
         Captures {
             orientation_tolerance_deg: tolerance,
             feature_sigma,
             judging,
             timing,
+            kinematic,
             method: kind,
             sensor: sensor.name.clone(),
             specimen_kind: f.specimen.kind,
@@ -1454,6 +1490,94 @@ pub fn tolerance(v: f64, file: &str, at: &str) -> Result<f64, FormatError> {
             ),
         ))
     }
+}
+
+/// An arm and its kinematic error as a file or the command line states them
+/// (`kinematic_of`).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Stated<'a> {
+    pub robot: Option<&'a str>,
+    pub link_error_mm: Option<f64>,
+    pub joint_offset_error_deg: Option<f64>,
+    /// Name the command line's flags in errors rather than the file's fields.
+    pub flags: bool,
+}
+
+/// The arm that took `poses` and its kinematic error, checked: the errors' ranges, the arm's
+/// name or URDF (a relative path from `dir`) and every pose within its reach. `at` names the
+/// fields in errors (the file's names; the command line's flags say theirs in `file`).
+pub fn kinematic_of<'a>(
+    s: &Stated,
+    poses: impl IntoIterator<Item = &'a Isometry3<f64>>,
+    file: &str,
+    dir: Option<&Path>,
+) -> Result<Option<crate::captures::Kinematic>, FormatError> {
+    let name_of = |field: &'static str, flag: &'static str| if s.flags { flag } else { field };
+    let (robot_at, link_at, zero_at) = (
+        name_of("robot", "--robot"),
+        name_of("link_error_mm", "--link-error-mm"),
+        name_of("joint_offset_error_deg", "--joint-offset-error-deg"),
+    );
+    let link = match s.link_error_mm {
+        None => 0.0,
+        Some(v) => metres_from_mm(v, 10.0, file, link_at, || {
+            "give one standard deviation of each joint origin's offset in mm, from 0 to 10".into()
+        })?,
+    };
+    let zero = match s.joint_offset_error_deg {
+        None => 0.0,
+        Some(v) if v.is_finite() && (0.0..=1.0).contains(&v) => v.to_radians(),
+        Some(v) => {
+            return Err(err(
+                file,
+                zero_at,
+                format!(
+                    "{v}: give one standard deviation of each joint's zero in deg, from 0 to 1"
+                ),
+            ));
+        }
+    };
+    let Some(name) = s.robot else {
+        if s.link_error_mm.is_some() || s.joint_offset_error_deg.is_some() {
+            return Err(err(
+                file,
+                "robot",
+                "missing: a kinematic error needs the arm it belongs to; give the arm (irb120, \
+                 irb2600 or a URDF file's path, relative to the capture file)",
+            ));
+        }
+        return Ok(None);
+    };
+    let path = match dir {
+        Some(d) if name.ends_with(".urdf") && Path::new(name).is_relative() => {
+            let joined = d.join(name);
+            if joined.exists() {
+                joined.display().to_string()
+            } else {
+                name.to_string()
+            }
+        }
+        _ => name.to_string(),
+    };
+    let robot = crate::robot::Robot::resolve(&path).map_err(|e| err(file, robot_at, e))?;
+    crate::captures::Kinematic::new(
+        name.to_string(),
+        std::sync::Arc::new(robot),
+        link,
+        zero,
+        poses,
+    )
+    .map(Some)
+    .map_err(|(i, e)| {
+        err(
+            file,
+            &format!("profiles[{i}]"),
+            format!(
+                "its flange pose is out of reach of {name} ({e}): the poses must be this arm's \
+                 flange (tool0) in its base frame; check {robot_at}, or leave it out"
+            ),
+        )
+    })
 }
 
 /// A robot's pose accuracy (mm in, metres out), checked.

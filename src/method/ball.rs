@@ -373,6 +373,7 @@ impl Plan for BallPlanned {
             groups,
             profiles,
             timing: None,
+            kinematic: None,
         };
         if let Some(m) = self.passing.as_ref().filter(|_| !self.free.is_empty()) {
             m.apply(&mut caps);

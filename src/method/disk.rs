@@ -486,6 +486,7 @@ impl Plan for DiskPlan {
         let timing = self.timing(&profiles);
         let mut caps = Captures {
             timing,
+            kinematic: None,
             orientation_tolerance_deg: crate::calib::ORIENTATION_TOLERANCE_DEG,
             feature_sigma: (!self.raycast).then_some(self.sigma),
             judging: crate::captures::Judging {

@@ -372,6 +372,7 @@ impl Plan for EdgePlan {
             groups,
             profiles,
             timing: None,
+            kinematic: None,
         };
         if let Some(m) = self.passing.as_ref().filter(|_| !self.free.is_empty()) {
             m.apply(&mut caps);

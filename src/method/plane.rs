@@ -184,6 +184,7 @@ impl Plan for PlanePlan {
             groups,
             profiles,
             timing: None,
+            kinematic: None,
         };
         if let Some(m) = &self.passing {
             m.apply(&mut caps);

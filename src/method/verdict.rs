@@ -75,6 +75,19 @@ impl FromNominal {
     }
 }
 
+/// The arm's stated kinematic error as the bounds hold it (`Quality::kinematic`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct KinematicPart {
+    /// The arm as the captures name it, and the stated errors (mm per axis, deg; one sd).
+    pub robot: String,
+    pub link_error_mm: f64,
+    pub joint_offset_error_deg: f64,
+    /// The standard deviation of the rotation (deg) and the translation (mm) it moves the
+    /// result by (the root of each block's trace), through each pose's joint configuration.
+    pub sd_deg: f64,
+    pub sd_mm: f64,
+}
+
 /// Truth-free figures of one calibration result.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Quality {
@@ -126,6 +139,8 @@ pub struct Quality {
     /// error shared within a scan and different between scans is in no bound (docs/verdict.md,
     /// "The disk's four scans with an uncalibrated arm"): a note says so.
     pub few_scans: Option<usize>,
+    /// Where the captures state the arm's kinematic error: what it adds to the bounds.
+    pub kinematic: Option<KinematicPart>,
     /// Where the captures state the specimen's radius tolerance: how far the result moves per
     /// mm of error in the radius (deg per mm, mm per mm); the bounds include it.
     pub radius_shift: Option<(f64, f64)>,
@@ -313,8 +328,28 @@ pub fn quality(
                 .bow_shift(&cal.flange_to_sensor, caps.judging.edge_length)
         })
         .flatten();
+    // The arm's stated kinematic error, carried through each pose's joint configuration: the
+    // bias it moves the fit by, error by error (`Refinable::pose_shift`).
+    let kinematic = caps
+        .kinematic
+        .as_ref()
+        .filter(|k| k.is_stated() && finite.is_some())
+        .and_then(|k| {
+            let shifts = cal
+                .problem(estimator)?
+                .pose_shift(&cal.flange_to_sensor, &|f| k.twists_at(f))?;
+            Some(shifts.into_iter().zip(k.sds()).collect::<Vec<_>>())
+        });
     let honest = finite.map(|f| {
-        let h = f.honest.with_systematic(robot / ROBOT_REACH, robot);
+        // The stated accuracy's common part beyond what the kinematic error explains.
+        let common = match (&kinematic, &caps.kinematic) {
+            (Some(_), Some(k)) => (robot * robot - k.point_sd().powi(2)).max(0.0).sqrt(),
+            _ => robot,
+        };
+        let h = match &kinematic {
+            Some(k) => f.honest.with_kinematic(k, common / ROBOT_REACH, common),
+            None => f.honest.with_systematic(common / ROBOT_REACH, common),
+        };
         let h = match &radius_shift {
             Some(s) => h.with_shift(s, caps.judging.radius_tolerance),
             None => h,
@@ -361,6 +396,23 @@ pub fn quality(
         orientation_groups: figures.map_or(0, |f| f.honest.orientation_groups),
         group_widening: finite.map(|f| f.honest.group_widening),
         few_scans: few_scans(caps),
+        kinematic: kinematic
+            .as_ref()
+            .zip(caps.kinematic.as_ref())
+            .map(|(shifts, k)| {
+                let c: nalgebra::Matrix6<f64> = shifts
+                    .iter()
+                    .map(|(d, sd)| d * d.transpose() * (sd * sd))
+                    .sum();
+                let block = |i: usize| (0..3).map(|a| c[(i + a, i + a)]).sum::<f64>().sqrt();
+                KinematicPart {
+                    robot: k.robot_name.clone(),
+                    link_error_mm: k.link_sd * 1e3,
+                    joint_offset_error_deg: k.joint_zero_sd.to_degrees(),
+                    sd_deg: block(0).to_degrees(),
+                    sd_mm: block(3) * 1e3,
+                }
+            }),
         judging: caps.judging,
         from_nominal: caps
             .judging
@@ -483,7 +535,10 @@ pub const MAX_FEW_SCANS: usize = 6;
 /// `MAX_FEW_SCANS` orientations of at least four poses each on average (the disk paper's four
 /// scans), else None.
 fn few_scans(caps: &Captures) -> Option<usize> {
-    if !(caps.judging.robot_accuracy > 0.0) {
+    // With the arm's kinematic error stated, the bound carries it scan by scan.
+    if !(caps.judging.robot_accuracy > 0.0)
+        || caps.kinematic.as_ref().is_some_and(|k| k.is_stated())
+    {
         return None;
     }
     let n =
@@ -529,8 +584,18 @@ pub fn judge(q: Quality) -> Judged {
              each scan as a whole and the scans by different amounts (link-length and joint-zero \
              errors of an arm whose kinematics are not calibrated) turns the result, and neither \
              the residuals nor {n} scans show it, so the rotation's bound does not hold it (on the \
-             comparison rig it held 22-83 % of such results; docs/verdict.md); with such an arm, \
-             calibrate from many orientations (disk-any-pose from free poses, a ball or a plane)"
+             comparison rig it held 22-83 % of such results; docs/verdict.md); state the arm and \
+             its kinematic error (robot, link_error_mm, joint_offset_error_deg; --robot, \
+             --link-error-mm, --joint-offset-error-deg) for a bound that holds it, or calibrate \
+             from many orientations (disk-any-pose from free poses, a ball or a plane)"
+        ));
+    }
+    if let Some(k) = &q.kinematic {
+        notes.push(format!(
+            "the arm's stated kinematic error ({}: joint origins {:.3} mm per axis, joint zeros \
+             {:.4} deg, one sd) is in the bounds: through each pose's joint configuration it \
+             moves the result by about {:.4} deg / {:.4} mm (one sd), which no residual shows",
+            k.robot, k.link_error_mm, k.joint_offset_error_deg, k.sd_deg, k.sd_mm
         ));
     }
     if let Some((deg, mm)) = q.radius_shift {

@@ -45,20 +45,9 @@ impl RobotError {
     /// its link lengths). An allowance for
     /// the verdict's residual test, not a model of the arm.
     pub fn point_sd(&self, robot: &Robot) -> f64 {
-        let reach: f64 = robot
-            .joints
-            .iter()
-            .map(|j| j.prev_to_joint.translation.vector.norm())
-            .sum();
-        let n = robot.joints.len() as f64;
-        let angle = self.joint_noise.powi(2) + self.joint_offset_error.powi(2);
+        let angle = self.joint_noise.hypot(self.joint_offset_error);
         let rp = self.repeatability / (3.0 * 3f64.sqrt());
-        // A link error is drawn per axis, so each joint's adds its whole variance along any
-        // direction. An angle error's lever is taken as half the reach (a joint's typical
-        // distance from the flange), its displacement spread over three directions.
-        let links = n * self.link_error.powi(2);
-        let lever = reach / 2.0;
-        (rp * rp + links + n * angle * lever * lever / 3.0).sqrt()
+        rp.hypot(crate::captures::point_sd_of(robot, self.link_error, angle))
     }
 }
 

@@ -139,6 +139,7 @@ pub(crate) fn random_setup(seed: u64, n: usize, translations: usize, sigma: f64)
     Setup {
         caps: Captures {
             timing: None,
+            kinematic: None,
             feature_sigma: None,
             // A simulated rig without robot error states so.
             judging: lasercal::captures::Judging {
@@ -524,6 +525,7 @@ fn random_face_setup(
     Setup {
         caps: Captures {
             timing: None,
+            kinematic: None,
             feature_sigma: None,
             // A simulated rig without robot error states so.
             judging: lasercal::captures::Judging {

@@ -951,13 +951,14 @@ fn a_disk_scan_paired_one_record_apart_is_named() {
     );
 }
 
-/// The disk paper's four scans on an arm with link-length and joint-zero errors: the rotation's
-/// bound cannot hold what the arm's error shared within each scan does (docs/verdict.md, "The
-/// disk's four scans with an uncalibrated arm"), and the verdict says so in a note; not where
-/// the robot's accuracy is stated as 0 (a rig without robot error), nor for poses of many
-/// orientations (the 16 free ball poses of `verdict-coverage`).
+/// The disk paper's four scans on an arm with link-length and joint-zero errors (docs/verdict.md,
+/// "The disk's four scans with an uncalibrated arm"): where the file states the arm's kinematic
+/// error the bound carries it and a note says how much; where it states only an accuracy, the
+/// rotation's bound cannot hold what each scan shares, and a note says so; not where the
+/// robot's accuracy is stated as 0, nor for poses of many orientations (the 16 free ball poses
+/// of `verdict-coverage`).
 #[test]
-fn a_few_scans_with_robot_error_are_told_their_rotation_bound_misses_it() {
+fn a_few_scans_with_robot_error_carry_the_arms_kinematic_error_or_are_told_of_it() {
     let dir = tempfile::tempdir().unwrap();
     let note = "scans, each at one flange orientation";
     let run = |scenario: &str, method: &str, extra: &[&str]| {
@@ -968,18 +969,97 @@ fn a_few_scans_with_robot_error_are_told_their_rotation_bound_misses_it() {
         assert!([0, 3, 4].contains(&code), "{scenario}: {err}");
         out
     };
+    // The simulated rig states its arm and kinematic error: the bound carries them, a note
+    // says how much, and the scans need no warning.
+    let kinematic = "the arm's stated kinematic error (robots/irb120_3_58.urdf";
     let out = run("disk-kinematic-error.toml", "disk-refined", &[]);
+    assert!(out.contains(kinematic) && !out.contains(note), "{out}");
+    // The same file stating the arm but no kinematic error: the stated accuracy alone, whose
+    // rotation bound misses what the scans share.
+    let none = ["--link-error-mm", "0", "--joint-offset-error-deg", "0"];
+    let out = run("disk-kinematic-error.toml", "disk-refined", &none);
     assert!(
-        out.contains(&format!("the poses are 4 {note}")) && out.contains("rotation's bound"),
+        out.contains(&format!("the poses are 4 {note}"))
+            && out.contains("rotation's bound")
+            && !out.contains(kinematic),
         "{out}"
     );
-    // The same file stating no robot error: nothing to warn of.
+    // Stating no robot error at all: nothing to warn of.
     let out = run(
         "disk-kinematic-error.toml",
         "disk-refined",
-        &["--robot-accuracy-mm", "0"],
+        &[&none[..], &["--robot-accuracy-mm", "0"]].concat(),
     );
     assert!(!out.contains(note), "{out}");
     let out = run("verdict-coverage.toml", "ball-any-pose", &[]);
     assert!(!out.contains(note), "{out}");
+}
+
+/// The arm and its kinematic error in a capture file: written by `simulate`, read back, and
+/// every bad statement refused with the field, the value and the fix (a file whose poses the
+/// named arm cannot reach, an error without an arm, an unknown arm, errors out of range).
+#[test]
+fn the_arms_kinematic_error_is_read_checked_and_refused_when_wrong() {
+    let dir = tempfile::tempdir().unwrap();
+    let (caps, doc) = common::simulated_capture(dir.path(), "disk-kinematic-error.toml", "k.json");
+    assert_eq!(doc["robot"], "robots/irb120_3_58.urdf");
+    assert_eq!(doc["link_error_mm"], 0.1);
+    assert_eq!(doc["joint_offset_error_deg"], 0.01);
+    let edited = |f: &dyn Fn(&mut serde_json::Value)| {
+        let mut d = doc.clone();
+        f(&mut d);
+        let p = dir.path().join("edited.json");
+        std::fs::write(&p, d.to_string()).unwrap();
+        let (code, _, err) = common::lasercal(&["calibrate", p.to_str().unwrap()]);
+        (code, err)
+    };
+    let refused = |f: &dyn Fn(&mut serde_json::Value), want: &[&str]| {
+        let (code, err) = edited(f);
+        assert_eq!(code, 2, "{err}");
+        for w in want {
+            assert!(err.contains(w), "{w}: {err}");
+        }
+    };
+    refused(
+        &|d| {
+            d.as_object_mut()
+                .unwrap()
+                .remove("robot")
+                .map(|_| ())
+                .unwrap()
+        },
+        &["robot: missing", "irb120, irb2600 or a URDF"],
+    );
+    refused(
+        &|d| d["robot"] = "irb2600".into(),
+        &["profiles[0]", "out of reach of irb2600"],
+    );
+    refused(
+        &|d| d["robot"] = "ur5".into(),
+        &["robot:", "unknown robot 'ur5'"],
+    );
+    refused(
+        &|d| d["link_error_mm"] = 11.0.into(),
+        &["link_error_mm: 11", "from 0 to 10"],
+    );
+    refused(
+        &|d| d["joint_offset_error_deg"] = (-0.1).into(),
+        &["joint_offset_error_deg: -0.1", "from 0 to 1"],
+    );
+    // The arm named alone: its reach checked, nothing added to the bound.
+    let (code, err) = edited(&|d| {
+        let o = d.as_object_mut().unwrap();
+        o.remove("link_error_mm");
+        o.remove("joint_offset_error_deg");
+    });
+    assert!([0, 3, 4].contains(&code), "{err}");
+    // The flags say theirs.
+    let (code, _, err) = common::lasercal(&[
+        "calibrate",
+        caps.to_str().unwrap(),
+        "--joint-offset-error-deg",
+        "2",
+    ]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--joint-offset-error-deg: 2"), "{err}");
 }

@@ -32,6 +32,20 @@ pub struct Args {
     /// [default: 0.5]
     #[arg(long, allow_negative_numbers = true)]
     robot_accuracy_mm: Option<f64>,
+    /// The arm that took the poses (irb120, irb2600 or a URDF file's path): every pose is
+    /// checked to be within its reach, and with --link-error-mm or --joint-offset-error-deg the
+    /// bounds carry the arm's kinematic error through each pose's joint configuration;
+    /// overrides the file's robot
+    #[arg(long)]
+    robot: Option<String>,
+    /// One standard deviation of each joint origin's offset along each axis (mm, a link-length
+    /// error of an arm whose kinematics are not calibrated); overrides the file's link_error_mm
+    #[arg(long, allow_negative_numbers = true)]
+    link_error_mm: Option<f64>,
+    /// One standard deviation of each joint's zero (deg); overrides the file's
+    /// joint_offset_error_deg
+    #[arg(long, allow_negative_numbers = true)]
+    joint_offset_error_deg: Option<f64>,
     /// One standard deviation of the disk's or ball's true radius about the stated one (mm, a
     /// certificate's standard uncertainty): the bounds then include what it moves the result;
     /// overrides the file's specimen.radius_tolerance_mm [default: 0, the radius exact]
@@ -111,6 +125,23 @@ pub fn run(a: Args) -> Result<i32> {
     if let Some(r) = a.robot_accuracy_mm {
         caps.judging.robot_accuracy =
             lasercal::io::captures::robot_accuracy(r, &name, "--robot-accuracy-mm")?;
+    }
+    if a.robot.is_some() || a.link_error_mm.is_some() || a.joint_offset_error_deg.is_some() {
+        let k = caps.kinematic.as_ref();
+        let stated = lasercal::io::captures::Stated {
+            robot: a.robot.as_deref().or(k.map(|k| k.robot_name.as_str())),
+            link_error_mm: a.link_error_mm.or(k.map(|k| k.link_sd * 1e3)),
+            joint_offset_error_deg: a
+                .joint_offset_error_deg
+                .or(k.map(|k| k.joint_zero_sd.to_degrees())),
+            flags: true,
+        };
+        caps.kinematic = lasercal::io::captures::kinematic_of(
+            &stated,
+            caps.profiles.iter().map(|p| &p.base_to_flange),
+            &name,
+            a.file.parent(),
+        )?;
     }
     if let Some(t) = a.radius_tolerance_mm {
         caps.judging.radius_tolerance = lasercal::io::captures::radius_tolerance(

@@ -377,6 +377,10 @@ pub fn verdict_text(
     doc["between_variants"] = serde_json::json!(between);
     doc["orientation_groups"] = serde_json::json!(q.orientation_groups);
     doc["group_widening"] = serde_json::json!(q.group_widening);
+    doc["kinematic"] = serde_json::json!(q.kinematic.as_ref().map(|k| serde_json::json!({
+        "robot": k.robot, "link_error_mm": k.link_error_mm,
+        "joint_offset_error_deg": k.joint_offset_error_deg, "sd_deg": k.sd_deg, "sd_mm": k.sd_mm,
+    })));
     doc["radius_tolerance_mm"] = serde_json::json!(q.judging.radius_tolerance * 1e3);
     doc["radius_shift_deg_per_mm"] = serde_json::json!(q.radius_shift.map(|s| s.0));
     doc["radius_shift_mm_per_mm"] = serde_json::json!(q.radius_shift.map(|s| s.1));

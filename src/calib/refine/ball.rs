@@ -480,11 +480,9 @@ mod tests {
         }
     }
 
-    /// Exact arcs of a ball from 8 poses: refitted with the radius 2 um off, the result moves
-    /// by `radius_shift` times 2 um (to 1 %), and not at all with the stated radius.
-    #[test]
-    fn the_radius_shift_is_the_refits_move() {
-        use super::super::{Options, Problem, Refinable, refine};
+    /// Exact arcs of a ball of radius 69.5 mm from 8 poses: the model, the true transform and
+    /// centre, the radius.
+    fn eight_poses() -> (BallModel, Isometry3<f64>, Vector3<f64>, f64) {
         let x = Isometry3::new(
             Vector3::new(0.006, 0.054, 0.364),
             Vector3::new(0.02, -0.01, 1.5),
@@ -525,6 +523,15 @@ mod tests {
                 }),
             );
         }
+        (m, x, c, radius)
+    }
+
+    /// Exact arcs of a ball from 8 poses: refitted with the radius 2 um off, the result moves
+    /// by `radius_shift` times 2 um (to 1 %), and not at all with the stated radius.
+    #[test]
+    fn the_radius_shift_is_the_refits_move() {
+        use super::super::{Options, Problem, Refinable, refine};
+        let (m, x, c, radius) = eight_poses();
         let opts = Options::default();
         let (at, _) = refine(&m, &x, &c, &opts).unwrap();
         let moved = (at.flange_to_sensor.translation.vector - x.translation.vector).norm();
@@ -550,6 +557,71 @@ mod tests {
             );
         }
         assert!(shift.fixed_rows::<3>(3).norm() > 1e-7);
+    }
+
+    /// The same poses moved by two errors' twists (one the same at every pose, one growing
+    /// with the pose's height and turn): refitted, the result moves by `pose_shift` times the
+    /// error (to 1 %).
+    #[test]
+    fn the_pose_shift_is_the_refits_move() {
+        use super::super::{Options, Problem, Refinable, refine};
+        use nalgebra::Vector6;
+        let (m, x, c, _) = eight_poses();
+        let twists = |f: &Isometry3<f64>| {
+            let a = f.rotation.scaled_axis();
+            Some(vec![
+                Vector6::new(0.0, 0.0, 0.0, 0.3, -0.2, 1.0),
+                Vector6::new(0.4 * a.z, 0.1, -0.3, 5.0 * f.translation.z, 0.2 * a.x, -0.5),
+            ])
+        };
+        let shifts = Problem {
+            model: m.clone(),
+            specimen: c,
+        }
+        .pose_shift(&x, &twists)
+        .unwrap();
+        let opts = Options::default();
+        let h = 1e-5;
+        for (e, shift) in shifts.iter().enumerate() {
+            let moved = m.map_poses(&mut |f| {
+                let t = twists(f).unwrap()[e] * h;
+                f * Isometry3::new(
+                    t.fixed_rows::<3>(3).into_owned(),
+                    t.fixed_rows::<3>(0).into(),
+                )
+            });
+            let (off, _) = refine(&moved, &x, &c, &opts).unwrap();
+            let seen_r = (x.rotation.inverse() * off.flange_to_sensor.rotation).scaled_axis();
+            let seen_t = off.flange_to_sensor.translation.vector - x.translation.vector;
+            let want = shift * h;
+            // A block can be exactly still (a translation alike at every pose turns nothing).
+            let floor = 1e-6 * want.norm();
+            let (sr, st) = (
+                want.fixed_rows::<3>(0).norm().max(floor),
+                want.fixed_rows::<3>(3).norm().max(floor),
+            );
+            assert!(
+                want.fixed_rows::<3>(3).norm() > 1e-8,
+                "error {e}: no shift {want}"
+            );
+            for i in 0..3 {
+                assert!(
+                    (seen_r[i] - want[i]).abs() < 0.01 * sr,
+                    "error {e}, rotation {i}"
+                );
+                assert!(
+                    (seen_t[i] - want[3 + i]).abs() < 0.01 * st,
+                    "error {e}, translation {i}"
+                );
+            }
+        }
+        // A pose the twists do not know: no answer rather than a wrong one.
+        let none = Problem {
+            model: m,
+            specimen: c,
+        }
+        .pose_shift(&x, &|_| None);
+        assert!(none.is_none());
     }
 
     #[test]

@@ -223,6 +223,39 @@ impl Honest {
         }
     }
 
+    /// `with_systematic` where the arm's kinematic error is stated: `shifts` holds each error's
+    /// bias on the fit per unit and its standard deviation (`Refinable::pose_shift`), and
+    /// `rotation`, `translation` the accuracy beyond it. The model's own covariance (the
+    /// residual-level one, the kinematic biases, the rest of the accuracy independent from pose
+    /// to pose) or the measured one, whichever is larger in each direction: the scatter between
+    /// poses already holds the part of the kinematic error that differs from pose to pose, and
+    /// adding both counted it twice (a 48-pose plane's bound 1.3 times its errors' spread).
+    pub fn with_kinematic(
+        &self,
+        shifts: &[(nalgebra::Vector6<f64>, f64)],
+        rotation: f64,
+        translation: f64,
+    ) -> Honest {
+        let kinematic: Matrix6<f64> = shifts
+            .iter()
+            .map(|(d, sd)| d * d.transpose() * (sd * sd))
+            .sum();
+        let model = self.residual + self.per_pose_shift * (translation * translation) + kinematic;
+        let mut c = if model.iter().all(|v| v.is_finite()) {
+            larger_of(&self.covariance, &model, 6).0
+        } else {
+            self.covariance + kinematic
+        };
+        for i in 0..3 {
+            c[(i, i)] += rotation * rotation;
+            c[(3 + i, 3 + i)] += translation * translation;
+        }
+        Honest {
+            covariance: c,
+            ..self.clone()
+        }
+    }
+
     /// The same with a bias added that moves the transform by `shift` per unit of an error of
     /// standard deviation `sd` (a specimen's radius against its stated one).
     pub fn with_shift(&self, shift: &nalgebra::Vector6<f64>, sd: f64) -> Honest {

@@ -562,6 +562,16 @@ pub trait Refinable: Send + Sync + fmt::Debug {
     /// valley over `length` metres; None: over the span the points cover), toward each of the
     /// two directions across it (None: no straight edge in the model, or singular).
     fn bow_shift(&self, x: &Isometry3<f64>, length: Option<f64>) -> Option<[Vector6<f64>; 2]>;
+    /// How the least-squares fit near `x` moves per unit of each of several errors that move
+    /// every flange pose f by `twists(f)[e]` per unit of error e, in f's own frame ([rotation
+    /// rad; translation m], first order): the arm's kinematic errors at each pose
+    /// (`robot::Robot::error_twists`). Rotation rad in the sensor frame, translation m, as the
+    /// covariance. None: a pose `twists` has no answer for, or the problem is singular.
+    fn pose_shift(
+        &self,
+        x: &Isometry3<f64>,
+        twists: &dyn Fn(&Isometry3<f64>) -> Option<Vec<Vector6<f64>>>,
+    ) -> Option<Vec<Vector6<f64>>>;
     /// The same problem without the features seen from the flange poses `drop` picks.
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable>;
     /// The sums the figures at `x` need (`Sums`), streamed in parts where the problem is tall.
@@ -789,6 +799,82 @@ impl<M: Model + 'static> Refinable for Problem<M> {
         out.iter()
             .all(|s| s.iter().all(|v| v.is_finite()))
             .then_some(out)
+    }
+    fn pose_shift(
+        &self,
+        x: &Isometry3<f64>,
+        twists: &dyn Fn(&Isometry3<f64>) -> Option<Vec<Vector6<f64>>>,
+    ) -> Option<Vec<Vector6<f64>>> {
+        // Each residual depends on its own pose only, so moving every pose by one unit twist
+        // at a time gives each row's derivative along it; an error's residual change is then
+        // each row's derivatives weighted by its pose's twist, and the fit's step per unit of
+        // it is -A^-1 J^T dr (as `bow_shift`): twelve evaluations however many errors.
+        let t = Transform::from_isometry(x);
+        let m = &self.model;
+        let labels = m.labels(&t, &self.specimen);
+        let (r, j) = eval(m, &t, &self.specimen, &labels, true);
+        let flanges = m.residual_flanges();
+        if flanges.len() != r.len() {
+            return None;
+        }
+        // Each row's pose, its twists asked for once.
+        let mut seen: std::collections::HashMap<[u64; 7], usize> = Default::default();
+        let mut poses: Vec<Vec<Vector6<f64>>> = Vec::new();
+        let mut row_pose = Vec::with_capacity(r.len());
+        for f in &flanges {
+            let key = honest::pose_key(f);
+            let i = match seen.get(&key) {
+                Some(&i) => i,
+                None => {
+                    poses.push(twists(f)?);
+                    seen.insert(key, poses.len() - 1);
+                    poses.len() - 1
+                }
+            };
+            row_pose.push(i);
+        }
+        let errors = poses.first().map_or(0, Vec::len);
+        if poses.iter().any(|p| p.len() != errors) {
+            return None;
+        }
+        let normal = Normal::of(&ata(&j));
+        let inv = normal.inverse()?;
+        let used = &normal.used;
+        if used.len() < 6 || used[..6] != [0, 1, 2, 3, 4, 5] {
+            return None;
+        }
+        let h = 1e-6;
+        let moved = |e: &Vector6<f64>| {
+            let model = m.map_poses(&mut |f| {
+                f * Isometry3::new(
+                    e.fixed_rows::<3>(3).into_owned(),
+                    e.fixed_rows::<3>(0).into(),
+                )
+            });
+            eval(&model, &t, &self.specimen, &labels, false).0
+        };
+        let along: Vec<DVector<f64>> = (0..6)
+            .map(|a| {
+                let e = Vector6::ith(a, h);
+                (moved(&e) - moved(&-e)) / (2.0 * h)
+            })
+            .collect();
+        let mut dr = DVector::zeros(r.len());
+        let shifts: Vec<Vector6<f64>> = (0..errors)
+            .map(|e| {
+                for (i, v) in dr.iter_mut().enumerate() {
+                    let tw = &poses[row_pose[i]][e];
+                    *v = (0..6).map(|a| along[a][i] * tw[a]).sum();
+                }
+                let jtg = j.tr_mul(&dr);
+                let d = -(inv * DVector::from_fn(used.len(), |i, _| jtg[used[i]]));
+                Vector6::from_fn(|i, _| d[i])
+            })
+            .collect();
+        shifts
+            .iter()
+            .all(|s| s.iter().all(|v| v.is_finite()))
+            .then_some(shifts)
     }
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable> {
         Box::new(Problem {
