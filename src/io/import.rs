@@ -563,6 +563,11 @@ pub struct Header<'a> {
     pub z_sigma_mm: Option<f64>,
     /// The robot's pose accuracy (mm) for the verdict (docs/verdict.md).
     pub robot_accuracy_mm: Option<f64>,
+    /// The arm (a built-in name or a URDF path) and its kinematic error (mm per joint origin
+    /// axis, deg per joint zero), as a capture file states them (docs/captures.md).
+    pub robot: Option<&'a str>,
+    pub link_error_mm: Option<f64>,
+    pub joint_offset_error_deg: Option<f64>,
     /// The z value (mm) the profiler writes where a column has no point (0, -999, ...), besides
     /// NaN and empty cells.
     pub missing_z_mm: Option<f64>,
@@ -677,6 +682,15 @@ pub fn capture_file(
     }
     if let Some(r) = h.robot_accuracy_mm {
         doc["robot_accuracy_mm"] = serde_json::json!(r);
+    }
+    if let Some(r) = h.robot {
+        doc["robot"] = serde_json::json!(r);
+    }
+    if let Some(v) = h.link_error_mm {
+        doc["link_error_mm"] = serde_json::json!(v);
+    }
+    if let Some(v) = h.joint_offset_error_deg {
+        doc["joint_offset_error_deg"] = serde_json::json!(v);
     }
     let text = serde_json::to_string_pretty(&doc)
         .map_err(|e| field(poses_file, "json".into(), e.to_string()))?;

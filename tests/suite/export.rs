@@ -436,6 +436,51 @@ fn import_builds_the_capture_file_a_rig_would_have_written() {
     // Without --sensor: a sensor known only by its points (the ball's any-pose estimator needs no
     // rays), its noise measured from the profiles; --sensor points-only says the same.
     let abb = dir.path().join("abb.csv");
+    // --robot with its kinematic error: written, read back, and in the verdict's bound; an arm
+    // that cannot reach the poses refused.
+    let arm = dir.path().join("arm-caps.json");
+    let stated = [
+        "--robot",
+        "irb120",
+        "--link-error-mm",
+        "0.05",
+        "--joint-offset-error-deg",
+        "0.01",
+    ];
+    let (code, _, err) = import_ball(&doc, "gocator-2340", &abb, &per_pose, &arm, &stated);
+    assert_eq!(code, 0, "{err}");
+    let written: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&arm).unwrap()).unwrap();
+    assert_eq!(written["robot"], "irb120");
+    assert_eq!(written["link_error_mm"], 0.05);
+    let json = dir.path().join("arm-result.json");
+    let (code, out, err) = common::lasercal(&[
+        "calibrate",
+        arm.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!([0, 3, 4].contains(&code), "{out} {err}");
+    assert!(
+        out.contains("the arm's stated kinematic error (irb120"),
+        "{out}"
+    );
+    let result: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert!(
+        result["quality"]["kinematic"]["sd_mm"].as_f64().unwrap() > 0.0,
+        "{result}"
+    );
+    let (code, _, err) = import_ball(
+        &doc,
+        "gocator-2340",
+        &abb,
+        &per_pose,
+        &dir.path().join("wrong-arm.json"),
+        &["--robot", "irb2600"],
+    );
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("out of reach of irb2600"), "{err}");
     // --compact: the points in an array beside the file, read back alike.
     for (tag, sensor, compact) in [
         ("points", None, false),

@@ -49,9 +49,17 @@ pub struct Args {
     /// not given: 0.5]
     #[arg(long, allow_negative_numbers = true)]
     robot_accuracy_mm: Option<f64>,
-    /// Robot (irb120, irb2600 or a URDF path) for a pose list of joint angles
+    /// Robot (irb120, irb2600 or a URDF path): needed for a pose list of joint angles; written
+    /// to the capture file, whose poses are then checked to be within its reach
     #[arg(long)]
     robot: Option<String>,
+    /// The arm's kinematic error: one standard deviation of each joint origin's offset per axis
+    /// (mm), which the verdict's bound carries through each pose's configuration (needs --robot)
+    #[arg(long, allow_negative_numbers = true)]
+    link_error_mm: Option<f64>,
+    /// The same for each joint's zero (deg; needs --robot)
+    #[arg(long, allow_negative_numbers = true)]
+    joint_offset_error_deg: Option<f64>,
     /// Capture file to write (JSON)
     #[arg(long)]
     out: PathBuf,
@@ -186,6 +194,9 @@ pub fn run(a: Args) -> Result<()> {
         feature_sigma_mm: None,
         z_sigma_mm: a.z_sigma_mm,
         robot_accuracy_mm: a.robot_accuracy_mm,
+        robot: a.robot.as_deref(),
+        link_error_mm: a.link_error_mm,
+        joint_offset_error_deg: a.joint_offset_error_deg,
         missing_z_mm: a.missing_z_mm,
     };
     let timing = match (&a.profile_times, pose_times) {
