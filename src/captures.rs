@@ -244,6 +244,8 @@ pub struct Kinematic {
     pub joint_zero_sd: f64,
     /// Each pose's error twists (`Kinematic::new`).
     twists: std::sync::Arc<Twists>,
+    /// The joint values given with a pose, by `pose_key` (written back with it).
+    given: std::sync::Arc<std::collections::HashMap<[u64; 7], crate::robot::Joints>>,
 }
 
 impl PartialEq for Kinematic {
@@ -255,25 +257,33 @@ impl PartialEq for Kinematic {
 }
 
 impl Kinematic {
-    /// The arm's error stated for `poses`: each pose's joint configuration as a controller
-    /// reaches it moving through the poses in order (the inverse kinematics' solution nearest
-    /// the last, from all joints at zero) and its error twists. Err: the index of the first pose
-    /// the arm cannot reach, and why.
+    /// The arm's error stated for `poses`, each with its joint values where the controller
+    /// logged them (radians): the others' configurations as a controller reaches them moving
+    /// through the poses in order (the inverse kinematics' solution nearest the last, from all
+    /// joints at zero), and each pose's error twists. Err: the index of the first pose the arm
+    /// cannot reach, and why.
     pub fn new<'a>(
         robot_name: String,
         robot: std::sync::Arc<crate::robot::Robot>,
         link_sd: f64,
         joint_zero_sd: f64,
-        poses: impl IntoIterator<Item = &'a Isometry3<f64>>,
+        poses: impl IntoIterator<Item = (&'a Isometry3<f64>, Option<crate::robot::Joints>)>,
     ) -> Result<Kinematic, (usize, crate::robot::RobotError)> {
         let mut q = [0.0; 6];
         let mut twists = Twists::default();
-        for (i, f) in poses.into_iter().enumerate() {
+        let mut given = std::collections::HashMap::new();
+        for (i, (f, joints)) in poses.into_iter().enumerate() {
             let key = crate::calib::refine::honest::pose_key(f);
             if twists.contains_key(&key) {
                 continue;
             }
-            q = robot.ik_nearest(f, &q).map_err(|e| (i, e))?;
+            q = match joints {
+                Some(j) => {
+                    given.insert(key, j);
+                    j
+                }
+                None => robot.ik_nearest(f, &q).map_err(|e| (i, e))?,
+            };
             twists.insert(key, robot.error_twists(&q));
         }
         Ok(Kinematic {
@@ -282,7 +292,15 @@ impl Kinematic {
             link_sd,
             joint_zero_sd,
             twists: std::sync::Arc::new(twists),
+            given: std::sync::Arc::new(given),
         })
+    }
+
+    /// The joint values given with pose `f` (a controller's log), if any.
+    pub fn joints_given(&self, f: &Isometry3<f64>) -> Option<crate::robot::Joints> {
+        self.given
+            .get(&crate::calib::refine::honest::pose_key(f))
+            .copied()
     }
 
     /// Whether any error is stated (an arm named alone only checks the poses' reach).

@@ -163,7 +163,7 @@ fn simulate(
             std::sync::Arc::new(setup.rig.robot.clone()),
             err.link_error,
             err.joint_offset_error,
-            caps.profiles.iter().map(|p| &p.base_to_flange),
+            caps.profiles.iter().map(|p| (&p.base_to_flange, None)),
         )
         .ok();
     }

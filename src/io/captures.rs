@@ -223,6 +223,11 @@ struct ProfileV1 {
     /// The sensor column of each entry of points_mm, when the list is not one entry per column.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     columns: Option<Vec<usize>>,
+    /// The arm's joint values at this pose (deg, joint 1 first) as the controller logged
+    /// them: with `robot`, the configuration the kinematic error is carried through (else the
+    /// inverse kinematics' nearest solution) and checked against the pose.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    joints_deg: Option<[f64; 6]>,
     /// The row of `points_file` holding this profile's points and intensities, in place of
     /// points_mm and intensity.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -361,6 +366,11 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
                     points_mm: None,
                     intensity: None,
                     columns: None,
+                    joints_deg: c
+                        .kinematic
+                        .as_ref()
+                        .and_then(|k| k.joints_given(&p.base_to_flange))
+                        .map(|q| q.map(f64::to_degrees)),
                     points_row: None,
                     points_len: None,
                     chord_mm: None,
@@ -628,6 +638,11 @@ fn from_file(mut f: FileV1, file: &str) -> Result<(Captures, SensorModel), Forma
             estimate_offset: f.estimate_clock_offset.unwrap_or(true),
             estimate_drift: f.estimate_clock_drift.unwrap_or(false),
         });
+    let joints: Vec<Option<crate::robot::Joints>> = f
+        .profiles
+        .iter()
+        .map(|p| p.joints_deg.map(|j| j.map(f64::to_radians)))
+        .collect();
     // Each record dropped once converted: a continuous scan's points are not held twice.
     let profiles = std::mem::take(&mut f.profiles)
         .into_iter()
@@ -642,7 +657,7 @@ fn from_file(mut f: FileV1, file: &str) -> Result<(Captures, SensorModel), Forma
             joint_offset_error_deg: f.joint_offset_error_deg,
             flags: false,
         },
-        profiles.iter().map(|p| &p.base_to_flange),
+        profiles.iter().map(|p| &p.base_to_flange).zip(joints),
         file,
         Path::new(file).parent(),
     )?;
@@ -1508,7 +1523,7 @@ pub struct Stated<'a> {
 /// fields in errors (the file's names; the command line's flags say theirs in `file`).
 pub fn kinematic_of<'a>(
     s: &Stated,
-    poses: impl IntoIterator<Item = &'a Isometry3<f64>>,
+    poses: impl IntoIterator<Item = (&'a Isometry3<f64>, Option<crate::robot::Joints>)>,
     file: &str,
     dir: Option<&Path>,
 ) -> Result<Option<crate::captures::Kinematic>, FormatError> {
@@ -1537,7 +1552,18 @@ pub fn kinematic_of<'a>(
             ));
         }
     };
+    let poses: Vec<_> = poses.into_iter().collect();
     let Some(name) = s.robot else {
+        if let Some(i) = poses.iter().position(|p| p.1.is_some()) {
+            return Err(err(
+                file,
+                &format!("profiles[{i}].joints_deg"),
+                format!(
+                    "joint values need the arm they belong to; give the arm ({robot_at}: \
+                     irb120, irb2600 or a URDF file's path), or leave them out"
+                ),
+            ));
+        }
         if s.link_error_mm.is_some() || s.joint_offset_error_deg.is_some() {
             return Err(err(
                 file,
@@ -1560,6 +1586,28 @@ pub fn kinematic_of<'a>(
         _ => name.to_string(),
     };
     let robot = crate::robot::Robot::resolve(&path).map_err(|e| err(file, robot_at, e))?;
+    // Logged joint values must put the flange where the record says (within a controller's
+    // own calibrated model of the arm: 1 mm, 0.1 deg).
+    for (i, (f, q)) in poses.iter().enumerate() {
+        let Some(q) = q else { continue };
+        let at = robot.fk(q);
+        let (mm, deg) = (
+            (at.translation.vector - f.translation.vector).norm() * 1e3,
+            at.rotation.angle_to(&f.rotation).to_degrees(),
+        );
+        if !(mm <= 1.0 && deg <= 0.1) {
+            return Err(err(
+                file,
+                &format!("profiles[{i}].joints_deg"),
+                format!(
+                    "{:.3?}: {name} puts the flange {mm:.3} mm / {deg:.3} deg from the record's \
+                     pose (at most 1 mm / 0.1 deg): check the arm, the joint order and units \
+                     (deg), and that the joints and the pose are the same record's",
+                    q.map(f64::to_degrees)
+                ),
+            ));
+        }
+    }
     crate::captures::Kinematic::new(
         name.to_string(),
         std::sync::Arc::new(robot),

@@ -566,6 +566,8 @@ pub struct Header<'a> {
     /// The arm (a built-in name or a URDF path) and its kinematic error (mm per joint origin
     /// axis, deg per joint zero), as a capture file states them (docs/captures.md).
     pub robot: Option<&'a str>,
+    /// Each pose's joint values (deg) where the pose list gave them.
+    pub joints_deg: Option<&'a [Vec<f64>]>,
     pub link_error_mm: Option<f64>,
     pub joint_offset_error_deg: Option<f64>,
     /// The z value (mm) the profiler writes where a column has no point (0, -999, ...), besides
@@ -641,12 +643,16 @@ pub fn capture_file(
             }),
             None => {
                 let (t, q) = pose_json(&poses[i]);
-                serde_json::json!({
+                let mut rec = serde_json::json!({
                     "group": i,
                     "tcp_position_mm": t,
                     "tcp_quaternion_wxyz": q,
                     "points_mm": pts,
-                })
+                });
+                if let Some(j) = h.joints_deg.and_then(|j| j.get(i)) {
+                    rec["joints_deg"] = serde_json::json!(&j[..6]);
+                }
+                rec
             }
         })
         .collect();

@@ -481,6 +481,50 @@ fn import_builds_the_capture_file_a_rig_would_have_written() {
     );
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("out of reach of irb2600"), "{err}");
+    // A pose list of joint values: the file keeps them with each pose, the kinematic error is
+    // carried through them, and the transform is the same; a joint value that does not give the
+    // record's pose is refused.
+    let robot = lasercal::robot::Robot::resolve("irb120").unwrap();
+    let mut q = [0.0; 6];
+    let mut csv = String::from("j1_deg,j2_deg,j3_deg,j4_deg,j5_deg,j6_deg\n");
+    for p in profiles {
+        let (t, r) = pose(p);
+        let f = nalgebra::Isometry3::from_parts(
+            nalgebra::Translation3::new(t[0] * 1e-3, t[1] * 1e-3, t[2] * 1e-3),
+            r,
+        );
+        q = robot.ik_nearest(&f, &q).unwrap();
+        let deg: Vec<String> = q.iter().map(|v| v.to_degrees().to_string()).collect();
+        csv += &(deg.join(",") + "\n");
+    }
+    let joints = dir.path().join("joints.csv");
+    std::fs::write(&joints, csv).unwrap();
+    let from_joints = dir.path().join("joints-caps.json");
+    let (code, _, err) = import_ball(
+        &doc,
+        "gocator-2340",
+        &joints,
+        &per_pose,
+        &from_joints,
+        &stated,
+    );
+    assert_eq!(code, 0, "{err}");
+    assert_calibrates_to(&from_joints, dir.path(), "joints", &want);
+    let mut written: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&from_joints).unwrap()).unwrap();
+    assert_eq!(
+        written["profiles"][0]["joints_deg"]
+            .as_array()
+            .unwrap()
+            .len(),
+        6
+    );
+    let j1 = written["profiles"][3]["joints_deg"][0].as_f64().unwrap();
+    written["profiles"][3]["joints_deg"][0] = (j1 + 2.0).into();
+    std::fs::write(&from_joints, written.to_string()).unwrap();
+    let (code, _, err) = common::lasercal(&["calibrate", from_joints.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("profiles[3].joints_deg"), "{err}");
     // --compact: the points in an array beside the file, read back alike.
     for (tag, sensor, compact) in [
         ("points", None, false),

@@ -1111,12 +1111,38 @@ fn ball_refinement_converges_on_independent_profiles() {
     }
 }
 
+/// `robot` with the kinematic error an uncalibrated arm has, drawn from `seed` by this test's
+/// own hand: each joint origin moved by `link` (m, one sd per axis), each zero by `zero_deg`.
+fn uncalibrated(
+    robot: &lasercal::robot::Robot,
+    link: f64,
+    zero_deg: f64,
+    seed: u64,
+) -> lasercal::robot::Robot {
+    use rand_distr::{Distribution, StandardNormal};
+    let mut g = lasercal::testkit::rng(seed);
+    let mut z = || -> f64 { StandardNormal.sample(&mut g) };
+    let mut arm = robot.clone();
+    for j in &mut arm.joints {
+        let d = nalgebra::Vector3::new(z(), z(), z()) * link;
+        let turn = UnitQuaternion::from_axis_angle(&j.axis, z() * zero_deg.to_radians());
+        j.prev_to_joint = Isometry3::from_parts(
+            Translation3::from(j.prev_to_joint.translation.vector + d),
+            j.prev_to_joint.rotation * turn,
+        );
+    }
+    arm
+}
+
 /// The verdict on the papers' own protocols as another generator makes them: the disk paper's
 /// four scans, its ball's rotation and translation sets and the edge paper's 25 orientations of
 /// 10 translations (its parallel bar), every profile from `testkit::fan`
 /// (its own fan, declared as docs/sensors.md says) with z noise 0.1 mm; once with an exact arm
-/// and once with robot pose error (each profile cast from a pose moved up to 0.3 mm and
-/// 0.017 deg, the file recording the commanded pose and stating 0.2 mm of robot accuracy). Every
+/// once with robot pose error (each profile cast from a pose moved up to 0.3 mm and 0.017 deg,
+/// the file recording the commanded pose and stating 0.2 mm of robot accuracy), and once with an
+/// uncalibrated arm (`uncalibrated`: joint origins 0.1 mm, zeros 0.01 deg; the profiles cast
+/// from where that arm goes at the configuration the nominal one needs, the file stating the arm
+/// and its kinematic error). Every
 /// variant run and judged as `calibrate` does (`verdict::decide`); the specimen placed anew each
 /// trial (`placed`). Counts right answers called suspect (false alarms), wrong answers (more than
 /// 1 deg or 1 mm off) judged ok, and how often the chosen result's 95 % bound, and each variant's
@@ -1159,7 +1185,12 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
         }
         let (s, fan, solids) = case();
         let sensor = with_sigma(&common::declared(&fan, "fan-295"), 0.1);
-        for (robot_mm, stated_mm) in [(0.0, 0.0), (0.3, 0.2)] {
+        // (per-pose robot error mm, stated accuracy mm, kinematic error: link mm, zero deg)
+        for (robot_mm, stated_mm, kinematic) in [
+            (0.0, 0.0, None),
+            (0.3, 0.2, None),
+            (0.0, 0.0, Some((0.1, 0.01))),
+        ] {
             let outcomes: Vec<Outcome> = (0..n)
                 .into_par_iter()
                 .map(|t| {
@@ -1176,6 +1207,14 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
                             );
                         }
                     }
+                    if let Some((link_mm, zero_deg)) = kinematic {
+                        let arm = uncalibrated(&s.rig.robot, link_mm * 1e-3, zero_deg, 6000 + t);
+                        let mut q = [0.0; 6];
+                        for p in &mut moved.profiles {
+                            q = s.rig.robot.ik_nearest(&p.base_to_flange, &q).unwrap();
+                            p.base_to_flange = arm.fk(&q);
+                        }
+                    }
                     let noise = Noise {
                         sigma_z: 0.1e-3,
                         dropout: 0.0,
@@ -1187,6 +1226,22 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
                         p.base_to_flange = q.base_to_flange;
                     }
                     file.judging.robot_accuracy = stated_mm * 1e-3;
+                    if let Some((link_mm, zero_deg)) = kinematic {
+                        let k = lasercal::captures::Kinematic::new(
+                            "irb".into(),
+                            std::sync::Arc::new(s.rig.robot.clone()),
+                            link_mm * 1e-3,
+                            f64::to_radians(zero_deg),
+                            file.profiles.iter().map(|p| (&p.base_to_flange, None)),
+                        )
+                        .unwrap();
+                        file.judging.robot_accuracy = k.point_sd();
+                        file.kinematic = Some(k);
+                    }
+                    let robot_mm = match kinematic {
+                        Some((l, z)) => format!("kinematic {l} mm / {z} deg"),
+                        None => format!("{robot_mm} mm"),
+                    };
                     let Ok(d) = decide(&file, &sensor, None) else {
                         return Outcome {
                             refused: true,
@@ -1230,7 +1285,7 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
                             })
                             .collect(),
                         what: format!(
-                            "{name}, robot {robot_mm} mm, trial {t}: {} {:.4} deg / {:.4} mm \
+                            "{name}, robot {robot_mm}, trial {t}: {} {:.4} deg / {:.4} mm \
                              (bound {br:.4} / {bt:.4}): {lines}",
                             d.method(),
                             e.rotation_error_deg,
@@ -1267,8 +1322,12 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
                     .filter(|o| !o.refused && !o.right && o.ok)
                     .map(|o| o.what.clone()),
             );
+            let robot_mm = match kinematic {
+                Some((l, z)) => format!("kinematic {l} mm / {z} deg"),
+                None => format!("{robot_mm} mm"),
+            };
             println!(
-                "| {name} | {robot_mm} mm | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {name} | {robot_mm} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 outcomes.len(),
                 count(&|o| o.right),
                 count(&|o| o.right && o.suspect),

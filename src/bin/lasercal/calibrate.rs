@@ -138,7 +138,12 @@ pub fn run(a: Args) -> Result<i32> {
         };
         caps.kinematic = lasercal::io::captures::kinematic_of(
             &stated,
-            caps.profiles.iter().map(|p| &p.base_to_flange),
+            caps.profiles.iter().map(|p| {
+                (
+                    &p.base_to_flange,
+                    k.and_then(|k| k.joints_given(&p.base_to_flange)),
+                )
+            }),
             &name,
             a.file.parent(),
         )?;

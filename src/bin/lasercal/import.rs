@@ -195,6 +195,7 @@ pub fn run(a: Args) -> Result<()> {
         z_sigma_mm: a.z_sigma_mm,
         robot_accuracy_mm: a.robot_accuracy_mm,
         robot: a.robot.as_deref(),
+        joints_deg: (list.key == "joints_deg").then_some(&list.rows[..]),
         link_error_mm: a.link_error_mm,
         joint_offset_error_deg: a.joint_offset_error_deg,
         missing_z_mm: a.missing_z_mm,
