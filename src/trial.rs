@@ -155,9 +155,10 @@ fn simulate(
         },
     );
     caps.judging.robot_accuracy = robot.hypot(vibration);
-    // And its arm's kinematic error, which the bound carries through each pose's configuration.
+    // And its arm's kinematic error, which the bound carries through each pose's configuration
+    // (not where the arm is the dynamic model's, which moves the nominal arm).
     let err = &setup.robot_error;
-    if err.link_error > 0.0 || err.joint_offset_error > 0.0 {
+    if (err.link_error > 0.0 || err.joint_offset_error > 0.0) && setup.dynamics.is_none() {
         caps.kinematic = crate::captures::Kinematic::new(
             setup.rig.robot.source.clone(),
             std::sync::Arc::new(setup.rig.robot.clone()),
