@@ -395,15 +395,14 @@ pub fn quality(
         inflation: finite.map(|f| f.honest.inflation),
         orientation_groups: figures.map_or(0, |f| f.honest.orientation_groups),
         group_widening: finite.map(|f| f.honest.group_widening),
-        few_scans: few_scans(caps),
+        // Where the bound carries the arm's kinematic error, nothing to warn of; where it
+        // could not (a variant without a problem to move), the warning stays.
+        few_scans: few_scans(caps).filter(|_| kinematic.is_none()),
         kinematic: kinematic
             .as_ref()
             .zip(caps.kinematic.as_ref())
             .map(|(shifts, k)| {
-                let c: nalgebra::Matrix6<f64> = shifts
-                    .iter()
-                    .map(|(d, sd)| d * d.transpose() * (sd * sd))
-                    .sum();
+                let c = crate::calib::refine::honest::shifts_covariance(shifts);
                 let block = |i: usize| (0..3).map(|a| c[(i + a, i + a)]).sum::<f64>().sqrt();
                 KinematicPart {
                     robot: k.robot_name.clone(),
@@ -535,10 +534,7 @@ pub const MAX_FEW_SCANS: usize = 6;
 /// `MAX_FEW_SCANS` orientations of at least four poses each on average (the disk paper's four
 /// scans), else None.
 fn few_scans(caps: &Captures) -> Option<usize> {
-    // With the arm's kinematic error stated, the bound carries it scan by scan.
-    if !(caps.judging.robot_accuracy > 0.0)
-        || caps.kinematic.as_ref().is_some_and(|k| k.is_stated())
-    {
+    if !(caps.judging.robot_accuracy > 0.0) {
         return None;
     }
     let n =

@@ -54,6 +54,15 @@ pub struct Honest {
     pub per_pose_shift: Matrix6<f64>,
 }
 
+/// The covariance of biases that move the transform by `shift` per unit of independent errors
+/// of standard deviation `sd` each.
+pub fn shifts_covariance(shifts: &[(nalgebra::Vector6<f64>, f64)]) -> Matrix6<f64> {
+    shifts
+        .iter()
+        .map(|(d, sd)| d * d.transpose() * (sd * sd))
+        .sum()
+}
+
 /// 95 % bounds on the transform's error: per axis and on the whole rotation and translation.
 /// The two whole bounds are one 95 % statement: the rotation and the translation error lie
 /// within them together in at least 95 % of calibrations (`ok` needs both within the
@@ -236,10 +245,7 @@ impl Honest {
         rotation: f64,
         translation: f64,
     ) -> Honest {
-        let kinematic: Matrix6<f64> = shifts
-            .iter()
-            .map(|(d, sd)| d * d.transpose() * (sd * sd))
-            .sum();
+        let kinematic = shifts_covariance(shifts);
         let model = self.residual + self.per_pose_shift * (translation * translation) + kinematic;
         let mut c = if model.iter().all(|v| v.is_finite()) {
             larger_of(&self.covariance, &model, 6).0
