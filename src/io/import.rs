@@ -686,20 +686,33 @@ pub fn capture_file(
     if let Some(s) = h.feature_sigma_mm {
         doc["feature_sigma_mm"] = serde_json::json!(s);
     }
-    if let Some(r) = h.robot_accuracy_mm {
-        doc["robot_accuracy_mm"] = serde_json::json!(r);
-    }
-    if let Some(r) = h.robot {
-        doc["robot"] = serde_json::json!(r);
-    }
-    if let Some(v) = h.link_error_mm {
-        doc["link_error_mm"] = serde_json::json!(v);
-    }
-    if let Some(v) = h.joint_offset_error_deg {
-        doc["joint_offset_error_deg"] = serde_json::json!(v);
-    }
+    stated_robot(&mut doc, h);
     let text = serde_json::to_string_pretty(&doc)
         .map_err(|e| field(poses_file, "json".into(), e.to_string()))?;
     super::captures::from_json(&text, "the imported capture file")?;
     Ok(text)
+}
+
+/// The robot's accuracy, the arm and its kinematic error where the header states them.
+fn stated_robot(doc: &mut serde_json::Value, h: &Header) {
+    let fields = [
+        (
+            "robot_accuracy_mm",
+            h.robot_accuracy_mm.map(serde_json::Value::from),
+        ),
+        ("robot", h.robot.map(serde_json::Value::from)),
+        (
+            "link_error_mm",
+            h.link_error_mm.map(serde_json::Value::from),
+        ),
+        (
+            "joint_offset_error_deg",
+            h.joint_offset_error_deg.map(serde_json::Value::from),
+        ),
+    ];
+    for (key, value) in fields {
+        if let Some(v) = value {
+            doc[key] = v;
+        }
+    }
 }

@@ -88,6 +88,55 @@ pub struct KinematicPart {
     pub sd_mm: f64,
 }
 
+impl KinematicPart {
+    /// The part the biases `shifts` (per unit error, with each error's sd) of the stated `k`
+    /// make.
+    fn of(shifts: &[(nalgebra::Vector6<f64>, f64)], k: &crate::captures::Kinematic) -> Self {
+        let c = crate::calib::refine::honest::shifts_covariance(shifts);
+        let block = |i: usize| (0..3).map(|a| c[(i + a, i + a)]).sum::<f64>().sqrt();
+        KinematicPart {
+            robot: k.robot_name.clone(),
+            link_error_mm: k.link_sd * 1e3,
+            joint_offset_error_deg: k.joint_zero_sd.to_degrees(),
+            sd_deg: block(0).to_degrees(),
+            sd_mm: block(3) * 1e3,
+        }
+    }
+
+    /// The verdict's note on it.
+    fn note(&self) -> String {
+        format!(
+            "the arm's stated kinematic error ({}: joint origins {:.3} mm per axis, joint zeros \
+             {:.4} deg, one sd) is in the bounds: through each pose's joint configuration it \
+             moves the result by about {:.4} deg / {:.4} mm (one sd), which no residual shows",
+            self.robot, self.link_error_mm, self.joint_offset_error_deg, self.sd_deg, self.sd_mm
+        )
+    }
+}
+
+/// The arm's stated kinematic error carried through each pose's joint configuration: the bias
+/// each error moves the fit by per unit (`Refinable::pose_shift`), with its sd. None: no error
+/// stated, or no problem to move.
+fn kinematic_shifts(
+    cal: &Calibration,
+    estimator: super::Estimator,
+    caps: &Captures,
+) -> Option<Vec<(nalgebra::Vector6<f64>, f64)>> {
+    let k = caps.kinematic.as_ref().filter(|k| k.is_stated())?;
+    let shifts = cal
+        .problem(estimator)?
+        .pose_shift(&cal.flange_to_sensor, &|f| k.twists_at(f))?;
+    Some(shifts.into_iter().zip(k.sds()).collect())
+}
+
+/// The stated accuracy `robot` (m) beyond what the kinematic error the bound carries explains.
+fn beyond(robot: f64, carried: Option<&crate::captures::Kinematic>) -> f64 {
+    match carried {
+        Some(k) => (robot * robot - k.point_sd().powi(2)).max(0.0).sqrt(),
+        None => robot,
+    }
+}
+
 /// Truth-free figures of one calibration result.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Quality {
@@ -328,24 +377,12 @@ pub fn quality(
                 .bow_shift(&cal.flange_to_sensor, caps.judging.edge_length)
         })
         .flatten();
-    // The arm's stated kinematic error, carried through each pose's joint configuration: the
-    // bias it moves the fit by, error by error (`Refinable::pose_shift`).
-    let kinematic = caps
-        .kinematic
-        .as_ref()
-        .filter(|k| k.is_stated() && finite.is_some())
-        .and_then(|k| {
-            let shifts = cal
-                .problem(estimator)?
-                .pose_shift(&cal.flange_to_sensor, &|f| k.twists_at(f))?;
-            Some(shifts.into_iter().zip(k.sds()).collect::<Vec<_>>())
-        });
+    let kinematic = finite.and_then(|_| kinematic_shifts(cal, estimator, caps));
     let honest = finite.map(|f| {
-        // The stated accuracy's common part beyond what the kinematic error explains.
-        let common = match (&kinematic, &caps.kinematic) {
-            (Some(_), Some(k)) => (robot * robot - k.point_sd().powi(2)).max(0.0).sqrt(),
-            _ => robot,
-        };
+        let common = beyond(
+            robot,
+            caps.kinematic.as_ref().filter(|_| kinematic.is_some()),
+        );
         let h = match &kinematic {
             Some(k) => f.honest.with_kinematic(k, common / ROBOT_REACH, common),
             None => f.honest.with_systematic(common / ROBOT_REACH, common),
@@ -401,17 +438,7 @@ pub fn quality(
         kinematic: kinematic
             .as_ref()
             .zip(caps.kinematic.as_ref())
-            .map(|(shifts, k)| {
-                let c = crate::calib::refine::honest::shifts_covariance(shifts);
-                let block = |i: usize| (0..3).map(|a| c[(i + a, i + a)]).sum::<f64>().sqrt();
-                KinematicPart {
-                    robot: k.robot_name.clone(),
-                    link_error_mm: k.link_sd * 1e3,
-                    joint_offset_error_deg: k.joint_zero_sd.to_degrees(),
-                    sd_deg: block(0).to_degrees(),
-                    sd_mm: block(3) * 1e3,
-                }
-            }),
+            .map(|(shifts, k)| KinematicPart::of(shifts, k)),
         judging: caps.judging,
         from_nominal: caps
             .judging
@@ -542,6 +569,20 @@ fn few_scans(caps: &Captures) -> Option<usize> {
     ((2..=MAX_FEW_SCANS).contains(&n) && caps.profiles.len() >= 4 * n).then_some(n)
 }
 
+/// The note on `n` scans whose shared arm error the bound does not hold (`few_scans`).
+fn few_scans_note(n: usize) -> String {
+    format!(
+        "the poses are {n} scans, each at one flange orientation: an arm's error that moves \
+             each scan as a whole and the scans by different amounts (link-length and joint-zero \
+             errors of an arm whose kinematics are not calibrated) turns the result, and neither \
+             the residuals nor {n} scans show it, so the rotation's bound does not hold it (on the \
+             comparison rig it held 22-83 % of such results; docs/verdict.md); state the arm and \
+             its kinematic error (robot, link_error_mm, joint_offset_error_deg; --robot, \
+             --link-error-mm, --joint-offset-error-deg) for a bound that holds it, or calibrate \
+             from many orientations (disk-any-pose from free poses, a ball or a plane)"
+    )
+}
+
 /// Judge a result from its quality figures.
 pub fn judge(q: Quality) -> Judged {
     let mut reasons = Vec::new();
@@ -575,24 +616,10 @@ pub fn judge(q: Quality) -> Judged {
         notes.push(note);
     }
     if let Some(n) = q.few_scans {
-        notes.push(format!(
-            "the poses are {n} scans, each at one flange orientation: an arm's error that moves \
-             each scan as a whole and the scans by different amounts (link-length and joint-zero \
-             errors of an arm whose kinematics are not calibrated) turns the result, and neither \
-             the residuals nor {n} scans show it, so the rotation's bound does not hold it (on the \
-             comparison rig it held 22-83 % of such results; docs/verdict.md); state the arm and \
-             its kinematic error (robot, link_error_mm, joint_offset_error_deg; --robot, \
-             --link-error-mm, --joint-offset-error-deg) for a bound that holds it, or calibrate \
-             from many orientations (disk-any-pose from free poses, a ball or a plane)"
-        ));
+        notes.push(few_scans_note(n));
     }
     if let Some(k) = &q.kinematic {
-        notes.push(format!(
-            "the arm's stated kinematic error ({}: joint origins {:.3} mm per axis, joint zeros \
-             {:.4} deg, one sd) is in the bounds: through each pose's joint configuration it \
-             moves the result by about {:.4} deg / {:.4} mm (one sd), which no residual shows",
-            k.robot, k.link_error_mm, k.joint_offset_error_deg, k.sd_deg, k.sd_mm
-        ));
+        notes.push(k.note());
     }
     if let Some((deg, mm)) = q.radius_shift {
         let t = q.judging.radius_tolerance * 1e3;

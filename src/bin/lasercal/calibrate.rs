@@ -126,28 +126,7 @@ pub fn run(a: Args) -> Result<i32> {
         caps.judging.robot_accuracy =
             lasercal::io::captures::robot_accuracy(r, &name, "--robot-accuracy-mm")?;
     }
-    if a.robot.is_some() || a.link_error_mm.is_some() || a.joint_offset_error_deg.is_some() {
-        let k = caps.kinematic.as_ref();
-        let stated = lasercal::io::captures::Stated {
-            robot: a.robot.as_deref().or(k.map(|k| k.robot_name.as_str())),
-            link_error_mm: a.link_error_mm.or(k.map(|k| k.link_sd * 1e3)),
-            joint_offset_error_deg: a
-                .joint_offset_error_deg
-                .or(k.map(|k| k.joint_zero_sd.to_degrees())),
-            flags: true,
-        };
-        caps.kinematic = lasercal::io::captures::kinematic_of(
-            &stated,
-            caps.profiles.iter().map(|p| {
-                (
-                    &p.base_to_flange,
-                    k.and_then(|k| k.joints_given(&p.base_to_flange)),
-                )
-            }),
-            &name,
-            a.file.parent(),
-        )?;
-    }
+    with_stated_arm(&a, &mut caps, &name)?;
     if let Some(t) = a.radius_tolerance_mm {
         caps.judging.radius_tolerance = lasercal::io::captures::radius_tolerance(
             t,
@@ -411,5 +390,39 @@ fn record(
     _: &nalgebra::Isometry3<f64>,
     _: &str,
 ) -> Result<()> {
+    Ok(())
+}
+
+/// The flags' arm and kinematic error over the file's (each flag over its own field), checked
+/// against the poses as the file's are.
+fn with_stated_arm(
+    a: &Args,
+    caps: &mut lasercal::captures::Captures,
+    name: &str,
+) -> anyhow::Result<()> {
+    if a.robot.is_none() && a.link_error_mm.is_none() && a.joint_offset_error_deg.is_none() {
+        return Ok(());
+    }
+    let k = caps.kinematic.as_ref();
+    let stated = lasercal::io::captures::Stated {
+        robot: a.robot.as_deref().or(k.map(|k| k.robot_name.as_str())),
+        link_error_mm: a.link_error_mm.or(k.map(|k| k.link_sd * 1e3)),
+        joint_offset_error_deg: a
+            .joint_offset_error_deg
+            .or(k.map(|k| k.joint_zero_sd.to_degrees())),
+        flags: true,
+    };
+    let kinematic = lasercal::io::captures::kinematic_of(
+        &stated,
+        caps.profiles.iter().map(|p| {
+            (
+                &p.base_to_flange,
+                k.and_then(|k| k.joints_given(&p.base_to_flange)),
+            )
+        }),
+        name,
+        a.file.parent(),
+    )?;
+    caps.kinematic = kinematic;
     Ok(())
 }
