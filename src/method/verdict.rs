@@ -121,12 +121,29 @@ fn kinematic_shifts(
     cal: &Calibration,
     estimator: super::Estimator,
     caps: &Captures,
-) -> Option<Vec<(nalgebra::Vector6<f64>, f64)>> {
+) -> Option<KinematicShifts> {
     let k = caps.kinematic.as_ref().filter(|k| k.is_stated())?;
-    let shifts = cal
+    let moved = cal
         .problem(estimator)?
         .pose_shift(&cal.flange_to_sensor, &|f| k.twists_at(f))?;
-    Some(shifts.into_iter().zip(k.sds()).collect())
+    let sds = k.sds();
+    let pattern = moved.steps.map(|s| {
+        s.into_iter()
+            .zip(&sds)
+            .map(|(steps, sd)| steps.into_iter().map(|d| d * *sd).collect())
+            .collect()
+    });
+    Some(KinematicShifts {
+        biases: moved.shifts.into_iter().zip(sds).collect(),
+        pattern,
+    })
+}
+
+/// The stated kinematic errors' biases on a fit (per unit, with each error's sd) and the
+/// poses' steps each makes at one sd (`PoseShift::steps`).
+struct KinematicShifts {
+    biases: Vec<(nalgebra::Vector6<f64>, f64)>,
+    pattern: Option<Vec<Vec<nalgebra::Vector6<f64>>>>,
 }
 
 /// The stated accuracy `robot` (m) beyond what the kinematic error the bound carries explains.
@@ -384,7 +401,12 @@ pub fn quality(
             caps.kinematic.as_ref().filter(|_| kinematic.is_some()),
         );
         let h = match &kinematic {
-            Some(k) => f.honest.with_kinematic(k, common / ROBOT_REACH, common),
+            Some(k) => f.honest.with_kinematic(
+                &k.biases,
+                k.pattern.as_deref(),
+                common / ROBOT_REACH,
+                common,
+            ),
             None => f.honest.with_systematic(common / ROBOT_REACH, common),
         };
         let h = match &radius_shift {
@@ -438,7 +460,7 @@ pub fn quality(
         kinematic: kinematic
             .as_ref()
             .zip(caps.kinematic.as_ref())
-            .map(|(shifts, k)| KinematicPart::of(shifts, k)),
+            .map(|(shifts, k)| KinematicPart::of(&shifts.biases, k)),
         judging: caps.judging,
         from_nominal: caps
             .judging

@@ -579,7 +579,8 @@ mod tests {
             specimen: c,
         }
         .pose_shift(&x, &twists)
-        .unwrap();
+        .unwrap()
+        .shifts;
         let opts = Options::default();
         let h = 1e-5;
         for (e, shift) in shifts.iter().enumerate() {

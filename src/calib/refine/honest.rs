@@ -52,6 +52,11 @@ pub struct Honest {
     /// standard deviation per axis (m) would give the transform: what a robot's stated accuracy
     /// predicts from the pose set's design, where too few poses cannot measure it.
     pub per_pose_shift: Matrix6<f64>,
+    /// The poses' leverage-corrected steps the clustered covariance came from (empty: it took
+    /// none, `clustered`), kept to be weighed again against a stated error model.
+    pub steps: Vec<nalgebra::Vector6<f64>>,
+    /// The residual-level covariance's degrees of freedom (residuals - parameters).
+    pub residual_dof: usize,
 }
 
 /// The covariance of biases that move the transform by `shift` per unit of independent errors
@@ -93,6 +98,8 @@ impl Honest {
             group_widening: 1.0,
             residual: Matrix6::from_element(f64::INFINITY),
             per_pose_shift: Matrix6::zeros(),
+            steps: Vec::new(),
+            residual_dof: 0,
         }
     }
 
@@ -152,6 +159,8 @@ impl Honest {
             group_widening: 1.0,
             residual: *cov,
             per_pose_shift,
+            steps: Vec::new(),
+            residual_dof: n.saturating_sub(p).max(1),
         };
         if g < 2 || n <= p || !cov.iter().all(|v| v.is_finite()) {
             return alone;
@@ -160,7 +169,7 @@ impl Honest {
             return alone;
         };
         let informative = pose_directions(g, p);
-        let (clustered, pooled) = clustered(inv, sums, &grams, used, cov, informative);
+        let (clustered, pooled, steps) = clustered(inv, sums, &grams, used, cov, informative);
         // The scores of g poses span at most g - 1 directions, and the specimen's parameters
         // take p - 6 of them: with few poses (8 ball or plane poses) the clustered covariance
         // says nothing in the transform's remaining directions. There the residual-level one is
@@ -202,6 +211,8 @@ impl Honest {
             group_widening: widening.sqrt(),
             residual: *cov,
             per_pose_shift,
+            steps,
+            residual_dof: n - p,
         }
     }
 
@@ -233,24 +244,45 @@ impl Honest {
     }
 
     /// `with_systematic` where the arm's kinematic error is stated: `shifts` holds each error's
-    /// bias on the fit per unit and its standard deviation (`Refinable::pose_shift`), and
-    /// `rotation`, `translation` the accuracy beyond it. The model's own covariance (the
-    /// residual-level one, the kinematic biases, the rest of the accuracy independent from pose
-    /// to pose) or the measured one, whichever is larger in each direction: the scatter between
-    /// poses already holds the part of the kinematic error that differs from pose to pose, and
-    /// adding both counted it twice (a 48-pose plane's bound 1.3 times its errors' spread).
+    /// bias on the fit per unit and its standard deviation (`Refinable::pose_shift`),
+    /// `pattern` the poses' steps each error makes at one sd (as `steps`; None: not known),
+    /// and `rotation`, `translation` the accuracy beyond them.
+    ///
+    /// The model's own covariance (the residual-level one, the kinematic biases, the rest of
+    /// the accuracy independent from pose to pose) holds what it states. The scatter between
+    /// poses counts only where it shows more than that: a kinematic error moves the poses in
+    /// a smooth pattern, which the clustering reads as independent per-pose errors (a 48-pose
+    /// plane's rotation bound 3.6 times its errors' RMS). So the poses' steps are first rid of
+    /// every pattern the stated errors can make (`unexplained`), and what is left is weighed
+    /// against the independent part. Where `pattern` is not known, the model's or the measured
+    /// covariance, whichever is larger in each direction (adding the biases to the measured
+    /// one counted the varying part twice).
     pub fn with_kinematic(
         &self,
         shifts: &[(nalgebra::Vector6<f64>, f64)],
+        pattern: Option<&[Vec<nalgebra::Vector6<f64>>]>,
         rotation: f64,
         translation: f64,
     ) -> Honest {
         let kinematic = shifts_covariance(shifts);
-        let model = self.residual + self.per_pose_shift * (translation * translation) + kinematic;
-        let mut c = if model.iter().all(|v| v.is_finite()) {
-            larger_of(&self.covariance, &model, 6).0
-        } else {
-            self.covariance + kinematic
+        let independent = self.residual + self.per_pose_shift * (translation * translation);
+        let model = independent + kinematic;
+        let finite = |m: &Matrix6<f64>| m.iter().all(|v| v.is_finite());
+        let weighed = pattern
+            .filter(|_| finite(&model))
+            .and_then(|p| self.unexplained(p, &independent));
+        let (mut c, dof) = match weighed {
+            Some((excess, dof_excess)) => {
+                let c = model + excess;
+                // The share of the bound the scatter sets (its degrees of freedom).
+                let share = c
+                    .cholesky()
+                    .map(|l| l.solve(&excess).trace() / 6.0)
+                    .unwrap_or(1.0);
+                (c, effective_dof(share, dof_excess, self.residual_dof))
+            }
+            None if finite(&model) => (larger_of(&self.covariance, &model, 6).0, self.dof),
+            None => (self.covariance + kinematic, self.dof),
         };
         for i in 0..3 {
             c[(i, i)] += rotation * rotation;
@@ -258,8 +290,57 @@ impl Honest {
         }
         Honest {
             covariance: c,
+            dof,
             ..self.clone()
         }
+    }
+
+    /// What the poses' steps show beyond the stated errors: the steps less their least-squares
+    /// fit by the errors' patterns (`pattern`: per error, each pose's step at one sd; the
+    /// fitted amounts are whatever this arm's errors are, so no draw of them is mistaken for
+    /// scatter), scaled for the dimensions the fit took, shrunk toward the `independent`
+    /// covariance's shape (`shrunk_spread`), raised to at least it in every direction
+    /// (`larger_of`), less it; widened by the orientation groups' design effect as `of`
+    /// widens. With that estimate's degrees of freedom. None where the patterns do not match
+    /// the steps (another clustering).
+    fn unexplained(
+        &self,
+        pattern: &[Vec<nalgebra::Vector6<f64>>],
+        independent: &Matrix6<f64>,
+    ) -> Option<(Matrix6<f64>, usize)> {
+        let g = self.steps.len();
+        if g < 2 || pattern.iter().any(|p| p.len() != g) || pattern.is_empty() {
+            return None;
+        }
+        let b = DMatrix::from_fn(6 * g, pattern.len(), |r, e| pattern[e][r / 6][r % 6]);
+        let y = DVector::from_fn(6 * g, |r, _| self.steps[r / 6][r % 6]);
+        // The patterns' span, to a relative tolerance: errors that move no pose's step
+        // (taken whole into the transform) or move it as another does add no dimension.
+        let svd = b.svd(true, false);
+        let u = svd.u?;
+        let top = svd.singular_values.max();
+        let keep: Vec<usize> = (0..svd.singular_values.len())
+            .filter(|&i| svd.singular_values[i] > 1e-9 * top)
+            .collect();
+        let k = keep.len();
+        if 6 * g <= k + 6 {
+            return None;
+        }
+        let basis = u.select_columns(&keep);
+        let left = &y - &basis * (basis.tr_mul(&y));
+        // The fit took k of the 6g dimensions: the rest's sum of squares is short by that.
+        let scale = ((6 * g) as f64 / (6 * g - k) as f64).sqrt();
+        let steps: Vec<nalgebra::Vector6<f64>> = (0..g)
+            .map(|c| nalgebra::Vector6::from_fn(|i, _| left[6 * c + i] * scale))
+            .collect();
+        let (measured, pooled) = shrunk_spread(independent, &steps);
+        let (raised, _, _) = larger_of(independent, &measured, 6);
+        let excess = (raised - independent) * (self.group_widening * self.group_widening);
+        let dof = (((g - 1) as f64 * pooled - k as f64 / 6.0) as usize).max(1);
+        excess
+            .iter()
+            .all(|v| v.is_finite())
+            .then_some((excess, dof))
     }
 
     /// The same with a bias added that moves the transform by `shift` per unit of an error of
@@ -320,7 +401,7 @@ fn clustered(
     used: &[usize],
     cov: &Matrix6<f64>,
     informative: usize,
-) -> (Matrix6<f64>, f64) {
+) -> (Matrix6<f64>, f64, Vec<nalgebra::Vector6<f64>>) {
     let (n, p, g) = (sums.n, used.len(), sums.scores.nrows());
     let adjusted = (informative == 6 && !grams.is_empty())
         .then(|| {
@@ -333,11 +414,18 @@ fn clustered(
         })
         .flatten();
     match adjusted {
-        Some(steps) => shrunk_spread(cov, &steps),
+        Some(steps) => {
+            let (c, pooled) = shrunk_spread(cov, &steps);
+            (c, pooled, steps)
+        }
         None => {
             // The small-sample factor of the clustered sandwich (CR1).
             let factor = (g as f64 / (g - 1) as f64) * ((n - 1) as f64 / (n - p) as f64);
-            (scores_spread(inv, &sums.scores, used) * factor, 1.0)
+            (
+                scores_spread(inv, &sums.scores, used) * factor,
+                1.0,
+                Vec::new(),
+            )
         }
     }
 }
@@ -456,6 +544,118 @@ fn leverage_adjusted(
         steps.push(step);
     }
     Some(steps)
+}
+
+/// Each pose's map from its score (over the columns used) to its leverage-corrected step
+/// (`leverage_adjusted`), 6 x p: A^-1 (I + F^T f(X) F A^-1) over the transform's rows. The
+/// correction is linear in the score, so one map serves every residual vector of the fit
+/// (the arm's kinematic errors in `Clustering`). None as `leverage_adjusted`, which keeps its
+/// own products: the map's grouping of them rounds the last bits otherwise, and a fit's
+/// figures stay what they were.
+pub fn leverage_maps(
+    a: &DMatrix<f64>,
+    inv: &DMatrix<f64>,
+    grams: &[DMatrix<f64>],
+) -> Option<Vec<DMatrix<f64>>> {
+    let g = grams.len();
+    if g < 2 || a.clone().cholesky().is_none() {
+        return None;
+    }
+    let p = a.nrows();
+    let scale: Vec<f64> = (0..p).map(|i| a[(i, i)].sqrt()).collect();
+    // Only the transform's block is wanted: each step through A^-1's first six rows.
+    let inv6 = inv.rows(0, 6).into_owned();
+    grams
+        .iter()
+        .map(|gc| {
+            let f = low_rank_factor(gc, &scale);
+            // A pose whose rows say nothing has no leverage to correct for.
+            if f.nrows() == 0 {
+                return Some(inv6.clone());
+            }
+            let fa = &f * inv;
+            let fx = widened(&(&fa * f.transpose()))?;
+            Some(&inv6 + (&inv6 * f.transpose()) * (fx * fa))
+        })
+        .collect()
+}
+
+/// The steps `maps` give the clusters' scores (`scores`: a row per cluster, over the columns
+/// used); None where one is not finite.
+fn steps_of(maps: &[DMatrix<f64>], scores: &DMatrix<f64>) -> Option<Vec<nalgebra::Vector6<f64>>> {
+    maps.iter()
+        .enumerate()
+        .map(|(c, m)| {
+            let step = m * scores.row(c).transpose();
+            let step = nalgebra::Vector6::from_fn(|i, _| step[i]);
+            step.iter().all(|x| x.is_finite()).then_some(step)
+        })
+        .collect()
+}
+
+/// What the pose clustering (`Honest::of`'s leverage-corrected steps, before their shrinkage)
+/// would measure from a given change of the fit's residuals, refitted: for an error the
+/// residuals do not model (an arm's kinematic error), the scatter between poses its pattern
+/// makes, so that `Honest::with_kinematic` can tell it from scatter the stated errors do not
+/// explain. Only where `Honest::of` takes those steps (every direction measured, at most
+/// `MAX_JACKKNIFE` poses).
+pub struct Clustering {
+    clusters: Vec<u32>,
+    /// Each cluster's gram over the used columns.
+    grams: Vec<DMatrix<f64>>,
+    maps: Vec<DMatrix<f64>>,
+    used: Vec<usize>,
+}
+
+impl Clustering {
+    /// For the rows `j` (each in its cluster, `clusters`), their J^T J `a` over every column,
+    /// its inverse `inv` over the columns `used`. None where the clustering takes no steps.
+    pub fn of(
+        j: &DMatrix<f64>,
+        clusters: Vec<u32>,
+        a: &DMatrix<f64>,
+        inv: &DMatrix<f64>,
+        used: &[usize],
+    ) -> Option<Clustering> {
+        let g = clusters.iter().map(|&c| c as usize + 1).max()?;
+        let (p, pj) = (used.len(), j.ncols());
+        if g > MAX_JACKKNIFE || pose_directions(g, p) < 6 {
+            return None;
+        }
+        let all = grams(j, &clusters, g);
+        if all.ncols() != pj * g {
+            return None;
+        }
+        let grams: Vec<DMatrix<f64>> = (0..g)
+            .map(|c| DMatrix::from_fn(p, p, |r, k| all[(used[r], pj * c + used[k])]))
+            .collect();
+        let maps = leverage_maps(&a.select_rows(used).select_columns(used), inv, &grams)?;
+        Some(Clustering {
+            clusters,
+            grams,
+            maps,
+            used: used.to_vec(),
+        })
+    }
+
+    /// Each pose's step d_c that a residual change `dr` makes once the fit has taken its step
+    /// `d` (over the used columns) for it: from each pose's score J_c^T dr_c + A_c d.
+    pub fn steps(
+        &self,
+        j: &DMatrix<f64>,
+        dr: &DVector<f64>,
+        d: &DVector<f64>,
+    ) -> Option<Vec<nalgebra::Vector6<f64>>> {
+        let g = self.grams.len();
+        let s = scores(dr, j, &self.clusters, g);
+        if s.nrows() != g {
+            return None;
+        }
+        let moved = DMatrix::from_fn(g, self.used.len(), |c, k| {
+            s[(c, self.used[k])] + self.grams[c].row(k).dot(&d.transpose())
+        });
+        steps_of(&self.maps, &moved)
+    }
 }
 
 /// The clustered covariance sum_c d_c d_c^T of the poses' leverage-corrected steps `steps`,
@@ -1584,6 +1784,118 @@ mod tests {
             assert!(with.covariance[(i, i)] >= h.per_pose_shift[(i, i)] * (1.0 - 1e-9));
         }
         assert_eq!(h.with_systematic(0.0, 0.0).covariance, h.covariance);
+    }
+
+    /// `Clustering::steps` of a residual change and the fit's step for it are the pose
+    /// clustering's own steps (`Honest::of`) of the refitted residuals.
+    #[test]
+    fn the_clusterings_steps_of_a_change_are_the_refitted_residuals_steps() {
+        let (poses, per) = (12usize, 30usize);
+        let mut dr = Draws(777);
+        let (j, cl, inv) = random_design(&mut dr, poses, per);
+        let change = DVector::from_fn(poses * per, |_, _| dr.gauss());
+        let d = -&inv * j.tr_mul(&change);
+        let refitted = &change + &j * &d;
+        let sums = super::super::Sums::of(&refitted, &j, &cl, poses);
+        let used: Vec<usize> = (0..6).collect();
+        let h = Honest::of(
+            Some(&inv),
+            &sums,
+            &[],
+            &used,
+            &(sandwich(&inv, &j, &refitted)),
+        );
+        assert_eq!(h.steps.len(), poses);
+        let c = Clustering::of(&j, cl, &(j.transpose() * &j), &inv, &used).unwrap();
+        let steps = c.steps(&j, &change, &d).unwrap();
+        for (a, b) in steps.iter().zip(&h.steps) {
+            assert!((a - b).norm() < 1e-9 * b.norm().max(1e-12), "{a} vs {b}");
+        }
+    }
+
+    /// A stated error's pattern over the poses, however large its draw, is not taken for
+    /// scatter between poses (the bound is the model's), while an independent per-pose error
+    /// the statement leaves out still widens it by about what it causes; without the pattern,
+    /// the measured scatter of a large draw sets the bound.
+    #[test]
+    fn a_stated_kinematic_pattern_is_not_taken_for_scatter() {
+        use nalgebra::Vector6;
+        let (poses, per) = (40usize, 30usize);
+        let n = poses * per;
+        let mut dr = Draws(4242);
+        let (j, cl, inv) = random_design(&mut dr, poses, per);
+        let used: Vec<usize> = (0..6).collect();
+        let a = j.transpose() * &j;
+        let clustering = Clustering::of(&j, cl.clone(), &a, &inv, &used).unwrap();
+        // Three smooth patterns over the poses (each row moved by a pose-dependent amount).
+        let changes: Vec<DVector<f64>> = (0..3)
+            .map(|e| {
+                DVector::from_fn(n, |i, _| {
+                    let (c, k) = ((i / per) as f64, (i % per) as f64);
+                    (0.3 * c * (e + 1) as f64).sin() + 0.02 * k * (e as f64 - 1.0)
+                })
+            })
+            .collect();
+        let fit_step = |r: &DVector<f64>| -&inv * j.tr_mul(r);
+        let shifts: Vec<(Vector6<f64>, f64)> = changes
+            .iter()
+            .map(|c| (Vector6::from_iterator(fit_step(c).iter().copied()), 1.0))
+            .collect();
+        let pattern: Vec<Vec<Vector6<f64>>> = changes
+            .iter()
+            .map(|c| clustering.steps(&j, c, &fit_step(c)).unwrap())
+            .collect();
+        let sigma = 1e-3;
+        let honest_of = |r: &DVector<f64>| {
+            let refitted = r + &j * fit_step(r);
+            let sums = super::super::Sums::of(&refitted, &j, &cl, poses);
+            Honest::of(
+                Some(&inv),
+                &sums,
+                &[],
+                &used,
+                &(&inv * sigma * sigma).fixed_view::<6, 6>(0, 0).into_owned(),
+            )
+        };
+        // A draw of 3, -2 and 5 sd, and the sensor's noise.
+        let noise = DVector::from_fn(n, |_, _| sigma * dr.gauss());
+        let drawn = &changes[0] * 3.0 - &changes[1] * 2.0 + &changes[2] * 5.0 + &noise;
+        let h = honest_of(&drawn);
+        let model = h.residual + shifts_covariance(&shifts);
+        let with = h.with_kinematic(&shifts, Some(&pattern), 0.0, 0.0);
+        let without = h.with_kinematic(&shifts, None, 0.0, 0.0);
+        for i in 0..6 {
+            let (m, w) = (model[(i, i)], with.covariance[(i, i)]);
+            assert!(
+                w >= m * (1.0 - 1e-9) && w - m < 2.0 * h.residual[(i, i)],
+                "{i}: {w} vs {m}"
+            );
+        }
+        assert!((0..6).any(|i| without.covariance[(i, i)] > 4.0 * model[(i, i)]));
+        // An error of its own at each pose, 10 times the noise over a pose's rows.
+        let tau = 10.0 * sigma;
+        let own: Vec<Vector6<f64>> = (0..poses)
+            .map(|_| Vector6::from_fn(|_, _| tau * dr.gauss()))
+            .collect();
+        let moved = DVector::from_fn(n, |i, _| (j.row(i) * own[i / per])[0]);
+        let h = honest_of(&(&drawn + &moved));
+        let with = h.with_kinematic(&shifts, Some(&pattern), 0.0, 0.0);
+        // What independent per-pose shifts of tau through J cause: sum_c A^-1 A_c A_c A^-1.
+        let caused: DMatrix<f64> = (0..poses)
+            .map(|c| {
+                let jc = j.rows(c * per, per);
+                let ac = jc.transpose() * jc;
+                &inv * &ac * &ac * &inv * (tau * tau)
+            })
+            .fold(DMatrix::zeros(6, 6), |s, m| s + m);
+        for i in 0..6 {
+            let excess = with.covariance[(i, i)] - model[(i, i)];
+            let want = caused[(i, i)];
+            assert!(
+                excess > 0.4 * want && excess < 2.5 * want,
+                "{i}: {excess} vs {want}"
+            );
+        }
     }
 
     /// Points of 20 poses, each pose shifted by its own error much larger than the noise: the

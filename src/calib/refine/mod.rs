@@ -571,7 +571,7 @@ pub trait Refinable: Send + Sync + fmt::Debug {
         &self,
         x: &Isometry3<f64>,
         twists: &dyn Fn(&Isometry3<f64>) -> Option<Vec<Vector6<f64>>>,
-    ) -> Option<Vec<Vector6<f64>>>;
+    ) -> Option<PoseShift>;
     /// The same problem without the features seen from the flange poses `drop` picks.
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable>;
     /// The sums the figures at `x` need (`Sums`), streamed in parts where the problem is tall.
@@ -582,6 +582,16 @@ pub trait Refinable: Send + Sync + fmt::Debug {
     /// `line` (`timed`); None when a residual's pose is not on it.
     fn timed(&self, line: std::sync::Arc<timed::Timeline>)
     -> Option<std::sync::Arc<dyn Refinable>>;
+}
+
+/// How a fit moves under errors that move its flange poses (`Refinable::pose_shift`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseShift {
+    /// The fit's move per unit of each error.
+    pub shifts: Vec<Vector6<f64>>,
+    /// The poses' steps, as the pose clustering takes them, per unit of each error (one per
+    /// pose, `honest::Clustering::steps`); None where the bound takes no corrected steps.
+    pub steps: Option<Vec<Vec<Vector6<f64>>>>,
 }
 
 /// What a fit's figures need from its residuals r and Jacobian J, summed over the rows: J^T J,
@@ -804,7 +814,7 @@ impl<M: Model + 'static> Refinable for Problem<M> {
         &self,
         x: &Isometry3<f64>,
         twists: &dyn Fn(&Isometry3<f64>) -> Option<Vec<Vector6<f64>>>,
-    ) -> Option<Vec<Vector6<f64>>> {
+    ) -> Option<PoseShift> {
         // Each residual depends on its own pose only, so moving every pose by one unit twist
         // at a time gives each row's derivative along it; an error's residual change is then
         // each row's derivatives weighted by its pose's twist, and the fit's step per unit of
@@ -837,7 +847,8 @@ impl<M: Model + 'static> Refinable for Problem<M> {
         if poses.iter().any(|p| p.len() != errors) {
             return None;
         }
-        let normal = Normal::of(&ata(&j));
+        let a = ata(&j);
+        let normal = Normal::of(&a);
         let inv = normal.inverse()?;
         let used = &normal.used;
         if used.len() < 6 || used[..6] != [0, 1, 2, 3, 4, 5] {
@@ -859,22 +870,29 @@ impl<M: Model + 'static> Refinable for Problem<M> {
         let along: Vec<DVector<f64>> = (0..6)
             .map(|a| (moved(&Vector6::ith(a, h)) - &r) / h)
             .collect();
+        let clustering = honest::Clustering::of(&j, self.clusters(), &a, inv, used);
         let mut dr = DVector::zeros(r.len());
-        let shifts: Vec<Vector6<f64>> = (0..errors)
-            .map(|e| {
-                for (i, v) in dr.iter_mut().enumerate() {
-                    let tw = &poses[row_pose[i]][e];
-                    *v = (0..6).map(|a| along[a][i] * tw[a]).sum();
+        let mut steps = clustering.as_ref().map(|_| Vec::with_capacity(errors));
+        let mut shifts = Vec::with_capacity(errors);
+        for e in 0..errors {
+            for (i, v) in dr.iter_mut().enumerate() {
+                let tw = &poses[row_pose[i]][e];
+                *v = (0..6).map(|a| along[a][i] * tw[a]).sum();
+            }
+            let jtg = j.tr_mul(&dr);
+            let d = -(inv * DVector::from_fn(used.len(), |i, _| jtg[used[i]]));
+            shifts.push(Vector6::from_fn(|i, _| d[i]));
+            if let (Some(c), Some(out)) = (&clustering, &mut steps) {
+                match c.steps(&j, &dr, &d) {
+                    Some(m) => out.push(m),
+                    None => steps = None,
                 }
-                let jtg = j.tr_mul(&dr);
-                let d = -(inv * DVector::from_fn(used.len(), |i, _| jtg[used[i]]));
-                Vector6::from_fn(|i, _| d[i])
-            })
-            .collect();
+            }
+        }
         shifts
             .iter()
             .all(|s| s.iter().all(|v| v.is_finite()))
-            .then_some(shifts)
+            .then_some(PoseShift { shifts, steps })
     }
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable> {
         Box::new(Problem {
