@@ -134,6 +134,11 @@ pub struct Judging {
     /// (metres): what the residuals may show beyond the sensor's noise before the model is
     /// called inconsistent with the data.
     pub robot_accuracy: f64,
+    /// One standard deviation per axis of the robot's pose error that is each pose's own
+    /// (metres; a repeatability, ISO 9283's RP being about 3.6 times it; 0: none stated): unlike
+    /// `robot_accuracy`, which the bound takes as common to the poses a set spans, this moves
+    /// every pose independently, so the fit averages it over the poses.
+    pub robot_repeatability: f64,
     /// The mounting as drawn (the CAD model's flange-to-sensor): a result further from it than
     /// `method::verdict::NOMINAL_DEG` / `NOMINAL_MM` is suspect. A sensor mirrored in x fits its
     /// data as well as the right one, turned 180 deg about z; only the drawing tells them apart.
@@ -160,6 +165,12 @@ impl Judging {
     pub const DEFAULT_TOLERANCE_DEG: f64 = 0.5;
     pub const DEFAULT_TOLERANCE_MM: f64 = 0.5;
     pub const DEFAULT_ROBOT_ACCURACY_MM: f64 = 0.5;
+
+    /// The robot's whole pose error at one pose (metres, one sd per axis): the common accuracy
+    /// and the pose's own repeatability together, what the residuals may show beyond the noise.
+    pub fn robot_error(&self) -> f64 {
+        self.robot_accuracy.hypot(self.robot_repeatability)
+    }
 }
 
 impl Default for Judging {
@@ -168,6 +179,7 @@ impl Default for Judging {
             tolerance_deg: Judging::DEFAULT_TOLERANCE_DEG,
             tolerance_mm: Judging::DEFAULT_TOLERANCE_MM,
             robot_accuracy: Judging::DEFAULT_ROBOT_ACCURACY_MM * 1e-3,
+            robot_repeatability: 0.0,
             nominal: None,
             scan_speed: None,
             radius_tolerance: 0.0,

@@ -61,6 +61,11 @@ struct FileV1 {
     /// test allows beside the sensor noise (default 0.5).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     robot_accuracy_mm: Option<f64>,
+    /// The robot's repeatability (mm, one standard deviation per axis of each pose's own error,
+    /// about ISO 9283's RP / 3.6; default 0): the residual test allows it with the accuracy,
+    /// and the bound takes it as independent from pose to pose.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    robot_repeatability_mm: Option<f64>,
     /// The arm that took the poses: irb120, irb2600 or a URDF file's path (relative to this
     /// file). Named, every pose is checked to be within its reach; with `link_error_mm` or
     /// `joint_offset_error_deg` the verdict's bound carries the arm's kinematic error through
@@ -286,6 +291,8 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
         tolerance_mm: (c.judging.tolerance_mm != Judging::DEFAULT_TOLERANCE_MM)
             .then_some(c.judging.tolerance_mm),
         robot_accuracy_mm: Some(c.judging.robot_accuracy * 1e3),
+        robot_repeatability_mm: (c.judging.robot_repeatability > 0.0)
+            .then_some(c.judging.robot_repeatability * 1e3),
         robot: c.kinematic.as_ref().map(|k| k.robot_name.clone()),
         link_error_mm: c
             .kinematic
@@ -1383,6 +1390,10 @@ fn judging_of(f: &FileV1, file: &str) -> Result<Judging, FormatError> {
             None => d.robot_accuracy,
             Some(a) => robot_accuracy(a, file, "robot_accuracy_mm")?,
         },
+        robot_repeatability: match f.robot_repeatability_mm {
+            None => d.robot_repeatability,
+            Some(r) => robot_repeatability(r, file, "robot_repeatability_mm")?,
+        },
         nominal: f
             .nominal_flange_to_sensor_mm
             .map(|m| transform_of(&m, file, "nominal_flange_to_sensor_mm"))
@@ -1633,6 +1644,15 @@ pub fn robot_accuracy(mm: f64, file: &str, at: &str) -> Result<f64, FormatError>
     metres_from_mm(mm, 100.0, file, at, || {
         "give one standard deviation of the robot's pose error at the specimen in mm, from 0 to \
          100 (default 0.5; 0 for a simulated rig without robot error)"
+            .into()
+    })
+}
+
+/// A robot's repeatability (mm in, metres out), checked.
+pub fn robot_repeatability(mm: f64, file: &str, at: &str) -> Result<f64, FormatError> {
+    metres_from_mm(mm, 100.0, file, at, || {
+        "give one standard deviation per axis of each pose's own error in mm, from 0 to 100 \
+         (default 0; a data sheet's pose repeatability RP is about 3.6 times it)"
             .into()
     })
 }

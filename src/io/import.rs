@@ -563,6 +563,8 @@ pub struct Header<'a> {
     pub z_sigma_mm: Option<f64>,
     /// The robot's pose accuracy (mm) for the verdict (docs/verdict.md).
     pub robot_accuracy_mm: Option<f64>,
+    /// The robot's repeatability (mm, one sd per axis of each pose's own error).
+    pub robot_repeatability_mm: Option<f64>,
     /// The arm (a built-in name or a URDF path) and its kinematic error (mm per joint origin
     /// axis, deg per joint zero), as a capture file states them (docs/captures.md).
     pub robot: Option<&'a str>,
@@ -699,6 +701,10 @@ fn stated_robot(doc: &mut serde_json::Value, h: &Header) {
         (
             "robot_accuracy_mm",
             h.robot_accuracy_mm.map(serde_json::Value::from),
+        ),
+        (
+            "robot_repeatability_mm",
+            h.robot_repeatability_mm.map(serde_json::Value::from),
         ),
         ("robot", h.robot.map(serde_json::Value::from)),
         (

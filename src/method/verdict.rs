@@ -9,7 +9,8 @@
 //!
 //! The residual test is chi-square-type: with residuals r_i of standard deviation sigma,
 //! sum (r_i / sigma)^2 over the degrees of freedom has mean 1 and standard deviation
-//! sqrt(2 / dof). sigma is the sensor's stated noise and the robot's stated accuracy together;
+//! sqrt(2 / dof). sigma is the sensor's stated noise and the robot's stated accuracy and
+//! repeatability together;
 //! both are data-sheet figures, so the test allows `NOISE_FACTOR` times them before it calls the
 //! residuals inconsistent.
 
@@ -215,7 +216,7 @@ pub struct Quality {
     /// bounds include it. None where stated but this variant's model holds no single edge line
     /// (the note says so).
     pub bow_shift: Option<(f64, f64)>,
-    /// The robot's stated accuracy (mm) the residual test allowed, and the tolerance judged
+    /// The robot's stated accuracy and repeatability the residual test allowed, and the tolerance judged
     /// against.
     pub judging: Judging,
     /// How far the result lies from the nominal mounting, when the captures state one.
@@ -378,7 +379,7 @@ pub fn quality(
     let dof = figures.map(|f| f.n_residuals.saturating_sub(f.n_params).max(1));
     // The residual test allows the sensor's noise and the robot's accuracy together; the bound
     // is stated as a multiple of the sensor's noise alone (the ratio printed beside it).
-    let robot = caps.judging.robot_accuracy;
+    let robot = caps.judging.robot_error();
     let bound = dof.zip(noise).map(|(d, s)| {
         NOISE_FACTOR * (1.0 + Z_999 * (2.0 / d as f64).sqrt()).sqrt() * s.hypot(robot) / s
     });
@@ -396,18 +397,22 @@ pub fn quality(
         .flatten();
     let kinematic = finite.and_then(|_| kinematic_shifts(cal, estimator, caps));
     let honest = finite.map(|f| {
+        // The accuracy is common to the poses (less what a stated kinematic error carries);
+        // the repeatability is each pose's own.
         let common = beyond(
-            robot,
+            caps.judging.robot_accuracy,
             caps.kinematic.as_ref().filter(|_| kinematic.is_some()),
         );
+        let own = caps.judging.robot_repeatability;
         let h = match &kinematic {
             Some(k) => f.honest.with_kinematic(
                 &k.biases,
                 k.pattern.as_deref(),
                 common / ROBOT_REACH,
                 common,
+                own,
             ),
-            None => f.honest.with_systematic(common / ROBOT_REACH, common),
+            None => f.honest.with_systematic(common / ROBOT_REACH, common, own),
         };
         let h = match &radius_shift {
             Some(s) => h.with_shift(s, caps.judging.radius_tolerance),
@@ -605,6 +610,19 @@ fn few_scans_note(n: usize) -> String {
     )
 }
 
+/// The robot's stated error in words: its accuracy, with its repeatability where stated.
+fn robot_words(j: &crate::captures::Judging) -> String {
+    let (a, r) = (j.robot_accuracy * 1e3, j.robot_repeatability * 1e3);
+    if r > 0.0 {
+        format!(
+            "accuracy {a:.3} mm and repeatability {r:.3} mm ({:.3} mm together)",
+            a.hypot(r)
+        )
+    } else {
+        format!("accuracy {a:.3} mm")
+    }
+}
+
 /// Judge a result from its quality figures.
 pub fn judge(q: Quality) -> Judged {
     let mut reasons = Vec::new();
@@ -615,12 +633,12 @@ pub fn judge(q: Quality) -> Judged {
         q.residual_rms_mm,
         q.stated_noise_mm,
     ) {
-        let robot = q.judging.robot_accuracy * 1e3;
+        let robot = robot_words(&q.judging);
         if !(ratio <= bound) {
             reasons.push(format!(
                 "the residuals do not fit the model: RMS {rms:.4} mm is {ratio:.1} times the \
-                 sensor's stated noise {noise:.4} mm, more than it and the robot's stated accuracy \
-                 {robot:.3} mm explain (at most {bound:.1} times passes); check the specimen's \
+                 sensor's stated noise {noise:.4} mm, more than it and the robot's stated {robot} \
+                 explain (at most {bound:.1} times passes); check the specimen's \
                  size and kind, the group signs or edge sense, the pairing of poses and profiles, \
                  the units and rotation convention of the poses, or state the robot's accuracy \
                  (robot_accuracy_mm){}",
@@ -629,8 +647,7 @@ pub fn judge(q: Quality) -> Judged {
         } else if ratio > NOISE_FACTOR * 1.5 {
             notes.push(format!(
                 "the residuals (RMS {rms:.4} mm) are {ratio:.1} times the sensor's stated noise: \
-                 within what the robot's stated accuracy ({robot:.3} mm) explains; the bounds \
-                 include that scatter"
+                 within what the robot's stated {robot} explains; the bounds include that scatter"
             ));
         }
     }

@@ -1139,7 +1139,8 @@ fn uncalibrated(
 /// 10 translations (its parallel bar), every profile from `testkit::fan`
 /// (its own fan, declared as docs/sensors.md says) with z noise 0.1 mm; once with an exact arm
 /// once with robot pose error (each profile cast from a pose moved up to 0.3 mm and 0.017 deg,
-/// the file recording the commanded pose and stating 0.2 mm of robot accuracy), and once with an
+/// the file recording the commanded pose and stating that error as a repeatability of 0.1 mm,
+/// each pose's own, with no accuracy common to the poses), and once with an
 /// uncalibrated arm (`uncalibrated`: joint origins 0.1 mm, zeros 0.01 deg; the profiles cast
 /// from where that arm goes at the configuration the nominal one needs, the file stating the arm
 /// and its kinematic error). Every
@@ -1185,11 +1186,14 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
         }
         let (s, fan, solids) = case();
         let sensor = with_sigma(&common::declared(&fan, "fan-295"), 0.1);
-        // (per-pose robot error mm, stated accuracy mm, kinematic error: link mm, zero deg)
-        for (robot_mm, stated_mm, kinematic) in [
-            (0.0, 0.0, None),
-            (0.3, 0.2, None),
-            (0.0, 0.0, Some((0.1, 0.01))),
+        // (per-pose robot error mm, stated accuracy mm, stated repeatability mm, kinematic
+        // error: link mm, zero deg). The per-pose error moves each profile alone (0.1 mm per
+        // axis from the shift, 0.02 mm at the specimen from the turn): a repeatability, with no
+        // error common to the poses.
+        for (robot_mm, stated_mm, repeat_mm, kinematic) in [
+            (0.0, 0.0, 0.0, None),
+            (0.3, 0.0, 0.1, None),
+            (0.0, 0.0, 0.0, Some((0.1, 0.01))),
         ] {
             let outcomes: Vec<Outcome> = (0..n)
                 .into_par_iter()
@@ -1226,6 +1230,7 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
                         p.base_to_flange = q.base_to_flange;
                     }
                     file.judging.robot_accuracy = stated_mm * 1e-3;
+                    file.judging.robot_repeatability = repeat_mm * 1e-3;
                     if let Some((link_mm, zero_deg)) = kinematic {
                         let k = lasercal::captures::Kinematic::new(
                             "irb".into(),

@@ -1063,3 +1063,70 @@ fn the_arms_kinematic_error_is_read_checked_and_refused_when_wrong() {
     assert_eq!(code, 2);
     assert!(err.contains("--joint-offset-error-deg: 2"), "{err}");
 }
+
+/// A robot's repeatability (each pose's own error) beside its accuracy (common to the poses):
+/// read from the file and the flag, reported in the JSON, and judged as each pose's own. On 8
+/// plane poses (too few to measure their scatter in every direction) a stated repeatability
+/// raises the bound above the noise's alone, and less than the same figure stated as an
+/// accuracy, which adds a common error on top; a bad value is refused with the field.
+#[test]
+fn a_stated_repeatability_is_read_checked_and_taken_as_each_poses_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let (caps, doc) = common::simulated_capture(dir.path(), "plane-8-poses.toml", "p.json");
+    let caps = caps.to_str().unwrap();
+    let bounds = |file: &str, extra: &[&str]| {
+        let json = dir.path().join("out.json");
+        let mut args = vec!["calibrate", file, "--method", "plane-any-pose", "--json"];
+        args.push(json.to_str().unwrap());
+        args.extend_from_slice(extra);
+        let (code, _, err) = common::lasercal(&args);
+        assert!([0, 4].contains(&code), "{extra:?}: {err}");
+        let q: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let q = &q["quality"];
+        let b = |k: &str| q[k].as_f64().unwrap_or_else(|| panic!("{k}: {q}"));
+        (
+            b("error_bound_deg"),
+            b("error_bound_mm"),
+            b("robot_repeatability_mm"),
+        )
+    };
+    let noise = bounds(caps, &["--robot-accuracy-mm", "0"]);
+    let own = bounds(
+        caps,
+        &[
+            "--robot-accuracy-mm",
+            "0",
+            "--robot-repeatability-mm",
+            "0.3",
+        ],
+    );
+    let common = bounds(caps, &["--robot-accuracy-mm", "0.3"]);
+    assert_eq!((noise.2, own.2), (0.0, 0.3));
+    assert!(
+        own.0 > 1.5 * noise.0 && own.1 > 1.5 * noise.1,
+        "{noise:?} {own:?}"
+    );
+    assert!(own.0 < common.0 && own.1 < common.1, "{own:?} {common:?}");
+    // The file's field reads as the flag does.
+    let mut d = doc.clone();
+    d["robot_accuracy_mm"] = serde_json::json!(0.0);
+    d["robot_repeatability_mm"] = serde_json::json!(0.3);
+    let edited = dir.path().join("edited.json");
+    std::fs::write(&edited, d.to_string()).unwrap();
+    assert_eq!(bounds(edited.to_str().unwrap(), &[]), own);
+    d["robot_repeatability_mm"] = serde_json::json!(-0.3);
+    std::fs::write(&edited, d.to_string()).unwrap();
+    let (code, _, err) = common::lasercal(&["calibrate", edited.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("robot_repeatability_mm") && err.contains("-0.3") && err.contains("RP"),
+        "{err}"
+    );
+    let (code, _, err) = common::lasercal(&["calibrate", caps, "--robot-repeatability-mm", "NaN"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("--robot-repeatability-mm") && err.contains("NaN"),
+        "{err}"
+    );
+}

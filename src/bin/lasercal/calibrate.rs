@@ -32,6 +32,12 @@ pub struct Args {
     /// [default: 0.5]
     #[arg(long, allow_negative_numbers = true)]
     robot_accuracy_mm: Option<f64>,
+    /// The robot's repeatability (mm, one standard deviation per axis of each pose's own error,
+    /// about a data sheet's pose repeatability RP / 3.6): the residual test allows it with the
+    /// accuracy, and the bound takes it as independent from pose to pose; overrides the file's
+    /// robot_repeatability_mm [default: 0]
+    #[arg(long, allow_negative_numbers = true)]
+    robot_repeatability_mm: Option<f64>,
     /// The arm that took the poses (irb120, irb2600 or a URDF file's path): every pose is
     /// checked to be within its reach, and with --link-error-mm or --joint-offset-error-deg the
     /// bounds carry the arm's kinematic error through each pose's joint configuration;
@@ -125,6 +131,10 @@ pub fn run(a: Args) -> Result<i32> {
     if let Some(r) = a.robot_accuracy_mm {
         caps.judging.robot_accuracy =
             lasercal::io::captures::robot_accuracy(r, &name, "--robot-accuracy-mm")?;
+    }
+    if let Some(r) = a.robot_repeatability_mm {
+        caps.judging.robot_repeatability =
+            lasercal::io::captures::robot_repeatability(r, &name, "--robot-repeatability-mm")?;
     }
     with_stated_arm(&a, &mut caps, &name)?;
     if let Some(t) = a.radius_tolerance_mm {

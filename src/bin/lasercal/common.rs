@@ -381,6 +381,7 @@ pub fn verdict_text(
         "robot": k.robot, "link_error_mm": k.link_error_mm,
         "joint_offset_error_deg": k.joint_offset_error_deg, "sd_deg": k.sd_deg, "sd_mm": k.sd_mm,
     })));
+    doc["robot_repeatability_mm"] = serde_json::json!(q.judging.robot_repeatability * 1e3);
     doc["radius_tolerance_mm"] = serde_json::json!(q.judging.radius_tolerance * 1e3);
     doc["radius_shift_deg_per_mm"] = serde_json::json!(q.radius_shift.map(|s| s.0));
     doc["radius_shift_mm_per_mm"] = serde_json::json!(q.radius_shift.map(|s| s.1));

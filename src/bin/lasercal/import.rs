@@ -49,6 +49,11 @@ pub struct Args {
     /// not given: 0.5]
     #[arg(long, allow_negative_numbers = true)]
     robot_accuracy_mm: Option<f64>,
+    /// The robot's repeatability, mm (one standard deviation per axis of each pose's own error,
+    /// about a data sheet's pose repeatability RP / 3.6): the residual test allows it, and the
+    /// bound takes it as independent from pose to pose [default when not given: 0]
+    #[arg(long, allow_negative_numbers = true)]
+    robot_repeatability_mm: Option<f64>,
     /// Robot (irb120, irb2600 or a URDF path): needed for a pose list of joint angles; written
     /// to the capture file, whose poses are then checked to be within its reach
     #[arg(long)]
@@ -125,6 +130,13 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(r) = a.robot_accuracy_mm {
         lasercal::io::captures::robot_accuracy(r, "lasercal import", "--robot-accuracy-mm")?;
     }
+    if let Some(r) = a.robot_repeatability_mm {
+        lasercal::io::captures::robot_repeatability(
+            r,
+            "lasercal import",
+            "--robot-repeatability-mm",
+        )?;
+    }
     let source = if a.profiles.is_dir() {
         let mut files: Vec<PathBuf> = std::fs::read_dir(&a.profiles)
             .with_context(|| format!("{}: cannot list", a.profiles.display()))?
@@ -194,6 +206,7 @@ pub fn run(a: Args) -> Result<()> {
         feature_sigma_mm: None,
         z_sigma_mm: a.z_sigma_mm,
         robot_accuracy_mm: a.robot_accuracy_mm,
+        robot_repeatability_mm: a.robot_repeatability_mm,
         robot: a.robot.as_deref(),
         joints_deg: (list.key == "joints_deg").then_some(&list.rows[..]),
         link_error_mm: a.link_error_mm,
