@@ -145,9 +145,12 @@ fn simulate(
             radius_z,
         },
     )?;
-    // The rig states its robot's accuracy as a real cell would (0 without robot error).
+    // The rig states its robot's accuracy and repeatability as a real cell would (0 without
+    // robot error): the error its arm's one draw makes as the accuracy, what each pose draws
+    // alone as the repeatability. Vibration stays with the accuracy: sampled at the profile
+    // rate, neighbouring profiles share it.
     let (robot, vibration) = (
-        setup.robot_error.point_sd(&setup.rig.robot),
+        setup.robot_error.common_sd(&setup.rig.robot),
         if setup.vibration.is_off() {
             0.0
         } else {
@@ -155,6 +158,7 @@ fn simulate(
         },
     );
     caps.judging.robot_accuracy = robot.hypot(vibration);
+    caps.judging.robot_repeatability = setup.robot_error.own_sd(&setup.rig.robot);
     // And its arm's kinematic error, which the bound carries through each pose's configuration
     // (not where the arm is the dynamic model's, which moves the nominal arm).
     let err = &setup.robot_error;

@@ -45,9 +45,19 @@ impl RobotError {
     /// its link lengths). An allowance for
     /// the verdict's residual test, not a model of the arm.
     pub fn point_sd(&self, robot: &Robot) -> f64 {
-        let angle = self.joint_noise.hypot(self.joint_offset_error);
+        self.common_sd(robot).hypot(self.own_sd(robot))
+    }
+
+    /// The part of `point_sd` the trial's one draw of the arm makes (its link-length and
+    /// joint-zero errors): common to the poses, in a pattern their configurations set.
+    pub fn common_sd(&self, robot: &Robot) -> f64 {
+        crate::captures::point_sd_of(robot, self.link_error, self.joint_offset_error)
+    }
+
+    /// The part each pose draws alone (the repeatability, the encoder noise).
+    pub fn own_sd(&self, robot: &Robot) -> f64 {
         let rp = self.repeatability / (3.0 * 3f64.sqrt());
-        rp.hypot(crate::captures::point_sd_of(robot, self.link_error, angle))
+        rp.hypot(crate::captures::point_sd_of(robot, 0.0, self.joint_noise))
     }
 }
 

@@ -271,6 +271,27 @@ fn the_stated_robot_accuracy_matches_the_drawn_robots() {
         "{stated} vs {drawn}"
     );
     assert_eq!(RobotError::default().point_sd(&robot), 0.0);
+    // A simulated rig states the arm's one draw as its accuracy and what each pose draws
+    // alone (repeatability, encoder noise) as its repeatability; together the same whole.
+    let own = RobotError {
+        repeatability: 0.03e-3,
+        joint_noise: 0.002f64.to_radians(),
+        ..Default::default()
+    };
+    assert_eq!(own.common_sd(&robot), 0.0);
+    assert!(own.own_sd(&robot) > 0.03e-3 / (3.0 * 3f64.sqrt()));
+    assert_eq!(links.own_sd(&robot), 0.0);
+    let both = RobotError {
+        link_error: 0.1e-3,
+        joint_offset_error: 0.01f64.to_radians(),
+        ..own
+    };
+    let whole = both.common_sd(&robot).hypot(both.own_sd(&robot));
+    assert!((both.point_sd(&robot) / whole - 1.0).abs() < 1e-12);
+    assert_eq!(
+        both.common_sd(&robot),
+        links.common_sd(&robot).hypot(zeros.common_sd(&robot))
+    );
 }
 
 #[test]
