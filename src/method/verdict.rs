@@ -216,8 +216,8 @@ pub struct Quality {
     /// bounds include it. None where stated but this variant's model holds no single edge line
     /// (the note says so).
     pub bow_shift: Option<(f64, f64)>,
-    /// The robot's stated accuracy and repeatability the residual test allowed, and the tolerance judged
-    /// against.
+    /// The robot's stated accuracy and repeatability the residual test allowed, and the
+    /// tolerance judged against.
     pub judging: Judging,
     /// How far the result lies from the nominal mounting, when the captures state one.
     pub from_nominal: Option<FromNominal>,

@@ -239,11 +239,7 @@ impl Honest {
             // share the poses' scatter sets beyond it takes their few degrees of freedom (the
             // t factor at 7 for 8 ball poses, 1.21 on the sd, had held 98.9 % with the floor
             // setting the bound).
-            let share = c
-                .cholesky()
-                .map(|l| l.solve(&(c - floor)).trace() / 6.0)
-                .unwrap_or(1.0);
-            dof = effective_dof(share.clamp(0.0, 1.0), self.dof, self.residual_dof);
+            dof = effective_dof(share_of(&c, &(c - floor)), self.dof, self.residual_dof);
         }
         for i in 0..3 {
             c[(i, i)] += rotation * rotation;
@@ -291,11 +287,10 @@ impl Honest {
             Some((excess, dof_excess)) => {
                 let c = model + excess;
                 // The share of the bound the scatter sets (its degrees of freedom).
-                let share = c
-                    .cholesky()
-                    .map(|l| l.solve(&excess).trace() / 6.0)
-                    .unwrap_or(1.0);
-                (c, effective_dof(share, dof_excess, self.residual_dof))
+                (
+                    c,
+                    effective_dof(share_of(&c, &excess), dof_excess, self.residual_dof),
+                )
             }
             None if finite(&model) => (larger_of(&self.covariance, &model, 6).0, self.dof),
             None => (self.covariance + kinematic, self.dof),
@@ -1091,6 +1086,15 @@ fn larger_of(a: &Matrix6<f64>, b: &Matrix6<f64>, informative: usize) -> (Matrix6
     let from_b: f64 = raised.iter().filter(|&&v| v > 1.0).sum();
     let share = from_b / raised.sum();
     (l * mid * l.transpose(), raised.max().sqrt(), share)
+}
+
+/// The share of covariance `c` that its part `part` makes, for `effective_dof`: the whitened
+/// trace tr(c^-1 part) / 6, in [0, 1] (1 where `c` is not positive definite).
+fn share_of(c: &Matrix6<f64>, part: &Matrix6<f64>) -> f64 {
+    c.cholesky()
+        .map(|l| l.solve(part).trace() / 6.0)
+        .unwrap_or(1.0)
+        .clamp(0.0, 1.0)
 }
 
 /// Satterthwaite's effective degrees of freedom of a covariance whose share `f` of its trace
