@@ -446,6 +446,8 @@ fn import_builds_the_capture_file_a_rig_would_have_written() {
         "0.05",
         "--joint-offset-error-deg",
         "0.01",
+        "--robot-repeatability-mm",
+        "0.02",
     ];
     let (code, _, err) = import_ball(&doc, "gocator-2340", &abb, &per_pose, &arm, &stated);
     assert_eq!(code, 0, "{err}");
@@ -453,6 +455,7 @@ fn import_builds_the_capture_file_a_rig_would_have_written() {
         serde_json::from_str(&std::fs::read_to_string(&arm).unwrap()).unwrap();
     assert_eq!(written["robot"], "irb120");
     assert_eq!(written["link_error_mm"], 0.05);
+    assert_eq!(written["robot_repeatability_mm"], 0.02);
     let json = dir.path().join("arm-result.json");
     let (code, out, err) = common::lasercal(&[
         "calibrate",
@@ -481,6 +484,19 @@ fn import_builds_the_capture_file_a_rig_would_have_written() {
     );
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("out of reach of irb2600"), "{err}");
+    let (code, _, err) = import_ball(
+        &doc,
+        "gocator-2340",
+        &abb,
+        &per_pose,
+        &dir.path().join("bad-repeat.json"),
+        &["--robot-repeatability-mm", "-1"],
+    );
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("--robot-repeatability-mm") && err.contains("-1"),
+        "{err}"
+    );
     // A pose list of joint values: the file keeps them with each pose, the kinematic error is
     // carried through them, and the transform is the same; a joint value that does not give the
     // record's pose is refused.
