@@ -197,8 +197,8 @@ pub struct Quality {
     pub pose_directions: usize,
     pub inflation: Option<f64>,
     /// Orientation groups among the poses (poses seen with one flange orientation; 0: none
-    /// shared) and how much what a group's poses share widened the bounds (a factor on the sd,
-    /// part of `inflation`).
+    /// shared) and how much what a group's poses share widened the bounds (a factor on the sd
+    /// in the most widened direction, part of `inflation`).
     pub orientation_groups: usize,
     pub group_widening: Option<f64>,
     /// Where the robot's accuracy is stated and the poses are a few scans (2 to
