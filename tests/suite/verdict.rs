@@ -779,24 +779,36 @@ fn leaving_a_group_out_refits_from_the_full_result() {
 /// depending on the view: a systematic error no variant's own bound holds (each covered 0 of 20
 /// trials, docs/verdict.md). The variants then lie farther apart than their bounds allow, and the
 /// chosen result's bound is widened to what the others' bounds imply: its translation is held
-/// (20 of 20 trials), its rotation, which the others do not move, not always (5 of 20).
+/// (20 of 20 trials), its rotation, which the others do not move, not always (5 of 20). Since
+/// the orientation groups widen the direction they share (thirty-fifth session) the chosen
+/// variant's own translation bound holds 10 of the 20 (trial 0 among them): the test takes the
+/// first trial whose own bound misses.
 #[test]
 fn variants_beyond_each_others_bounds_widen_the_chosen_bound() {
     use lasercal::method::verdict::decide;
     let s = setup("xu2021-rotations", &|t| {
         t.replace("kind = \"parallel-bar\"", "kind = \"knife-blade\"")
     });
-    let caps = trial_captures(&s, Kind::Edge, 2021, 0).0.unwrap();
-    let truth = caps.truth.unwrap();
-    let d = decide(&caps, &s.rig.sensor, None).unwrap();
+    // The first of 20 trials whose chosen variant's own bound misses the translation.
+    let mut held = Vec::new();
+    let (caps, d, e) = (0..20)
+        .find_map(|t| {
+            let caps = trial_captures(&s, Kind::Edge, 2021, t).0.unwrap();
+            let truth = caps.truth.unwrap();
+            let d = decide(&caps, &s.rig.sensor, None).unwrap();
+            let a = d.assessed();
+            let e = PoseError::between(&a.calibration.flange_to_sensor, &truth);
+            let (_, own_t) = a.judged.quality.own_error_bound();
+            if e.translation_error_mm <= own_t {
+                held.push(t);
+                return None;
+            }
+            eprintln!("trial {t}: {} off {e:?}, own bound {own_t} mm", a.method);
+            Some((caps, d, e))
+        })
+        .unwrap_or_else(|| panic!("every trial's own bound held: {held:?}"));
+    eprintln!("own bounds held in trials {held:?}");
     let a = d.assessed();
-    let e = PoseError::between(&a.calibration.flange_to_sensor, &truth);
-    let (_, own_t) = a.judged.quality.own_error_bound();
-    assert!(
-        !(e.translation_error_mm <= own_t),
-        "{}: its own bound {own_t} mm holds {e:?}",
-        a.method
-    );
     let (_, t) = d.judged.quality.error_bound();
     assert!(
         e.translation_error_mm <= t,
