@@ -1,6 +1,7 @@
 use super::common::{matrix_text, refinement, verdict_text};
 use anyhow::{Result, bail};
 use lasercal::calib::PoseError;
+use lasercal::captures::Captures;
 use lasercal::math::pose_to_rows_mm;
 use lasercal::method::{MethodId, verdict};
 use lasercal::metrics::Metric;
@@ -117,49 +118,7 @@ pub fn run(a: Args) -> Result<i32> {
     let recorders = super::common::open_recorders(a.rerun.as_deref(), a.spawn)?;
     let stage = super::common::Stage::start(&format!("reading {name}"));
     let (mut caps, sensor) = lasercal::io::captures::read(&a.file)?;
-    if let Some(t) = a.orientation_tolerance_deg {
-        caps.orientation_tolerance_deg =
-            lasercal::io::captures::orientation_tolerance(t, &name, "--orientation-tolerance-deg")?;
-    }
-    if let Some(t) = a.tolerance_deg {
-        caps.judging.tolerance_deg =
-            lasercal::io::captures::tolerance(t, &name, "--tolerance-deg")?;
-    }
-    if let Some(t) = a.tolerance_mm {
-        caps.judging.tolerance_mm = lasercal::io::captures::tolerance(t, &name, "--tolerance-mm")?;
-    }
-    if let Some(r) = a.robot_accuracy_mm {
-        caps.judging.robot_accuracy =
-            lasercal::io::captures::robot_accuracy(r, &name, "--robot-accuracy-mm")?;
-    }
-    if let Some(r) = a.robot_repeatability_mm {
-        caps.judging.robot_repeatability =
-            lasercal::io::captures::robot_repeatability(r, &name, "--robot-repeatability-mm")?;
-    }
-    with_stated_arm(&a, &mut caps, &name)?;
-    if let Some(t) = a.radius_tolerance_mm {
-        caps.judging.radius_tolerance = lasercal::io::captures::radius_tolerance(
-            t,
-            caps.specimen_radius.map(|r| r * 1e3),
-            &name,
-            "--radius-tolerance-mm",
-        )?;
-    }
-    if let Some(t) = a.straightness_mm {
-        caps.judging.straightness =
-            lasercal::io::captures::straightness(t, &name, "--straightness-mm")?;
-    }
-    if a.hold_clock_offset || a.estimate_clock_drift {
-        match caps.timing.as_mut() {
-            Some(t) if a.hold_clock_offset => t.estimate_offset = false,
-            Some(t) => t.estimate_drift = true,
-            None => anyhow::bail!(
-                "--hold-clock-offset / --estimate-clock-drift: {name} places no profile by its \
-                 time stamp (no pose_stream and t_s): there is no profiler clock to hold or \
-                 estimate; leave the flag out"
-            ),
-        }
-    }
+    apply_flags(&a, &mut caps, &name)?;
     let known: Vec<String> = caps
         .method
         .estimators()
@@ -186,53 +145,7 @@ pub fn run(a: Args) -> Result<i32> {
     let decision = super::common::decide(&name, &caps, &sensor, a.method);
     stage.done();
     let decision = decision?;
-    let mut variants = Vec::new();
-    if a.method.is_none() {
-        say!(
-            "{name}: {} captures, {} groups, {} profiles; every variant:",
-            caps.method,
-            caps.groups.len(),
-            caps.profiles.len()
-        );
-        say!(
-            "  {:<15} {:<8} {:>12} {:>12} {:>13}",
-            "variant",
-            "verdict",
-            "bound deg",
-            "bound mm",
-            "noise ratio"
-        );
-    }
-    for (id, r) in &decision.results {
-        let row = match r {
-            Ok(x) => {
-                let (br, bt) = x.judged.quality.error_bound();
-                let nr = x.judged.quality.noise_ratio;
-                if a.method.is_none() {
-                    say!(
-                        "  {:<15} {:<8} {br:>12.4} {bt:>12.4} {:>13}",
-                        id.to_string(),
-                        x.judged.verdict.to_string(),
-                        nr.map_or("-".to_string(), |v| format!("{v:.2}"))
-                    );
-                }
-                serde_json::json!({ "method": id, "verdict": x.judged.verdict,
-                    "error_bound_deg": br, "error_bound_mm": bt, "noise_ratio": nr,
-                    "flange_to_sensor": pose_to_rows_mm(&x.calibration.flange_to_sensor) })
-            }
-            Err(e) => {
-                if a.method.is_none() {
-                    // The first clause: the whole (per-group counts) is in --json.
-                    let e = e.to_string();
-                    let short = e.split(" | ").next().unwrap_or(&e);
-                    let more = if short.len() < e.len() { " ..." } else { "" };
-                    say!("  {:<15} cannot run: {short}{more}", id.to_string());
-                }
-                serde_json::json!({ "method": id, "error": e.to_string() })
-            }
-        };
-        variants.push(row);
-    }
+    let variants = variants_table(&a, &name, &caps, &decision)?;
     let method = decision.method();
     let chosen = decision.assessed();
     if a.method.is_none() {
@@ -309,6 +222,111 @@ pub fn run(a: Args) -> Result<i32> {
         verdict::Verdict::Imprecise => IMPRECISE,
         verdict::Verdict::Ok => 0,
     })
+}
+
+/// The flags that override the capture file's own fields, each checked as the file's is.
+fn apply_flags(a: &Args, caps: &mut Captures, name: &str) -> Result<()> {
+    if let Some(t) = a.orientation_tolerance_deg {
+        caps.orientation_tolerance_deg =
+            lasercal::io::captures::orientation_tolerance(t, name, "--orientation-tolerance-deg")?;
+    }
+    if let Some(t) = a.tolerance_deg {
+        caps.judging.tolerance_deg = lasercal::io::captures::tolerance(t, name, "--tolerance-deg")?;
+    }
+    if let Some(t) = a.tolerance_mm {
+        caps.judging.tolerance_mm = lasercal::io::captures::tolerance(t, name, "--tolerance-mm")?;
+    }
+    if let Some(r) = a.robot_accuracy_mm {
+        caps.judging.robot_accuracy =
+            lasercal::io::captures::robot_accuracy(r, name, "--robot-accuracy-mm")?;
+    }
+    if let Some(r) = a.robot_repeatability_mm {
+        caps.judging.robot_repeatability =
+            lasercal::io::captures::robot_repeatability(r, name, "--robot-repeatability-mm")?;
+    }
+    with_stated_arm(a, caps, name)?;
+    if let Some(t) = a.radius_tolerance_mm {
+        caps.judging.radius_tolerance = lasercal::io::captures::radius_tolerance(
+            t,
+            caps.specimen_radius.map(|r| r * 1e3),
+            name,
+            "--radius-tolerance-mm",
+        )?;
+    }
+    if let Some(t) = a.straightness_mm {
+        caps.judging.straightness =
+            lasercal::io::captures::straightness(t, name, "--straightness-mm")?;
+    }
+    if a.hold_clock_offset || a.estimate_clock_drift {
+        match caps.timing.as_mut() {
+            Some(t) if a.hold_clock_offset => t.estimate_offset = false,
+            Some(t) => t.estimate_drift = true,
+            None => anyhow::bail!(
+                "--hold-clock-offset / --estimate-clock-drift: {name} places no profile by its \
+                 time stamp (no pose_stream and t_s): there is no profiler clock to hold or \
+                 estimate; leave the flag out"
+            ),
+        }
+    }
+    Ok(())
+}
+
+/// Every variant's verdict, bounds and noise ratio, printed as a table when no `--method` was
+/// asked for, and as the JSON rows of `variants`.
+fn variants_table(
+    a: &Args,
+    name: &str,
+    caps: &Captures,
+    decision: &lasercal::method::verdict::Decision,
+) -> Result<Vec<serde_json::Value>> {
+    let mut variants = Vec::new();
+    if a.method.is_none() {
+        say!(
+            "{name}: {} captures, {} groups, {} profiles; every variant:",
+            caps.method,
+            caps.groups.len(),
+            caps.profiles.len()
+        );
+        say!(
+            "  {:<15} {:<8} {:>12} {:>12} {:>13}",
+            "variant",
+            "verdict",
+            "bound deg",
+            "bound mm",
+            "noise ratio"
+        );
+    }
+    for (id, r) in &decision.results {
+        let row = match r {
+            Ok(x) => {
+                let (br, bt) = x.judged.quality.error_bound();
+                let nr = x.judged.quality.noise_ratio;
+                if a.method.is_none() {
+                    say!(
+                        "  {:<15} {:<8} {br:>12.4} {bt:>12.4} {:>13}",
+                        id.to_string(),
+                        x.judged.verdict.to_string(),
+                        nr.map_or("-".to_string(), |v| format!("{v:.2}"))
+                    );
+                }
+                serde_json::json!({ "method": id, "verdict": x.judged.verdict,
+                    "error_bound_deg": br, "error_bound_mm": bt, "noise_ratio": nr,
+                    "flange_to_sensor": pose_to_rows_mm(&x.calibration.flange_to_sensor) })
+            }
+            Err(e) => {
+                if a.method.is_none() {
+                    // The first clause: the whole (per-group counts) is in --json.
+                    let e = e.to_string();
+                    let short = e.split(" | ").next().unwrap_or(&e);
+                    let more = if short.len() < e.len() { " ..." } else { "" };
+                    say!("  {:<15} cannot run: {short}{more}", id.to_string());
+                }
+                serde_json::json!({ "method": id, "error": e.to_string() })
+            }
+        };
+        variants.push(row);
+    }
+    Ok(variants)
 }
 
 /// The transform out as the flags ask: YAML, a URDF fragment, the ROS 2 command.
