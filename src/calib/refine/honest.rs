@@ -1768,6 +1768,23 @@ mod tests {
         assert!(orientation_groups(&f[..5], &clusters(&f, 12), 12).is_empty());
     }
 
+    /// 120 poses of 5 rows each in 30 orientation groups of 4 (`GROUPED`): six random columns,
+    /// each row's pose, each pose's group, the inverse of J^T J and the columns used.
+    const GROUPED: (usize, usize, usize) = (120, 5, 4);
+
+    #[allow(clippy::type_complexity)]
+    fn grouped_design(
+        d: &mut Draws,
+    ) -> (DMatrix<f64>, Vec<u32>, Vec<u32>, DMatrix<f64>, Vec<usize>) {
+        let (poses, per, size) = GROUPED;
+        let n = poses * per;
+        let j = DMatrix::from_fn(n, 6, |_, _| d.uniform() - 0.5);
+        let cl: Vec<u32> = (0..n).map(|i| (i / per) as u32).collect();
+        let groups: Vec<u32> = (0..poses).map(|c| (c / size) as u32).collect();
+        let inv = (j.transpose() * &j).try_inverse().unwrap();
+        (j, cl, groups, inv, (0..6).collect())
+    }
+
     /// 120 poses in 30 orientation groups of 4, each group's rows moved by its own error in the
     /// parameters (a view's systematic error), 400 draws: the pose clustering alone sees about
     /// a quarter of the scatter; with the groups' widening the predicted variance is the seen
@@ -1775,14 +1792,10 @@ mod tests {
     /// group's error; the ray-cast line targets' share is smaller, measured in docs/verdict.md.)
     #[test]
     fn errors_shared_by_an_orientation_group_widen_the_bound() {
-        let (poses, per, size) = (120usize, 5usize, 4usize);
+        let (poses, per, size) = GROUPED;
         let n = poses * per;
         let mut d = Draws(2026);
-        let j = DMatrix::from_fn(n, 6, |_, _| d.uniform() - 0.5);
-        let cl: Vec<u32> = (0..n).map(|i| (i / per) as u32).collect();
-        let groups: Vec<u32> = (0..poses).map(|c| (c / size) as u32).collect();
-        let inv = (j.transpose() * &j).try_inverse().unwrap();
-        let used: Vec<usize> = (0..6).collect();
+        let (j, cl, groups, inv, used) = grouped_design(&mut d);
         let draws = 400;
         let (mut seen, mut alone, mut widened) = (0.0, 0.0, 0.0);
         for _ in 0..draws {
@@ -1821,18 +1834,14 @@ mod tests {
 
     /// An error shared by the poses of one orientation group along one direction only: 30
     /// groups of 4 poses see all six directions, and the bound in that direction holds its
-    /// scatter (the groups' mean widening over six directions held about a quarter of it); with
-    /// no shared error the groups widen nothing beyond what their noise gives (400 draws each).
+    /// scatter (the pose clustering alone about 0.3 of it); with no shared error the groups
+    /// widen nothing beyond what their noise gives (400 draws each).
     #[test]
     fn an_error_the_groups_share_in_one_direction_widens_that_direction() {
-        let (poses, per, size) = (120usize, 5usize, 4usize);
+        let (poses, per, size) = GROUPED;
         let n = poses * per;
         let mut d = Draws(2027);
-        let j = DMatrix::from_fn(n, 6, |_, _| d.uniform() - 0.5);
-        let cl: Vec<u32> = (0..n).map(|i| (i / per) as u32).collect();
-        let groups: Vec<u32> = (0..poses).map(|c| (c / size) as u32).collect();
-        let inv = (j.transpose() * &j).try_inverse().unwrap();
-        let used: Vec<usize> = (0..6).collect();
+        let (j, cl, groups, inv, used) = grouped_design(&mut d);
         let draws = 400;
         for shared in [1.0, 0.0] {
             let (mut seen, mut widened, mut alone, mut dof) = (0.0, 0.0, 0.0, 0.0);
