@@ -921,16 +921,9 @@ fn group_widening(
     }
     let factor = (big_g as f64 / (big_g - 1) as f64) * ((n - 1) as f64 / (n - p) as f64);
     let between = scores_spread(inv, &summed, used) * factor;
-    let Some(l) = covariance.cholesky().map(|c| c.l()) else {
+    let Some((l, em)) = whitened(covariance, &between) else {
         return unchanged;
     };
-    let Some(lb) = l.solve_lower_triangular(&between) else {
-        return unchanged;
-    };
-    let Some(m) = l.solve_lower_triangular(&lb.transpose()) else {
-        return unchanged;
-    };
-    let em = SymmetricEigen::new((m + m.transpose()) * 0.5);
     let mut e: Vec<f64> = em.eigenvalues.iter().copied().collect();
     e.sort_by(|x, y| y.total_cmp(x));
     let mean = e[..k].iter().sum::<f64>() / k as f64;
@@ -1114,18 +1107,12 @@ fn clusters_by_key(flanges: &[&Isometry3<f64>], n_residuals: usize) -> Vec<u32> 
 /// in L W D W^T L^T. The Cholesky factor costs less than S's eigen decomposition.
 fn larger_of(a: &Matrix6<f64>, b: &Matrix6<f64>, informative: usize) -> (Matrix6<f64>, f64, f64) {
     let top = a.diagonal().max();
-    let Some(l) = a.cholesky().map(|c| c.l()) else {
+    let Some((l, em)) = whitened(a, b) else {
         return (a + b, f64::NAN, f64::NAN);
     };
     if !(top > 0.0) || l.diagonal().iter().any(|&d| !(d * d > 1e-24 * top)) {
         return (a + b, f64::NAN, f64::NAN);
     }
-    // L^-1 b L^-T by two triangular solves (b symmetric).
-    let lb = l.solve_lower_triangular(b).expect("a positive diagonal");
-    let m = l
-        .solve_lower_triangular(&lb.transpose())
-        .expect("a positive diagonal");
-    let em = SymmetricEigen::new((m + m.transpose()) * 0.5);
     let floor = if (1..6).contains(&informative) {
         let mut l: Vec<f64> = em.eigenvalues.iter().copied().collect();
         l.sort_by(|x, y| y.total_cmp(x));
@@ -1139,6 +1126,18 @@ fn larger_of(a: &Matrix6<f64>, b: &Matrix6<f64>, informative: usize) -> (Matrix6
     let from_b: f64 = raised.iter().filter(|&&v| v > 1.0).sum();
     let share = from_b / raised.sum();
     (l * mid * l.transpose(), raised.max().sqrt(), share)
+}
+
+/// `b` whitened by `a`'s Cholesky factor L: L^-1 b L^-T by two triangular solves (b
+/// symmetric), symmetrised, and its eigen decomposition, with L; None where `a` has no factor.
+fn whitened(
+    a: &Matrix6<f64>,
+    b: &Matrix6<f64>,
+) -> Option<(Matrix6<f64>, SymmetricEigen<f64, nalgebra::U6>)> {
+    let l = a.cholesky()?.l();
+    let lb = l.solve_lower_triangular(b)?;
+    let m = l.solve_lower_triangular(&lb.transpose())?;
+    Some((l, SymmetricEigen::new((m + m.transpose()) * 0.5)))
 }
 
 /// The share of covariance `c` that its part `part` makes, for `effective_dof`: the whitened
