@@ -46,6 +46,11 @@ pub struct Honest {
     /// factor on the sd their design effect widened the covariance by (1: not widened).
     pub orientation_groups: usize,
     pub group_widening: f64,
+    /// Where the groups widened each direction by its own factor (all six seen): the map W
+    /// with W C W^T the widened covariance for C the one they widened, so that another
+    /// covariance of the same errors is widened alike (`unexplained`). None: every direction
+    /// by `group_widening`.
+    pub group_map: Option<Matrix6<f64>>,
     /// The residual-level covariance (`covariance` holds it and the clustered one).
     pub residual: Matrix6<f64>,
     /// The covariance a shift of each flange pose's points by its own independent error of unit
@@ -96,6 +101,7 @@ impl Honest {
             inflation: f64::NAN,
             orientation_groups: 0,
             group_widening: 1.0,
+            group_map: None,
             residual: Matrix6::from_element(f64::INFINITY),
             per_pose_shift: Matrix6::zeros(),
             steps: Vec::new(),
@@ -157,6 +163,7 @@ impl Honest {
             inflation: 1.0,
             orientation_groups: 0,
             group_widening: 1.0,
+            group_map: None,
             residual: *cov,
             per_pose_shift,
             steps: Vec::new(),
@@ -214,6 +221,7 @@ impl Honest {
             inflation: inflation * widened.factor,
             orientation_groups: groups.iter().map(|&c| c as usize + 1).max().unwrap_or(0),
             group_widening: widened.factor,
+            group_map: widened.map,
             residual: *cov,
             per_pose_shift,
             steps,
@@ -271,7 +279,8 @@ impl Honest {
     /// every pattern the stated errors can make (`unexplained`), and what is left is weighed
     /// against the independent part. Where `pattern` is not known, the model's or the measured
     /// covariance, whichever is larger in each direction (adding the biases to the measured
-    /// one counted the varying part twice).
+    /// one counted the varying part twice), its quantile at the degrees of freedom of the share
+    /// the measured one sets (the model is stated, as `with_systematic`'s floor).
     pub fn with_kinematic(
         &self,
         shifts: &[(nalgebra::Vector6<f64>, f64)],
@@ -297,7 +306,13 @@ impl Honest {
                     effective_dof(share_of(&c, &excess), dof_excess, self.residual_dof),
                 )
             }
-            None if finite(&model) => (larger_of(&self.covariance, &model, 6).0, self.dof),
+            None if finite(&model) => {
+                let c = larger_of(&self.covariance, &model, 6).0;
+                (
+                    c,
+                    effective_dof(share_of(&c, &(c - model)), self.dof, self.residual_dof),
+                )
+            }
             None => (self.covariance + kinematic, self.dof),
         };
         for i in 0..3 {
@@ -351,7 +366,12 @@ impl Honest {
             .collect();
         let (measured, pooled) = shrunk_spread(independent, &steps);
         let (raised, _, _) = larger_of(independent, &measured, 6);
-        let excess = (raised - independent) * (self.group_widening * self.group_widening);
+        // Widened as the groups widened the pose-level covariance, direction by direction (not
+        // every direction by the most widened one's factor).
+        let excess = match &self.group_map {
+            Some(w) => w * (raised - independent) * w.transpose(),
+            None => (raised - independent) * (self.group_widening * self.group_widening),
+        };
         let dof = (((g - 1) as f64 * pooled - k as f64 / 6.0) as usize).max(1);
         excess
             .iter()
@@ -872,6 +892,8 @@ struct GroupWidened {
     covariance: Matrix6<f64>,
     /// The factor on the sd in the most widened direction (1: not widened).
     factor: f64,
+    /// Where directions are widened apart: W with W C W^T the widened covariance.
+    map: Option<Matrix6<f64>>,
     /// Where the groups see every direction: the share of the whitened trace their scatter
     /// sets and the number of groups (for the degrees of freedom).
     measured: Option<(f64, usize)>,
@@ -906,6 +928,7 @@ fn group_widening(
     let unchanged = GroupWidened {
         covariance: *covariance,
         factor: 1.0,
+        map: None,
         measured: None,
     };
     let (g, p) = (scores.nrows(), used.len());
@@ -935,24 +958,23 @@ fn group_widening(
         return GroupWidened {
             covariance: covariance * mean,
             factor: mean.sqrt(),
+            map: None,
             measured: None,
         };
     }
     let gamma = 6.0 / (big_g - 1) as f64;
-    let edge = (1.0 + gamma.sqrt()).powi(2);
-    let spike = |v: f64| {
-        if v <= edge {
-            return 1.0;
-        }
-        let b = v + 1.0 - gamma;
-        0.5 * (b + (b * b - 4.0 * v).max(0.0).sqrt())
-    };
-    let raised = em.eigenvalues.map(|v| spike(v).max(mean));
+    let raised = em.eigenvalues.map(|v| spike(v, gamma).max(mean));
     let mid = em.eigenvectors * Matrix6::from_diagonal(&raised) * em.eigenvectors.transpose();
     let from_groups: f64 = raised.iter().filter(|&&v| v > 1.0).sum();
+    // W = L V D^(1/2) V^T L^-1: W (L L^T) W^T = L V D V^T L^T.
+    let root = em.eigenvectors
+        * Matrix6::from_diagonal(&raised.map(f64::sqrt))
+        * em.eigenvectors.transpose();
+    let map = l.try_inverse().map(|li| l * root * li);
     GroupWidened {
         covariance: l * mid * l.transpose(),
         factor: raised.max().sqrt(),
+        map,
         measured: Some((from_groups / raised.sum(), big_g)),
     }
 }
@@ -1138,6 +1160,20 @@ fn whitened(
     let lb = l.solve_lower_triangular(b)?;
     let m = l.solve_lower_triangular(&lb.transpose())?;
     Some((l, SymmetricEigen::new((m + m.transpose()) * 0.5)))
+}
+
+/// The spiked covariance model's inverse: the population eigenvalue l (in units of the noise)
+/// whose sample eigenvalue is `v` at aspect ratio `gamma` (dimensions over degrees of freedom),
+/// v = l (1 + gamma / (l - 1)) above the Marchenko-Pastur edge (1 + sqrt(gamma))^2; 1 at or
+/// below it, where noise alone gives such eigenvalues (Baik, Ben Arous and Peche 2005; Donoho,
+/// Gavish and Johnstone 2018).
+fn spike(v: f64, gamma: f64) -> f64 {
+    let edge = (1.0 + gamma.sqrt()).powi(2);
+    if v <= edge {
+        return 1.0;
+    }
+    let b = v + 1.0 - gamma;
+    0.5 * (b + (b * b - 4.0 * v).max(0.0).sqrt())
 }
 
 /// The share of covariance `c` that its part `part` makes, for `effective_dof`: the whitened
@@ -1853,11 +1889,16 @@ mod tests {
                 let cov = sandwich(&inv, &j, &res);
                 let sums = super::super::Sums::of(&res, &j, &cl, poses);
                 let h = Honest::of(Some(&inv), &sums, &groups, &used, &cov);
+                let a = Honest::of(Some(&inv), &sums, &[], &used, &cov);
                 seen += step[0] * step[0] / draws as f64;
                 widened += h.covariance[(0, 0)] / draws as f64;
-                alone += Honest::of(Some(&inv), &sums, &[], &used, &cov).covariance[(0, 0)]
-                    / draws as f64;
+                alone += a.covariance[(0, 0)] / draws as f64;
                 dof += h.dof as f64 / draws as f64;
+                // The map widens the covariance the groups widened into the widened one (a
+                // stated error's excess is widened by it, `unexplained`).
+                let w = h.group_map.expect("30 groups see every direction");
+                let mapped = w * a.covariance * w.transpose();
+                assert!((mapped - h.covariance).norm() < 1e-9 * h.covariance.norm());
             }
             eprintln!(
                 "shared {shared}: widened {} alone {} of the scatter, dof {dof}",
