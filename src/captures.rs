@@ -258,6 +258,10 @@ pub struct Kinematic {
     twists: std::sync::Arc<Twists>,
     /// The joint values given with a pose, by `pose_key` (written back with it).
     given: std::sync::Arc<std::collections::HashMap<[u64; 7], crate::robot::Joints>>,
+    /// Where no pose's joints are given: the error twists of the arm's other configurations
+    /// for the same poses (each of the first pose's other inverse kinematics solutions, the
+    /// rest reached from it as `twists` are), those that differ from `twists`.
+    others: std::sync::Arc<Vec<Twists>>,
 }
 
 impl PartialEq for Kinematic {
@@ -284,6 +288,7 @@ impl Kinematic {
         let mut q = [0.0; 6];
         let mut twists = Twists::default();
         let mut given = std::collections::HashMap::new();
+        let mut order: Vec<&Isometry3<f64>> = Vec::new();
         for (i, (f, joints)) in poses.into_iter().enumerate() {
             let key = crate::calib::refine::honest::pose_key(f);
             if twists.contains_key(&key) {
@@ -297,7 +302,13 @@ impl Kinematic {
                 None => robot.ik_nearest(f, &q).map_err(|e| (i, e))?,
             };
             twists.insert(key, robot.error_twists(&q));
+            order.push(f);
         }
+        let others = if given.is_empty() {
+            other_configurations(&robot, &order, &twists)
+        } else {
+            Vec::new()
+        };
         Ok(Kinematic {
             robot_name,
             robot,
@@ -305,7 +316,15 @@ impl Kinematic {
             joint_zero_sd,
             twists: std::sync::Arc::new(twists),
             given: std::sync::Arc::new(given),
+            others: std::sync::Arc::new(others),
         })
+    }
+
+    /// The error twists of the arm's other configurations for the poses (none where the joints
+    /// were given), for `twists_at`'s place: a controller may have reached the poses in any of
+    /// them, and the file does not say which.
+    pub fn other_configurations(&self) -> &[Twists] {
+        &self.others
     }
 
     /// The joint values given with pose `f` (a controller's log), if any.
@@ -352,6 +371,66 @@ impl Kinematic {
             }
         }
     }
+}
+
+/// Most other configurations `Kinematic::new` follows (an arm has at most eight inverse
+/// kinematics solutions a pose, more with joints that turn past a full turn).
+const MAX_OTHER_CONFIGURATIONS: usize = 8;
+
+/// The error twists of `poses` (distinct, in order) reached from each of the first pose's
+/// inverse kinematics solutions but the nearest to all joints at zero (`assumed`' start), each
+/// next pose's solution nearest the last; those whose twists differ from `assumed` somewhere
+/// (a joint turned by a full turn is the same arm). A configuration that loses a pose (out of
+/// the joints' limits) is left out.
+fn other_configurations(
+    robot: &crate::robot::Robot,
+    poses: &[&Isometry3<f64>],
+    assumed: &Twists,
+) -> Vec<Twists> {
+    let Some(first) = poses.first() else {
+        return Vec::new();
+    };
+    let Ok(starts) = robot.ik(first, Some(&[0.0; 6])) else {
+        return Vec::new();
+    };
+    let mut out: Vec<Twists> = Vec::new();
+    for start in starts.into_iter().skip(1) {
+        let mut q = start;
+        let mut twists = Twists::default();
+        let mut reached = true;
+        for (i, f) in poses.iter().enumerate() {
+            if i > 0 {
+                match robot.ik_nearest(f, &q) {
+                    Ok(next) => q = next,
+                    Err(_) => {
+                        reached = false;
+                        break;
+                    }
+                }
+            }
+            twists.insert(
+                crate::calib::refine::honest::pose_key(f),
+                robot.error_twists(&q),
+            );
+        }
+        // Twists equal to rounding (1e-9 of a unit twist): the same arm.
+        let alike = |a: &Twists, b: &Twists| {
+            a.iter().all(|(k, t)| {
+                b.get(k).is_some_and(|u| {
+                    t.iter()
+                        .zip(u)
+                        .all(|(x, y)| (x - y).norm() <= 1e-9 * (1.0 + y.norm()))
+                })
+            })
+        };
+        if reached && !alike(&twists, assumed) && !out.iter().any(|o| alike(&twists, o)) {
+            out.push(twists);
+            if out.len() >= MAX_OTHER_CONFIGURATIONS {
+                break;
+            }
+        }
+    }
+    out
 }
 
 /// One standard deviation of a point's offset along one direction (metres) that link errors
@@ -427,4 +506,59 @@ pub enum CaptureError {
         #[source]
         source: Box<CaptureError>,
     },
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Poses an IRB 120 reached with its wrist flipped (joint 5 negative, joints 4 and 6 half a
+    /// turn from the solution nearest zero): without their joints, the assumed configurations
+    /// are the unflipped ones and the flipped ones are among the others; with them, none.
+    #[test]
+    fn without_joints_the_arms_other_configurations_are_followed() {
+        let robot = std::sync::Arc::new(crate::robot::Robot::resolve("irb120").unwrap());
+        let joints: Vec<crate::robot::Joints> = (0..5)
+            .map(|i| {
+                let t = i as f64 * 0.05;
+                [0.2 + t, 0.1 - t, 0.2, 2.5 - t, -0.6 - t, 2.0 + t]
+            })
+            .collect();
+        let poses: Vec<Isometry3<f64>> = joints.iter().map(|q| robot.fk(q)).collect();
+        let k = Kinematic::new(
+            "irb120".into(),
+            robot.clone(),
+            1e-4,
+            1e-4,
+            poses.iter().map(|p| (p, None)),
+        )
+        .unwrap();
+        let key = crate::calib::refine::honest::pose_key;
+        let true_twists = |t: &Twists| {
+            poses.iter().zip(&joints).all(|(p, q)| {
+                t[&key(p)]
+                    .iter()
+                    .zip(robot.error_twists(q))
+                    .all(|(a, b)| (a - b).norm() < 1e-9)
+            })
+        };
+        assert!(
+            !true_twists(&k.twists),
+            "the flipped wrist is not the assumed one"
+        );
+        let others = k.other_configurations();
+        assert!(!others.is_empty() && others.len() <= MAX_OTHER_CONFIGURATIONS);
+        assert!(others.iter().all(|o| o.len() == poses.len()));
+        assert!(others.iter().any(true_twists), "{} others", others.len());
+        let given = Kinematic::new(
+            "irb120".into(),
+            robot.clone(),
+            1e-4,
+            1e-4,
+            poses.iter().zip(&joints).map(|(p, q)| (p, Some(*q))),
+        )
+        .unwrap();
+        assert!(given.other_configurations().is_empty());
+        assert!(true_twists(&given.twists));
+    }
 }

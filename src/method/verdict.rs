@@ -87,32 +87,72 @@ pub struct KinematicPart {
     /// result by (the root of each block's trace), through each pose's joint configuration.
     pub sd_deg: f64,
     pub sd_mm: f64,
+    /// Where the joints were not given: the largest of the same figures over the arm's other
+    /// configurations for the poses (`Kinematic::other_configurations`; None: none differ).
+    pub other_configurations: Option<(f64, f64)>,
 }
+
+/// How much more (or less) the arm's other configurations may move the result than the
+/// assumed ones before the note says so: a factor on the sd.
+const OTHER_CONFIGURATIONS_FACTOR: f64 = 1.25;
 
 impl KinematicPart {
     /// The part the biases `shifts` (per unit error, with each error's sd) of the stated `k`
     /// make.
-    fn of(shifts: &[(nalgebra::Vector6<f64>, f64)], k: &crate::captures::Kinematic) -> Self {
-        let c = crate::calib::refine::honest::shifts_covariance(shifts);
-        let block = |i: usize| (0..3).map(|a| c[(i + a, i + a)]).sum::<f64>().sqrt();
+    fn of(shifts: &KinematicShifts, k: &crate::captures::Kinematic) -> Self {
+        let (sd_deg, sd_mm) = sds(&shifts.biases);
+        let other_configurations = shifts
+            .others
+            .iter()
+            .map(|b| sds(b))
+            .reduce(|a, b| (a.0.max(b.0), a.1.max(b.1)));
         KinematicPart {
             robot: k.robot_name.clone(),
             link_error_mm: k.link_sd * 1e3,
             joint_offset_error_deg: k.joint_zero_sd.to_degrees(),
-            sd_deg: block(0).to_degrees(),
-            sd_mm: block(3) * 1e3,
+            sd_deg,
+            sd_mm,
+            other_configurations,
         }
+    }
+
+    /// Whether another configuration would move the result by clearly more or less.
+    fn configuration_matters(&self) -> Option<(f64, f64)> {
+        let (deg, mm) = self.other_configurations?;
+        let off = |other: f64, assumed: f64| {
+            other > assumed * OTHER_CONFIGURATIONS_FACTOR
+                || other * OTHER_CONFIGURATIONS_FACTOR < assumed
+        };
+        (off(deg, self.sd_deg) || off(mm, self.sd_mm)).then_some((deg, mm))
     }
 
     /// The verdict's note on it.
     fn note(&self) -> String {
-        format!(
+        let mut note = format!(
             "the arm's stated kinematic error ({}: joint origins {:.3} mm per axis, joint zeros \
              {:.4} deg, one sd) is in the bounds: through each pose's joint configuration it \
              moves the result by about {:.4} deg / {:.4} mm (one sd), which no residual shows",
             self.robot, self.link_error_mm, self.joint_offset_error_deg, self.sd_deg, self.sd_mm
-        )
+        );
+        if let Some((deg, mm)) = self.configuration_matters() {
+            note.push_str(&format!(
+                "; the file gives no joints, so the configurations are assumed (from all joints \
+                 at zero, each pose's nearest to the last): reached in another of the arm's \
+                 configurations the same error would move it by up to {deg:.4} deg / {mm:.4} mm, \
+                 and the bounds would be off by as much; give each pose's joints_deg from the \
+                 controller"
+            ));
+        }
+        note
     }
+}
+
+/// The rotation (deg) and translation (mm) standard deviations biases `shifts` (per unit error,
+/// with each error's sd) make: the root of each block's trace.
+fn sds(shifts: &[(nalgebra::Vector6<f64>, f64)]) -> (f64, f64) {
+    let c = crate::calib::refine::honest::shifts_covariance(shifts);
+    let block = |i: usize| (0..3).map(|a| c[(i + a, i + a)]).sum::<f64>().sqrt();
+    (block(0).to_degrees(), block(3) * 1e3)
 }
 
 /// The arm's stated kinematic error carried through each pose's joint configuration: the bias
@@ -124,9 +164,8 @@ fn kinematic_shifts(
     caps: &Captures,
 ) -> Option<KinematicShifts> {
     let k = caps.kinematic.as_ref().filter(|k| k.is_stated())?;
-    let moved = cal
-        .problem(estimator)?
-        .pose_shift(&cal.flange_to_sensor, &|f| k.twists_at(f))?;
+    let problem = cal.problem(estimator)?;
+    let moved = problem.pose_shift(&cal.flange_to_sensor, &|f| k.twists_at(f))?;
     let sds = k.sds();
     let pattern = moved.steps.map(|s| {
         s.into_iter()
@@ -134,17 +173,29 @@ fn kinematic_shifts(
             .map(|(steps, sd)| steps.into_iter().map(|d| d * *sd).collect())
             .collect()
     });
+    let others = k
+        .other_configurations()
+        .iter()
+        .filter_map(|t| {
+            let key = crate::calib::refine::honest::pose_key;
+            let o = problem.pose_shift(&cal.flange_to_sensor, &|f| t.get(&key(f)).cloned())?;
+            Some(o.shifts.into_iter().zip(sds.iter().copied()).collect())
+        })
+        .collect();
     Some(KinematicShifts {
         biases: moved.shifts.into_iter().zip(sds).collect(),
         pattern,
+        others,
     })
 }
 
-/// The stated kinematic errors' biases on a fit (per unit, with each error's sd) and the
-/// poses' steps each makes at one sd (`PoseShift::steps`).
+/// The stated kinematic errors' biases on a fit (per unit, with each error's sd), the poses'
+/// steps each makes at one sd (`PoseShift::steps`), and the biases in the arm's other
+/// configurations (`Kinematic::other_configurations`).
 struct KinematicShifts {
     biases: Vec<(nalgebra::Vector6<f64>, f64)>,
     pattern: Option<Vec<Vec<nalgebra::Vector6<f64>>>>,
+    others: Vec<Vec<(nalgebra::Vector6<f64>, f64)>>,
 }
 
 /// The stated accuracy `robot` (m) beyond what the kinematic error the bound carries explains.
@@ -465,7 +516,7 @@ pub fn quality(
         kinematic: kinematic
             .as_ref()
             .zip(caps.kinematic.as_ref())
-            .map(|(shifts, k)| KinematicPart::of(&shifts.biases, k)),
+            .map(|(shifts, k)| KinematicPart::of(shifts, k)),
         judging: caps.judging,
         from_nominal: caps
             .judging
@@ -1487,4 +1538,43 @@ pub fn decide(
         judged,
         leave_one_out: loo,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn part(other: Option<(f64, f64)>) -> KinematicPart {
+        KinematicPart {
+            robot: "irb120".into(),
+            link_error_mm: 0.1,
+            joint_offset_error_deg: 0.01,
+            sd_deg: 0.05,
+            sd_mm: 0.2,
+            other_configurations: other,
+        }
+    }
+
+    /// The note names the arm's other configurations only where one would move the result by
+    /// clearly more or less than the assumed ones (1.25 times either way).
+    #[test]
+    fn another_configuration_is_named_only_where_it_matters() {
+        let said = |p: &KinematicPart| p.note().contains("give each pose's joints_deg");
+        for (other, matters) in [
+            (None, false),
+            (Some((0.055, 0.22)), false),
+            (Some((0.05, 0.26)), true),
+            (Some((0.07, 0.2)), true),
+            (Some((0.035, 0.2)), true),
+        ] {
+            let p = part(other);
+            assert_eq!(p.configuration_matters().is_some(), matters, "{other:?}");
+            assert_eq!(said(&p), matters, "{}", p.note());
+        }
+        assert!(
+            part(Some((0.05, 0.26)))
+                .note()
+                .contains("up to 0.0500 deg / 0.2600 mm")
+        );
+    }
 }
