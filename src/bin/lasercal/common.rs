@@ -202,6 +202,18 @@ pub fn verdict_text(
     j: &lasercal::method::verdict::Judged,
     loo: Option<&lasercal::method::verdict::LeaveOneOut>,
 ) -> Result<serde_json::Value> {
+    print_figures(method, j, loo)?;
+    print_verdict(method, j)?;
+    Ok(verdict_json(j, loo))
+}
+
+/// The truth-free figures' lines: residuals, predicted sd, observability, correlations, the
+/// distance from the fit, leave-one-out and rejected profiles.
+fn print_figures(
+    method: lasercal::method::MethodId,
+    j: &lasercal::method::verdict::Judged,
+    loo: Option<&lasercal::method::verdict::LeaveOneOut>,
+) -> Result<()> {
     let q = &j.quality;
     let f3 = |v: &[f64; 3], d: usize| {
         v.iter()
@@ -279,6 +291,15 @@ pub fn verdict_text(
             q.profiles
         );
     }
+    Ok(())
+}
+
+/// The bound's line, the verdict and its reasons.
+fn print_verdict(
+    method: lasercal::method::MethodId,
+    j: &lasercal::method::verdict::Judged,
+) -> Result<()> {
+    let q = &j.quality;
     let (br, bt) = q.error_bound();
     if let Some(b) = &q.bounds {
         let f = |v: &[f64; 3]| v.map(|x| format!("{x:.4}")).join("/");
@@ -313,6 +334,16 @@ pub fn verdict_text(
     for r in j.lines() {
         say!("  - {r}");
     }
+    Ok(())
+}
+
+/// A result's quality figures and verdict as JSON (`quality` in `calibrate --json`).
+fn verdict_json(
+    j: &lasercal::method::verdict::Judged,
+    loo: Option<&lasercal::method::verdict::LeaveOneOut>,
+) -> serde_json::Value {
+    let q = &j.quality;
+    let (br, bt) = q.error_bound();
     let between = q.between_variants.as_ref().map(|v| {
         serde_json::json!({
             "method": v.method,
@@ -391,7 +422,7 @@ pub fn verdict_text(
     doc["straightness_mm"] = serde_json::json!(q.judging.straightness * 1e3);
     doc["bow_shift_deg_per_mm"] = serde_json::json!(q.bow_shift.map(|s| s.0));
     doc["bow_shift_mm_per_mm"] = serde_json::json!(q.bow_shift.map(|s| s.1));
-    Ok(doc)
+    doc
 }
 
 /// The recordings asked for, opened before any work so that a bad path or a missing viewer
