@@ -358,136 +358,23 @@ impl Specimen {
                 width,
                 thickness,
                 bevel,
-            } => {
-                // Edge line at y = z = 0; body y in [-width, 0], z in [-t/2, t/2]; bevel faces meet at
-                // the edge.
-                let t2 = thickness / 2.0;
-                let top = Vector3::new(0.0, t2, bevel).normalize();
-                let bottom = Vector3::new(0.0, t2, -bevel).normalize();
-                let planes = vec![
-                    (Vector3::x(), length / 2.0),
-                    (-Vector3::x(), length / 2.0),
-                    (-Vector3::y(), width),
-                    (Vector3::z(), t2),
-                    (-Vector3::z(), t2),
-                    (top, 0.0),
-                    (bottom, 0.0),
-                ];
-                vec![Part {
-                    specimen_to_part: Isometry3::identity(),
-                    shape: PartShape::Planes(ConvexPlanes { planes }),
-                    surface: uniform,
-                    bound_radius: Vector3::new(length / 2.0, width, t2).norm() * (1.0 + 1e-9),
-                }]
-            }
+            } => knife_blade(length, width, thickness, bevel, uniform),
             SpecimenKind::Ridge {
                 length,
                 width,
                 height,
-            } => {
-                // The faces through the ridge (y = z = 0) down to the base's edges at
-                // y = +-width/2, z = -height.
-                let w2 = width / 2.0;
-                let planes = vec![
-                    (Vector3::x(), length / 2.0),
-                    (-Vector3::x(), length / 2.0),
-                    (-Vector3::z(), height),
-                    (Vector3::new(0.0, height, w2).normalize(), 0.0),
-                    (Vector3::new(0.0, -height, w2).normalize(), 0.0),
-                ];
-                vec![Part {
-                    specimen_to_part: Isometry3::identity(),
-                    shape: PartShape::Planes(ConvexPlanes { planes }),
-                    surface: uniform,
-                    bound_radius: Vector3::new(length / 2.0, w2, height).norm() * (1.0 + 1e-9),
-                }]
-            }
+            } => ridge(length, width, height, uniform),
             SpecimenKind::VGroove {
                 length,
                 width,
                 height,
-            } => {
-                // Two convex halves of a block 3 x `width` wide (its bottom 10 mm below the
-                // groove's), each with one face of the groove rising from the bottom line
-                // (y = z = 0) to the block's flat top (z = height) at y = +-width/2, as two plates
-                // with a groove between them.
-                let (w2, base) = (1.5 * width, height + 0.01);
-                let half = |side: f64| {
-                    let planes = vec![
-                        (Vector3::x(), length / 2.0),
-                        (-Vector3::x(), length / 2.0),
-                        (-Vector3::z(), 0.01),
-                        (Vector3::z(), height),
-                        (Vector3::new(0.0, side, 0.0), w2),
-                        (Vector3::new(0.0, -side, 0.0), 0.0),
-                        (
-                            Vector3::new(0.0, -side * height, width / 2.0).normalize(),
-                            0.0,
-                        ),
-                    ];
-                    Part {
-                        specimen_to_part: Isometry3::identity(),
-                        shape: PartShape::Planes(ConvexPlanes { planes }),
-                        surface: uniform,
-                        bound_radius: Vector3::new(length / 2.0, w2, base).norm() * (1.0 + 1e-9),
-                    }
-                };
-                vec![half(1.0), half(-1.0)]
-            }
+            } => v_groove(length, width, height, uniform),
             SpecimenKind::Step {
                 length,
                 width,
                 height,
-            } => {
-                // The upper block and the lower plate, both 10 mm thick below their faces.
-                let block = |y: (f64, f64), z: (f64, f64)| {
-                    let planes = vec![
-                        (Vector3::x(), length / 2.0),
-                        (-Vector3::x(), length / 2.0),
-                        (Vector3::y(), y.1),
-                        (-Vector3::y(), -y.0),
-                        (Vector3::z(), z.1),
-                        (-Vector3::z(), -z.0),
-                    ];
-                    let far = Vector3::new(length / 2.0, y.0.abs().max(y.1.abs()), z.0.abs());
-                    Part {
-                        specimen_to_part: Isometry3::identity(),
-                        shape: PartShape::Planes(ConvexPlanes { planes }),
-                        surface: uniform,
-                        bound_radius: far.norm() * (1.0 + 1e-9),
-                    }
-                };
-                let bottom = -height - 0.01;
-                vec![
-                    block((-width, 0.0), (bottom, 0.0)),
-                    block((0.0, width), (bottom, -height)),
-                ]
-            }
-            SpecimenKind::Fillet { length, width } => {
-                // Plate a: its face u_b = 0 for u_a in [0, width], 10 mm behind it; plate b the
-                // same with a and b swapped (u_a, u_b: along the faces, at 45 deg to z).
-                let (ua, ub) = (
-                    Vector3::new(0.0, 1.0, 1.0) / 2f64.sqrt(),
-                    Vector3::new(0.0, -1.0, 1.0) / 2f64.sqrt(),
-                );
-                let plate = |along: Vector3<f64>, normal: Vector3<f64>| {
-                    let planes = vec![
-                        (Vector3::x(), length / 2.0),
-                        (-Vector3::x(), length / 2.0),
-                        (along, width),
-                        (-along, 0.0),
-                        (normal, 0.0),
-                        (-normal, 0.01),
-                    ];
-                    Part {
-                        specimen_to_part: Isometry3::identity(),
-                        shape: PartShape::Planes(ConvexPlanes { planes }),
-                        surface: uniform,
-                        bound_radius: Vector3::new(length / 2.0, width, 0.01).norm() * (1.0 + 1e-9),
-                    }
-                };
-                vec![plate(ua, ub), plate(ub, ua)]
-            }
+            } => step(length, width, height, uniform),
+            SpecimenKind::Fillet { length, width } => fillet(length, width, uniform),
         }
     }
 
@@ -509,4 +396,132 @@ impl Specimen {
     pub fn edge_line(&self) -> Option<(Point3<f64>, Vector3<f64>)> {
         self.is_edge().then(|| (Point3::origin(), Vector3::x()))
     }
+}
+
+/// `SpecimenKind::KnifeBlade`'s part.
+fn knife_blade(length: f64, width: f64, thickness: f64, bevel: f64, uniform: Surface) -> Vec<Part> {
+    // Edge line at y = z = 0; body y in [-width, 0], z in [-t/2, t/2]; bevel faces meet at
+    // the edge.
+    let t2 = thickness / 2.0;
+    let top = Vector3::new(0.0, t2, bevel).normalize();
+    let bottom = Vector3::new(0.0, t2, -bevel).normalize();
+    let planes = vec![
+        (Vector3::x(), length / 2.0),
+        (-Vector3::x(), length / 2.0),
+        (-Vector3::y(), width),
+        (Vector3::z(), t2),
+        (-Vector3::z(), t2),
+        (top, 0.0),
+        (bottom, 0.0),
+    ];
+    vec![Part {
+        specimen_to_part: Isometry3::identity(),
+        shape: PartShape::Planes(ConvexPlanes { planes }),
+        surface: uniform,
+        bound_radius: Vector3::new(length / 2.0, width, t2).norm() * (1.0 + 1e-9),
+    }]
+}
+
+/// `SpecimenKind::Ridge`'s part.
+fn ridge(length: f64, width: f64, height: f64, uniform: Surface) -> Vec<Part> {
+    // The faces through the ridge (y = z = 0) down to the base's edges at
+    // y = +-width/2, z = -height.
+    let w2 = width / 2.0;
+    let planes = vec![
+        (Vector3::x(), length / 2.0),
+        (-Vector3::x(), length / 2.0),
+        (-Vector3::z(), height),
+        (Vector3::new(0.0, height, w2).normalize(), 0.0),
+        (Vector3::new(0.0, -height, w2).normalize(), 0.0),
+    ];
+    vec![Part {
+        specimen_to_part: Isometry3::identity(),
+        shape: PartShape::Planes(ConvexPlanes { planes }),
+        surface: uniform,
+        bound_radius: Vector3::new(length / 2.0, w2, height).norm() * (1.0 + 1e-9),
+    }]
+}
+
+/// `SpecimenKind::VGroove`'s parts.
+fn v_groove(length: f64, width: f64, height: f64, uniform: Surface) -> Vec<Part> {
+    // Two convex halves of a block 3 x `width` wide (its bottom 10 mm below the
+    // groove's), each with one face of the groove rising from the bottom line
+    // (y = z = 0) to the block's flat top (z = height) at y = +-width/2, as two plates
+    // with a groove between them.
+    let (w2, base) = (1.5 * width, height + 0.01);
+    let half = |side: f64| {
+        let planes = vec![
+            (Vector3::x(), length / 2.0),
+            (-Vector3::x(), length / 2.0),
+            (-Vector3::z(), 0.01),
+            (Vector3::z(), height),
+            (Vector3::new(0.0, side, 0.0), w2),
+            (Vector3::new(0.0, -side, 0.0), 0.0),
+            (
+                Vector3::new(0.0, -side * height, width / 2.0).normalize(),
+                0.0,
+            ),
+        ];
+        Part {
+            specimen_to_part: Isometry3::identity(),
+            shape: PartShape::Planes(ConvexPlanes { planes }),
+            surface: uniform,
+            bound_radius: Vector3::new(length / 2.0, w2, base).norm() * (1.0 + 1e-9),
+        }
+    };
+    vec![half(1.0), half(-1.0)]
+}
+
+/// `SpecimenKind::Step`'s parts.
+fn step(length: f64, width: f64, height: f64, uniform: Surface) -> Vec<Part> {
+    // The upper block and the lower plate, both 10 mm thick below their faces.
+    let block = |y: (f64, f64), z: (f64, f64)| {
+        let planes = vec![
+            (Vector3::x(), length / 2.0),
+            (-Vector3::x(), length / 2.0),
+            (Vector3::y(), y.1),
+            (-Vector3::y(), -y.0),
+            (Vector3::z(), z.1),
+            (-Vector3::z(), -z.0),
+        ];
+        let far = Vector3::new(length / 2.0, y.0.abs().max(y.1.abs()), z.0.abs());
+        Part {
+            specimen_to_part: Isometry3::identity(),
+            shape: PartShape::Planes(ConvexPlanes { planes }),
+            surface: uniform,
+            bound_radius: far.norm() * (1.0 + 1e-9),
+        }
+    };
+    let bottom = -height - 0.01;
+    vec![
+        block((-width, 0.0), (bottom, 0.0)),
+        block((0.0, width), (bottom, -height)),
+    ]
+}
+
+/// `SpecimenKind::Fillet`'s parts.
+fn fillet(length: f64, width: f64, uniform: Surface) -> Vec<Part> {
+    // Plate a: its face u_b = 0 for u_a in [0, width], 10 mm behind it; plate b the
+    // same with a and b swapped (u_a, u_b: along the faces, at 45 deg to z).
+    let (ua, ub) = (
+        Vector3::new(0.0, 1.0, 1.0) / 2f64.sqrt(),
+        Vector3::new(0.0, -1.0, 1.0) / 2f64.sqrt(),
+    );
+    let plate = |along: Vector3<f64>, normal: Vector3<f64>| {
+        let planes = vec![
+            (Vector3::x(), length / 2.0),
+            (-Vector3::x(), length / 2.0),
+            (along, width),
+            (-along, 0.0),
+            (normal, 0.0),
+            (-normal, 0.01),
+        ];
+        Part {
+            specimen_to_part: Isometry3::identity(),
+            shape: PartShape::Planes(ConvexPlanes { planes }),
+            surface: uniform,
+            bound_radius: Vector3::new(length / 2.0, width, 0.01).norm() * (1.0 + 1e-9),
+        }
+    };
+    vec![plate(ua, ub), plate(ub, ua)]
 }
