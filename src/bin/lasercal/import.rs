@@ -137,67 +137,8 @@ pub fn run(a: Args) -> Result<()> {
             "--robot-repeatability-mm",
         )?;
     }
-    let source = if a.profiles.is_dir() {
-        let mut files: Vec<PathBuf> = std::fs::read_dir(&a.profiles)
-            .with_context(|| format!("{}: cannot list", a.profiles.display()))?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| {
-                p.extension().is_some_and(|x| {
-                    ["csv", "npy", "yml", "yaml", "txt"]
-                        .iter()
-                        .any(|e| x.eq_ignore_ascii_case(e))
-                })
-            })
-            .collect();
-        files.sort_by(|x, y| {
-            lasercal::io::poses::natural_cmp(&x.to_string_lossy(), &y.to_string_lossy())
-        });
-        let mut readers: Vec<(String, Box<dyn std::io::Read>)> = Vec::new();
-        for p in files {
-            let name = p.display().to_string();
-            let f = std::fs::File::open(&p).with_context(|| format!("{name}: cannot read"))?;
-            readers.push((name, Box::new(f)));
-        }
-        ProfileSource::PerPose(readers)
-    } else {
-        let name = a.profiles.display().to_string();
-        let f = std::fs::File::open(&a.profiles).with_context(|| format!("{name}: cannot read"))?;
-        ProfileSource::Long(name, Box::new(f))
-    };
-    if a.z_axis.is_some() && a.sensor != lasercal::io::captures::POINTS_ONLY {
-        bail!(
-            "--z-axis is for a sensor known only by its points; {} states its own frame (drop \
-             --z-axis, or --sensor)",
-            a.sensor
-        );
-    }
-    // A preset's name, a file declaring the sensor, or points only.
-    let sensor = if a.sensor == lasercal::io::captures::POINTS_ONLY {
-        match &a.z_axis {
-            Some(z) => serde_json::json!({ "points_only": { "z_axis": z } }),
-            None => serde_json::json!({ "points_only": {} }),
-        }
-    } else if std::path::Path::new(&a.sensor).is_file() {
-        let text = std::fs::read_to_string(&a.sensor)
-            .with_context(|| format!("{}: cannot read", a.sensor))?;
-        let v: serde_json::Value = serde_json::from_str(&text).with_context(|| {
-            format!(
-                "{}: not a sensor declaration (a JSON object as a capture file's \"sensor\"; \
-                 docs/sensors.md)",
-                a.sensor
-            )
-        })?;
-        if !v.is_object() {
-            bail!(
-                "{}: a sensor declaration is a JSON object (name, columns, spacing, z_axis, \
-                 apex_z_mm, ...; docs/sensors.md)",
-                a.sensor
-            );
-        }
-        v
-    } else {
-        serde_json::Value::String(a.sensor.clone())
-    };
+    let source = profile_source(&a.profiles)?;
+    let sensor = sensor_declaration(&a)?;
     let header = Header {
         method: &a.method,
         sensor,
@@ -247,4 +188,75 @@ pub fn run(a: Args) -> Result<()> {
         a.out.display()
     );
     Ok(())
+}
+
+/// The profiles: one file per pose from a folder (in natural order of their names), or one
+/// long file.
+fn profile_source(profiles: &std::path::Path) -> Result<ProfileSource<'static>> {
+    Ok(if profiles.is_dir() {
+        let mut files: Vec<PathBuf> = std::fs::read_dir(&profiles)
+            .with_context(|| format!("{}: cannot list", profiles.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| {
+                p.extension().is_some_and(|x| {
+                    ["csv", "npy", "yml", "yaml", "txt"]
+                        .iter()
+                        .any(|e| x.eq_ignore_ascii_case(e))
+                })
+            })
+            .collect();
+        files.sort_by(|x, y| {
+            lasercal::io::poses::natural_cmp(&x.to_string_lossy(), &y.to_string_lossy())
+        });
+        let mut readers: Vec<(String, Box<dyn std::io::Read>)> = Vec::new();
+        for p in files {
+            let name = p.display().to_string();
+            let f = std::fs::File::open(&p).with_context(|| format!("{name}: cannot read"))?;
+            readers.push((name, Box::new(f)));
+        }
+        ProfileSource::PerPose(readers)
+    } else {
+        let name = profiles.display().to_string();
+        let f = std::fs::File::open(&profiles).with_context(|| format!("{name}: cannot read"))?;
+        ProfileSource::Long(name, Box::new(f))
+    })
+}
+
+/// The sensor as the capture file states it: a preset's name, a file declaring the sensor, or
+/// points only (with `--z-axis`, which only that takes).
+fn sensor_declaration(a: &Args) -> Result<serde_json::Value> {
+    if a.z_axis.is_some() && a.sensor != lasercal::io::captures::POINTS_ONLY {
+        bail!(
+            "--z-axis is for a sensor known only by its points; {} states its own frame (drop \
+             --z-axis, or --sensor)",
+            a.sensor
+        );
+    }
+    // A preset's name, a file declaring the sensor, or points only.
+    Ok(if a.sensor == lasercal::io::captures::POINTS_ONLY {
+        match &a.z_axis {
+            Some(z) => serde_json::json!({ "points_only": { "z_axis": z } }),
+            None => serde_json::json!({ "points_only": {} }),
+        }
+    } else if std::path::Path::new(&a.sensor).is_file() {
+        let text = std::fs::read_to_string(&a.sensor)
+            .with_context(|| format!("{}: cannot read", a.sensor))?;
+        let v: serde_json::Value = serde_json::from_str(&text).with_context(|| {
+            format!(
+                "{}: not a sensor declaration (a JSON object as a capture file's \"sensor\"; \
+                 docs/sensors.md)",
+                a.sensor
+            )
+        })?;
+        if !v.is_object() {
+            bail!(
+                "{}: a sensor declaration is a JSON object (name, columns, spacing, z_axis, \
+                 apex_z_mm, ...; docs/sensors.md)",
+                a.sensor
+            );
+        }
+        v
+    } else {
+        serde_json::Value::String(a.sensor.clone())
+    })
 }
