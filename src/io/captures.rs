@@ -230,7 +230,9 @@ struct ProfileV1 {
     columns: Option<Vec<usize>>,
     /// The arm's joint values at this pose (deg, joint 1 first) as the controller logged
     /// them: with `robot`, the configuration the kinematic error is carried through (else the
-    /// inverse kinematics' nearest solution) and checked against the pose.
+    /// inverse kinematics' nearest solution, and the verdict weighs the arm's other
+    /// configurations too, saying when one would move the result by more than 1.25 times as
+    /// much) and checked against the pose.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     joints_deg: Option<[f64; 6]>,
     /// The row of `points_file` holding this profile's points and intensities, in place of
