@@ -398,6 +398,17 @@ impl Specimen {
     }
 }
 
+/// A convex part of `planes` in the specimen frame, contained in the sphere of `far`'s length
+/// about its origin (`Part::bound_radius`).
+fn planes_part(planes: Vec<(Vector3<f64>, f64)>, uniform: Surface, far: Vector3<f64>) -> Part {
+    Part {
+        specimen_to_part: Isometry3::identity(),
+        shape: PartShape::Planes(ConvexPlanes { planes }),
+        surface: uniform,
+        bound_radius: far.norm() * (1.0 + 1e-9),
+    }
+}
+
 /// `SpecimenKind::KnifeBlade`'s part.
 fn knife_blade(length: f64, width: f64, thickness: f64, bevel: f64, uniform: Surface) -> Vec<Part> {
     // Edge line at y = z = 0; body y in [-width, 0], z in [-t/2, t/2]; bevel faces meet at
@@ -414,12 +425,11 @@ fn knife_blade(length: f64, width: f64, thickness: f64, bevel: f64, uniform: Sur
         (top, 0.0),
         (bottom, 0.0),
     ];
-    vec![Part {
-        specimen_to_part: Isometry3::identity(),
-        shape: PartShape::Planes(ConvexPlanes { planes }),
-        surface: uniform,
-        bound_radius: Vector3::new(length / 2.0, width, t2).norm() * (1.0 + 1e-9),
-    }]
+    vec![planes_part(
+        planes,
+        uniform,
+        Vector3::new(length / 2.0, width, t2),
+    )]
 }
 
 /// `SpecimenKind::Ridge`'s part.
@@ -434,12 +444,11 @@ fn ridge(length: f64, width: f64, height: f64, uniform: Surface) -> Vec<Part> {
         (Vector3::new(0.0, height, w2).normalize(), 0.0),
         (Vector3::new(0.0, -height, w2).normalize(), 0.0),
     ];
-    vec![Part {
-        specimen_to_part: Isometry3::identity(),
-        shape: PartShape::Planes(ConvexPlanes { planes }),
-        surface: uniform,
-        bound_radius: Vector3::new(length / 2.0, w2, height).norm() * (1.0 + 1e-9),
-    }]
+    vec![planes_part(
+        planes,
+        uniform,
+        Vector3::new(length / 2.0, w2, height),
+    )]
 }
 
 /// `SpecimenKind::VGroove`'s parts.
@@ -462,12 +471,7 @@ fn v_groove(length: f64, width: f64, height: f64, uniform: Surface) -> Vec<Part>
                 0.0,
             ),
         ];
-        Part {
-            specimen_to_part: Isometry3::identity(),
-            shape: PartShape::Planes(ConvexPlanes { planes }),
-            surface: uniform,
-            bound_radius: Vector3::new(length / 2.0, w2, base).norm() * (1.0 + 1e-9),
-        }
+        planes_part(planes, uniform, Vector3::new(length / 2.0, w2, base))
     };
     vec![half(1.0), half(-1.0)]
 }
@@ -485,12 +489,7 @@ fn step(length: f64, width: f64, height: f64, uniform: Surface) -> Vec<Part> {
             (-Vector3::z(), -z.0),
         ];
         let far = Vector3::new(length / 2.0, y.0.abs().max(y.1.abs()), z.0.abs());
-        Part {
-            specimen_to_part: Isometry3::identity(),
-            shape: PartShape::Planes(ConvexPlanes { planes }),
-            surface: uniform,
-            bound_radius: far.norm() * (1.0 + 1e-9),
-        }
+        planes_part(planes, uniform, far)
     };
     let bottom = -height - 0.01;
     vec![
@@ -516,12 +515,7 @@ fn fillet(length: f64, width: f64, uniform: Surface) -> Vec<Part> {
             (normal, 0.0),
             (-normal, 0.01),
         ];
-        Part {
-            specimen_to_part: Isometry3::identity(),
-            shape: PartShape::Planes(ConvexPlanes { planes }),
-            surface: uniform,
-            bound_radius: Vector3::new(length / 2.0, width, 0.01).norm() * (1.0 + 1e-9),
-        }
+        planes_part(planes, uniform, Vector3::new(length / 2.0, width, 0.01))
     };
     vec![plate(ua, ub), plate(ub, ua)]
 }
