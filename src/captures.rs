@@ -304,7 +304,7 @@ impl Kinematic {
             twists.insert(key, robot.error_twists(&q));
             order.push(f);
         }
-        let others = if given.is_empty() {
+        let others = if given.is_empty() && (link_sd > 0.0 || joint_zero_sd > 0.0) {
             other_configurations(&robot, &order, &twists)
         } else {
             Vec::new()

@@ -165,7 +165,18 @@ fn kinematic_shifts(
 ) -> Option<KinematicShifts> {
     let k = caps.kinematic.as_ref().filter(|k| k.is_stated())?;
     let problem = cal.problem(estimator)?;
-    let moved = problem.pose_shift(&cal.flange_to_sensor, &|f| k.twists_at(f))?;
+    // The other configurations' moves from the same evaluations.
+    let key = crate::calib::refine::honest::pose_key;
+    let lookups: Vec<_> = k
+        .other_configurations()
+        .iter()
+        .map(|t| move |f: &Isometry3<f64>| t.get(&key(f)).cloned())
+        .collect();
+    let sets: Vec<&dyn Fn(&Isometry3<f64>) -> Option<Vec<nalgebra::Vector6<f64>>>> = lookups
+        .iter()
+        .map(|l| l as &dyn Fn(&Isometry3<f64>) -> Option<Vec<nalgebra::Vector6<f64>>>)
+        .collect();
+    let moved = problem.pose_shift(&cal.flange_to_sensor, &|f| k.twists_at(f), &sets)?;
     let sds = k.sds();
     let pattern = moved.steps.map(|s| {
         s.into_iter()
@@ -173,14 +184,10 @@ fn kinematic_shifts(
             .map(|(steps, sd)| steps.into_iter().map(|d| d * *sd).collect())
             .collect()
     });
-    let others = k
-        .other_configurations()
-        .iter()
-        .filter_map(|t| {
-            let key = crate::calib::refine::honest::pose_key;
-            let o = problem.pose_shift(&cal.flange_to_sensor, &|f| t.get(&key(f)).cloned())?;
-            Some(o.shifts.into_iter().zip(sds.iter().copied()).collect())
-        })
+    let others = moved
+        .others
+        .into_iter()
+        .map(|shifts| shifts.into_iter().zip(sds.iter().copied()).collect())
         .collect();
     Some(KinematicShifts {
         biases: moved.shifts.into_iter().zip(sds).collect(),

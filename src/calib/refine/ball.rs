@@ -574,13 +574,18 @@ mod tests {
                 Vector6::new(0.4 * a.z, 0.1, -0.3, 5.0 * f.translation.z, 0.2 * a.x, -0.5),
             ])
         };
-        let shifts = Problem {
+        let moved = Problem {
             model: m.clone(),
             specimen: c,
         }
-        .pose_shift(&x, &twists)
-        .unwrap()
-        .shifts;
+        .pose_shift(&x, &twists, &[&twists])
+        .unwrap();
+        let shifts = moved.shifts;
+        // The same twists as another configuration: the per-pose sums give the same moves.
+        assert_eq!(moved.others.len(), 1);
+        for (a, b) in moved.others[0].iter().zip(&shifts) {
+            assert!((a - b).norm() <= 1e-9 * b.norm().max(1e-12), "{a} {b}");
+        }
         let opts = Options::default();
         let h = 1e-5;
         for (e, shift) in shifts.iter().enumerate() {
@@ -623,7 +628,7 @@ mod tests {
             model: m,
             specimen: c,
         }
-        .pose_shift(&x, &|_| None);
+        .pose_shift(&x, &|_| None, &[]);
         assert!(none.is_none());
     }
 

@@ -566,11 +566,14 @@ pub trait Refinable: Send + Sync + fmt::Debug {
     /// every flange pose f by `twists(f)[e]` per unit of error e, in f's own frame ([rotation
     /// rad; translation m], first order): the arm's kinematic errors at each pose
     /// (`robot::Robot::error_twists`). Rotation rad in the sensor frame, translation m, as the
-    /// covariance. None: a pose `twists` has no answer for, or the problem is singular.
+    /// covariance. None: a pose `twists` has no answer for, or the problem is singular. The
+    /// same moves for each of `others` (the errors through other joint configurations), from the
+    /// same evaluations: empty where a pose has no answer in one of them.
     fn pose_shift(
         &self,
         x: &Isometry3<f64>,
         twists: &dyn Fn(&Isometry3<f64>) -> Option<Vec<Vector6<f64>>>,
+        others: &[&dyn Fn(&Isometry3<f64>) -> Option<Vec<Vector6<f64>>>],
     ) -> Option<PoseShift>;
     /// The same problem without the features seen from the flange poses `drop` picks.
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable>;
@@ -592,6 +595,8 @@ pub struct PoseShift {
     /// The poses' steps, as the pose clustering takes them, per unit of each error (one per
     /// pose, `honest::Clustering::steps`); None where the bound takes no corrected steps.
     pub steps: Option<Vec<Vec<Vector6<f64>>>>,
+    /// The fit's move per unit of each error through each of the other twists asked for.
+    pub others: Vec<Vec<Vector6<f64>>>,
 }
 
 /// What a fit's figures need from its residuals r and Jacobian J, summed over the rows: J^T J,
@@ -814,6 +819,7 @@ impl<M: Model + 'static> Refinable for Problem<M> {
         &self,
         x: &Isometry3<f64>,
         twists: &dyn Fn(&Isometry3<f64>) -> Option<Vec<Vector6<f64>>>,
+        others: &[&dyn Fn(&Isometry3<f64>) -> Option<Vec<Vector6<f64>>>],
     ) -> Option<PoseShift> {
         // Each residual depends on its own pose only, so moving every pose by one unit twist
         // at a time gives each row's derivative along it; an error's residual change is then
@@ -830,6 +836,7 @@ impl<M: Model + 'static> Refinable for Problem<M> {
         // Each row's pose, its twists asked for once.
         let mut seen: std::collections::HashMap<[u64; 7], usize> = Default::default();
         let mut poses: Vec<Vec<Vector6<f64>>> = Vec::new();
+        let mut pose_flanges: Vec<&Isometry3<f64>> = Vec::new();
         let mut row_pose = Vec::with_capacity(r.len());
         for f in &flanges {
             let key = honest::pose_key(f);
@@ -837,6 +844,7 @@ impl<M: Model + 'static> Refinable for Problem<M> {
                 Some(&i) => i,
                 None => {
                     poses.push(twists(f)?);
+                    pose_flanges.push(f);
                     seen.insert(key, poses.len() - 1);
                     poses.len() - 1
                 }
@@ -889,10 +897,15 @@ impl<M: Model + 'static> Refinable for Problem<M> {
                 }
             }
         }
+        let others = other_shifts(&j, used, inv, &along, &row_pose, &pose_flanges, others);
         shifts
             .iter()
             .all(|s| s.iter().all(|v| v.is_finite()))
-            .then_some(PoseShift { shifts, steps })
+            .then_some(PoseShift {
+                shifts,
+                steps,
+                others,
+            })
     }
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable> {
         Box::new(Problem {
@@ -1180,6 +1193,58 @@ pub fn frame_with(v: &Vector3<f64>, axis: usize) -> Rotation3<f64> {
 
 fn n_residuals<M: Model>(m: &M) -> usize {
     m.n_residuals()
+}
+
+/// `Refinable::pose_shift`'s moves through each of `sets` (other twists for the same
+/// errors): per pose and twist axis, the used columns of J^T times the residuals' derivative
+/// `along` that axis on the pose's rows (one pass), so that each set costs a sum over poses.
+/// Empty where a pose has no answer in a set or a move is not finite.
+fn other_shifts(
+    j: &DMatrix<f64>,
+    used: &[usize],
+    inv: &DMatrix<f64>,
+    along: &[DVector<f64>],
+    row_pose: &[usize],
+    poses: &[&Isometry3<f64>],
+    sets: &[&dyn Fn(&Isometry3<f64>) -> Option<Vec<Vector6<f64>>>],
+) -> Vec<Vec<Vector6<f64>>> {
+    if sets.is_empty() {
+        return Vec::new();
+    }
+    let p = used.len();
+    let mut per = vec![DVector::<f64>::zeros(p); poses.len() * 6];
+    for (k, &u) in used.iter().enumerate() {
+        let col = j.column(u);
+        for (i, &c) in row_pose.iter().enumerate() {
+            for ax in 0..6 {
+                per[c * 6 + ax][k] += col[i] * along[ax][i];
+            }
+        }
+    }
+    let of = |twists: &&dyn Fn(&Isometry3<f64>) -> Option<Vec<Vector6<f64>>>| {
+        let tw: Vec<Vec<Vector6<f64>>> = poses.iter().map(|f| twists(f)).collect::<Option<_>>()?;
+        let errors = tw.first().map_or(0, Vec::len);
+        if tw.iter().any(|t| t.len() != errors) {
+            return None;
+        }
+        (0..errors)
+            .map(|e| {
+                let mut g = DVector::<f64>::zeros(p);
+                for (c, t) in tw.iter().enumerate() {
+                    for ax in 0..6 {
+                        g.axpy(t[e][ax], &per[c * 6 + ax], 1.0);
+                    }
+                }
+                let d = -(inv * g);
+                let s = Vector6::from_fn(|i, _| d[i]);
+                s.iter().all(|v| v.is_finite()).then_some(s)
+            })
+            .collect::<Option<Vec<_>>>()
+    };
+    sets.iter()
+        .map(of)
+        .collect::<Option<Vec<_>>>()
+        .unwrap_or_default()
 }
 
 /// Residuals and, with `jac`, the Jacobian (an empty matrix without).
