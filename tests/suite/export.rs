@@ -457,19 +457,12 @@ fn import_builds_the_capture_file_a_rig_would_have_written() {
     assert_eq!(written["link_error_mm"], 0.05);
     assert_eq!(written["robot_repeatability_mm"], 0.02);
     let json = dir.path().join("arm-result.json");
-    let (code, out, err) = common::lasercal(&[
-        "calibrate",
-        arm.to_str().unwrap(),
-        "--json",
-        json.to_str().unwrap(),
-    ]);
+    let (code, out, err, result) = common::calibrate_json(&arm, &json);
     assert!([0, 3, 4].contains(&code), "{out} {err}");
     assert!(
         out.contains("the arm's stated kinematic error (irb120"),
         "{out}"
     );
-    let result: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert!(
         result["quality"]["kinematic"]["sd_mm"].as_f64().unwrap() > 0.0,
         "{result}"

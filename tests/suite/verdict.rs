@@ -1009,19 +1009,12 @@ fn a_few_scans_with_robot_error_carry_the_arms_kinematic_error_or_are_told_of_it
     // poses: within 1.25 times the assumed ones, so no note asks for the joints).
     let (caps, _) = common::simulated_capture(dir.path(), "plane-48-circle.toml", "plane.json");
     let json = dir.path().join("plane-result.json");
-    let (code, out, err) = common::lasercal(&[
-        "calibrate",
-        caps.to_str().unwrap(),
-        "--json",
-        json.to_str().unwrap(),
-    ]);
+    let (code, out, err, doc) = common::calibrate_json(&caps, &json);
     assert!([0, 3, 4].contains(&code), "{err}");
     assert!(
         out.contains(kinematic) && !out.contains("joints_deg"),
         "{out}"
     );
-    let doc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let k = &doc["quality"]["kinematic"];
     let (deg, mm) = (
         &k["other_configurations_sd_deg"],

@@ -15,6 +15,25 @@ pub fn lasercal(args: &[&str]) -> (i32, String, String) {
     )
 }
 
+/// `lasercal calibrate FILE --json JSON`: exit code, stdout, stderr and the JSON written (null
+/// where none was).
+pub fn calibrate_json(
+    file: &std::path::Path,
+    json: &std::path::Path,
+) -> (i32, String, String, serde_json::Value) {
+    let (code, out, err) = lasercal(&[
+        "calibrate",
+        file.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let doc = std::fs::read_to_string(json)
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok())
+        .unwrap_or(serde_json::Value::Null);
+    (code, out, err, doc)
+}
+
 /// Path of a file in scenarios/.
 pub fn scen(name: &str) -> String {
     format!("{}/scenarios/{name}", env!("CARGO_MANIFEST_DIR"))
