@@ -834,7 +834,7 @@ impl<M: Model + 'static> Refinable for Problem<M> {
             return None;
         }
         // Each row's pose, its twists asked for once.
-        let mut seen: std::collections::HashMap<[u64; 7], usize> = Default::default();
+        let mut seen: rustc_hash::FxHashMap<[u64; 7], usize> = Default::default();
         let mut poses: Vec<Vec<Vector6<f64>>> = Vec::new();
         let mut pose_flanges: Vec<&Isometry3<f64>> = Vec::new();
         let mut row_pose = Vec::with_capacity(r.len());
