@@ -254,6 +254,11 @@ pub struct Kinematic {
     pub link_sd: f64,
     /// Joint zero offset, radians.
     pub joint_zero_sd: f64,
+    /// Whether the errors are assumed (`Kinematic::assumed`), not stated.
+    pub assumed: bool,
+    /// Whether the captures state the errors, zero included (a calibrated arm: nothing to
+    /// assume), or name the arm alone.
+    pub errors_stated: bool,
     /// Each pose's error twists (`Kinematic::new`).
     twists: std::sync::Arc<Twists>,
     /// The joint values given with a pose, by `pose_key` (written back with it).
@@ -269,6 +274,8 @@ impl PartialEq for Kinematic {
         self.robot_name == o.robot_name
             && self.link_sd == o.link_sd
             && self.joint_zero_sd == o.joint_zero_sd
+            && self.assumed == o.assumed
+            && self.errors_stated == o.errors_stated
     }
 }
 
@@ -314,6 +321,8 @@ impl Kinematic {
             robot,
             link_sd,
             joint_zero_sd,
+            assumed: false,
+            errors_stated: link_sd > 0.0 || joint_zero_sd > 0.0,
             twists: std::sync::Arc::new(twists),
             given: std::sync::Arc::new(given),
             others: std::sync::Arc::new(others),
@@ -337,6 +346,22 @@ impl Kinematic {
     /// Whether any error is stated (an arm named alone only checks the poses' reach).
     pub fn is_stated(&self) -> bool {
         self.link_sd > 0.0 || self.joint_zero_sd > 0.0
+    }
+
+    /// An uncalibrated arm's error of point standard deviation `accuracy` (metres, as
+    /// `point_sd` counts it), for an arm named without one: joint origins and zeros in the
+    /// ratio `ASSUMED_LINK_PER_ZERO`, at this arm's configurations for the same poses (the
+    /// other configurations not followed). None where `accuracy` is not positive.
+    pub fn assumed(&self, accuracy: f64) -> Option<Kinematic> {
+        let unit = point_sd_of(&self.robot, ASSUMED_LINK_PER_ZERO, 1.0);
+        let zero = accuracy / unit;
+        (zero > 0.0 && zero.is_finite()).then(|| Kinematic {
+            link_sd: ASSUMED_LINK_PER_ZERO * zero,
+            joint_zero_sd: zero,
+            assumed: true,
+            others: std::sync::Arc::new(Vec::new()),
+            ..self.clone()
+        })
     }
 
     /// About one standard deviation of a point's offset along one direction that this error
@@ -449,6 +474,11 @@ pub fn point_sd_of(robot: &crate::robot::Robot, link_sd: f64, angle_sd: f64) -> 
     (n * link_sd * link_sd + n * angle_sd * angle_sd * lever * lever / 3.0).sqrt()
 }
 
+/// An uncalibrated arm's joint origin error (m, per axis) per radian of joint zero error, where
+/// the error is assumed (`Kinematic::assumed`): 0.1 mm per 0.01 deg, the ratio of the
+/// independent kit's uncalibrated arm and of `scenarios/ball-causes.toml` (0.05 mm, 0.005 deg).
+pub const ASSUMED_LINK_PER_ZERO: f64 = 1e-4 / (0.01 * std::f64::consts::PI / 180.0);
+
 /// Each pose's kinematic error twists (`Kinematic::new`).
 pub type Twists = std::collections::HashMap<[u64; 7], Vec<nalgebra::Vector6<f64>>>;
 
@@ -560,5 +590,39 @@ mod tests {
         .unwrap();
         assert!(given.other_configurations().is_empty());
         assert!(true_twists(&given.twists));
+    }
+
+    /// An arm named without its errors: the assumed error has the stated point sd, the ratio
+    /// of origins to zeros, the same configurations and none of the others; no accuracy, none.
+    #[test]
+    fn an_assumed_error_has_the_stated_accuracy() {
+        let robot = std::sync::Arc::new(crate::robot::Robot::resolve("irb120").unwrap());
+        let poses: Vec<Isometry3<f64>> = (0..4)
+            .map(|i| robot.fk(&[0.1 * i as f64, 0.2, 0.1, 0.3, -0.8, 0.5]))
+            .collect();
+        let named = Kinematic::new(
+            "irb120".into(),
+            robot.clone(),
+            0.0,
+            0.0,
+            poses.iter().map(|p| (p, None)),
+        )
+        .unwrap();
+        assert!(!named.is_stated() && !named.errors_stated);
+        let k = named.assumed(0.3e-3).unwrap();
+        assert!(k.assumed && k.is_stated() && !k.errors_stated);
+        assert!(
+            (k.point_sd() / 0.3e-3 - 1.0).abs() < 1e-12,
+            "{}",
+            k.point_sd()
+        );
+        assert!((k.link_sd / k.joint_zero_sd / ASSUMED_LINK_PER_ZERO - 1.0).abs() < 1e-12);
+        // The kit's uncalibrated arm: 0.1 mm and 0.01 deg.
+        assert!((ASSUMED_LINK_PER_ZERO * 0.01f64.to_radians() - 1e-4).abs() < 1e-15);
+        assert!(k.other_configurations().is_empty());
+        for p in &poses {
+            assert_eq!(k.twists_at(p), named.twists_at(p));
+        }
+        assert!(named.assumed(0.0).is_none());
     }
 }

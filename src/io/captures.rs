@@ -299,12 +299,12 @@ pub fn to_json(c: &Captures, sensor: &SensorModel) -> String {
         link_error_mm: c
             .kinematic
             .as_ref()
-            .filter(|k| k.is_stated())
+            .filter(|k| k.errors_stated)
             .map(|k| k.link_sd * 1e3),
         joint_offset_error_deg: c
             .kinematic
             .as_ref()
-            .filter(|k| k.is_stated())
+            .filter(|k| k.errors_stated)
             .map(|k| k.joint_zero_sd.to_degrees()),
         sensor: Some(if sensor.points_only {
             SensorV1::PointsOnly {
@@ -1628,7 +1628,11 @@ pub fn kinematic_of<'a>(
         zero,
         poses,
     )
-    .map(Some)
+    .map(|mut k| {
+        // A stated 0 (a calibrated arm) is a statement; an arm named alone is not.
+        k.errors_stated = s.link_error_mm.is_some() || s.joint_offset_error_deg.is_some();
+        Some(k)
+    })
     .map_err(|(i, e)| {
         err(
             file,

@@ -83,6 +83,8 @@ pub struct KinematicPart {
     pub robot: String,
     pub link_error_mm: f64,
     pub joint_offset_error_deg: f64,
+    /// Not stated but assumed (`Kinematic::assumed`): the arm named, the poses a few scans.
+    pub assumed: bool,
     /// The standard deviation of the rotation (deg) and the translation (mm) it moves the
     /// result by (the root of each block's trace), through each pose's joint configuration.
     pub sd_deg: f64,
@@ -110,6 +112,7 @@ impl KinematicPart {
             robot: k.robot_name.clone(),
             link_error_mm: k.link_sd * 1e3,
             joint_offset_error_deg: k.joint_zero_sd.to_degrees(),
+            assumed: k.assumed,
             sd_deg,
             sd_mm,
             other_configurations,
@@ -128,6 +131,23 @@ impl KinematicPart {
 
     /// The verdict's note on it.
     fn note(&self) -> String {
+        if self.assumed {
+            return format!(
+                "no kinematic error is stated for {}, and the poses are a few scans, each at one \
+                 flange orientation: an arm's error that moves each scan as a whole turns the \
+                 result, and neither the residuals nor the scans show it; the bounds carry an \
+                 uncalibrated arm's of the stated accuracy (joint origins {:.3} mm per axis, \
+                 joint zeros {:.4} deg, one sd), which moves the result by about {:.4} deg / \
+                 {:.4} mm (one sd) through each pose's joint configuration; state the arm's own \
+                 (link_error_mm, joint_offset_error_deg; --link-error-mm, \
+                 --joint-offset-error-deg) or a smaller accuracy if it is calibrated",
+                self.robot,
+                self.link_error_mm,
+                self.joint_offset_error_deg,
+                self.sd_deg,
+                self.sd_mm
+            );
+        }
         let mut note = format!(
             "the arm's stated kinematic error ({}: joint origins {:.3} mm per axis, joint zeros \
              {:.4} deg, one sd) is in the bounds: through each pose's joint configuration it \
@@ -161,9 +181,8 @@ fn sds(shifts: &[(nalgebra::Vector6<f64>, f64)]) -> (f64, f64) {
 fn kinematic_shifts(
     cal: &Calibration,
     estimator: super::Estimator,
-    caps: &Captures,
+    k: &crate::captures::Kinematic,
 ) -> Option<KinematicShifts> {
-    let k = caps.kinematic.as_ref().filter(|k| k.is_stated())?;
     let problem = cal.problem(estimator)?;
     // The other configurations' moves from the same evaluations.
     let key = crate::calib::refine::honest::pose_key;
@@ -453,13 +472,16 @@ pub fn quality(
                 .bow_shift(&cal.flange_to_sensor, caps.judging.edge_length)
         })
         .flatten();
-    let kinematic = finite.and_then(|_| kinematic_shifts(cal, estimator, caps));
+    let carried = carried_kinematic(caps);
+    let kinematic = finite
+        .zip(carried.as_ref())
+        .and_then(|(_, k)| kinematic_shifts(cal, estimator, k));
     let honest = finite.map(|f| {
         // The accuracy is common to the poses (less what a stated kinematic error carries);
         // the repeatability is each pose's own.
         let common = beyond(
             caps.judging.robot_accuracy,
-            caps.kinematic.as_ref().filter(|_| kinematic.is_some()),
+            carried.as_deref().filter(|_| kinematic.is_some()),
         );
         let own = caps.judging.robot_repeatability;
         let h = match &kinematic {
@@ -522,7 +544,7 @@ pub fn quality(
         few_scans: few_scans(caps).filter(|_| kinematic.is_none()),
         kinematic: kinematic
             .as_ref()
-            .zip(caps.kinematic.as_ref())
+            .zip(carried.as_ref())
             .map(|(shifts, k)| KinematicPart::of(shifts, k)),
         judging: caps.judging,
         from_nominal: caps
@@ -642,6 +664,24 @@ fn jitter_clause(q: &Quality, rms: f64, noise: f64) -> String {
 /// groups measure their own scatter in every direction of the transform (`group_widening`).
 pub const MAX_FEW_SCANS: usize = 6;
 
+/// The arm's kinematic error the bounds carry: the one the captures state, or where they name
+/// the arm without one (not even a 0) and the poses are a few scans (`few_scans`), an uncalibrated arm's of the
+/// stated accuracy (`Kinematic::assumed`): the accuracy alone, common to every pose, does not
+/// turn the scans apart, and held 22-83 % of the rotations (docs/verdict.md).
+fn carried_kinematic(caps: &Captures) -> Option<std::borrow::Cow<'_, crate::captures::Kinematic>> {
+    let k = caps.kinematic.as_ref()?;
+    if k.is_stated() {
+        return Some(std::borrow::Cow::Borrowed(k));
+    }
+    // Stated as none (a calibrated arm): the accuracy alone, and the few scans' note.
+    if k.errors_stated {
+        return None;
+    }
+    few_scans(caps)?;
+    k.assumed(caps.judging.robot_accuracy)
+        .map(std::borrow::Cow::Owned)
+}
+
 /// The number of scans where the robot's accuracy is stated and the poses are 2 to
 /// `MAX_FEW_SCANS` orientations of at least four poses each on average (the disk paper's four
 /// scans), else None.
@@ -661,10 +701,11 @@ fn few_scans_note(n: usize) -> String {
              each scan as a whole and the scans by different amounts (link-length and joint-zero \
              errors of an arm whose kinematics are not calibrated) turns the result, and neither \
              the residuals nor {n} scans show it, so the rotation's bound does not hold it (on the \
-             comparison rig it held 22-83 % of such results; docs/verdict.md); state the arm and \
-             its kinematic error (robot, link_error_mm, joint_offset_error_deg; --robot, \
-             --link-error-mm, --joint-offset-error-deg) for a bound that holds it, or calibrate \
-             from many orientations (disk-any-pose from free poses, a ball or a plane)"
+             comparison rig it held 22-83 % of such results; docs/verdict.md); name the arm \
+             (robot; --robot) for a bound that carries an uncalibrated arm's error of the stated \
+             accuracy, or state its kinematic error too (link_error_mm, joint_offset_error_deg; \
+             --link-error-mm, --joint-offset-error-deg), or calibrate from many orientations \
+             (disk-any-pose from free poses, a ball or a plane)"
     )
 }
 
@@ -1558,6 +1599,7 @@ mod tests {
             robot: "irb120".into(),
             link_error_mm: 0.1,
             joint_offset_error_deg: 0.01,
+            assumed: false,
             sd_deg: 0.05,
             sd_mm: 0.2,
             other_configurations: other,

@@ -986,8 +986,8 @@ fn a_few_scans_with_robot_error_carry_the_arms_kinematic_error_or_are_told_of_it
     let kinematic = "the arm's stated kinematic error (robots/irb120_3_58.urdf";
     let out = run("disk-kinematic-error.toml", "disk-refined", &[]);
     assert!(out.contains(kinematic) && !out.contains(note), "{out}");
-    // The same file stating the arm but no kinematic error: the stated accuracy alone, whose
-    // rotation bound misses what the scans share.
+    // The same file stating the arm's kinematic error as 0 (a calibrated arm): the stated
+    // accuracy alone, whose rotation bound misses what the scans share, and the note says so.
     let none = ["--link-error-mm", "0", "--joint-offset-error-deg", "0"];
     let out = run("disk-kinematic-error.toml", "disk-refined", &none);
     assert!(
@@ -996,6 +996,26 @@ fn a_few_scans_with_robot_error_carry_the_arms_kinematic_error_or_are_told_of_it
             && !out.contains(kinematic),
         "{out}"
     );
+    // The file naming the arm without its kinematic error: an uncalibrated arm's of the stated
+    // accuracy is assumed and carried, and the note says so.
+    let (caps, doc) = common::simulated_capture(dir.path(), "disk-kinematic-error.toml", "k.json");
+    let mut named = doc.clone();
+    for f in ["link_error_mm", "joint_offset_error_deg"] {
+        named.as_object_mut().unwrap().remove(f).unwrap();
+    }
+    std::fs::write(&caps, named.to_string()).unwrap();
+    let json = dir.path().join("named.json");
+    let (code, out, err, result) = common::calibrate_json(&caps, &json);
+    assert!([0, 3, 4].contains(&code), "{err}");
+    assert!(
+        out.contains("no kinematic error is stated for robots/irb120_3_58.urdf")
+            && out.contains("an uncalibrated arm's of the stated accuracy")
+            && !out.contains("rotation's bound does not hold it"),
+        "{out}"
+    );
+    let k = &result["quality"]["kinematic"];
+    assert_eq!(k["assumed"], true, "{k}");
+    assert!(k["sd_deg"].as_f64().unwrap() > 0.0, "{k}");
     // Stating no robot error at all: nothing to warn of.
     let out = run(
         "disk-kinematic-error.toml",

@@ -434,10 +434,11 @@ fn with_stated_arm(
     let k = caps.kinematic.as_ref();
     let stated = lasercal::io::captures::Stated {
         robot: a.robot.as_deref().or(k.map(|k| k.robot_name.as_str())),
-        link_error_mm: a.link_error_mm.or(k.map(|k| k.link_sd * 1e3)),
-        joint_offset_error_deg: a
-            .joint_offset_error_deg
-            .or(k.map(|k| k.joint_zero_sd.to_degrees())),
+        // The file's errors where it states them (an arm named alone states none).
+        link_error_mm: (a.link_error_mm).or(k.filter(|k| k.errors_stated).map(|k| k.link_sd * 1e3)),
+        joint_offset_error_deg: (a.joint_offset_error_deg).or(k
+            .filter(|k| k.errors_stated)
+            .map(|k| k.joint_zero_sd.to_degrees())),
         flags: true,
     };
     let kinematic = lasercal::io::captures::kinematic_of(

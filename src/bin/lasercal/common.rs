@@ -411,6 +411,8 @@ fn verdict_json(
     doc["kinematic"] = serde_json::json!(q.kinematic.as_ref().map(|k| serde_json::json!({
         "robot": k.robot, "link_error_mm": k.link_error_mm,
         "joint_offset_error_deg": k.joint_offset_error_deg, "sd_deg": k.sd_deg, "sd_mm": k.sd_mm,
+        // Not stated: an uncalibrated arm's of the stated accuracy (a few scans).
+        "assumed": k.assumed,
         // The largest over the arm's other configurations where the joints were not given.
         "other_configurations_sd_deg": k.other_configurations.map(|o| o.0),
         "other_configurations_sd_mm": k.other_configurations.map(|o| o.1),
