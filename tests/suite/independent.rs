@@ -1111,6 +1111,15 @@ fn ball_refinement_converges_on_independent_profiles() {
     }
 }
 
+/// A robot-error row's name in the kit's tables.
+fn row_name(robot_mm: f64, kinematic: Option<(f64, f64, bool)>) -> String {
+    match kinematic {
+        Some((l, z, true)) => format!("kinematic {l} mm / {z} deg"),
+        Some((l, z, false)) => format!("kinematic {l} mm / {z} deg, arm named alone"),
+        None => format!("{robot_mm} mm"),
+    }
+}
+
 /// `robot` with the kinematic error an uncalibrated arm has, drawn from `seed` by this test's
 /// own hand: each joint origin moved by `link` (m, one sd per axis), each zero by `zero_deg`.
 fn uncalibrated(
@@ -1143,7 +1152,9 @@ fn uncalibrated(
 /// each pose's own, with no accuracy common to the poses), and once with an
 /// uncalibrated arm (`uncalibrated`: joint origins 0.1 mm, zeros 0.01 deg; the profiles cast
 /// from where that arm goes at the configuration the nominal one needs, the file stating the arm
-/// and its kinematic error). Every
+/// and its kinematic error), and once more with another (0.05 mm, 0.02 deg) whose file names
+/// the arm and its accuracy alone (on the disk's four scans the verdict then assumes an error
+/// of that accuracy in its own ratio, `Kinematic::assumed`). Every
 /// variant run and judged as `calibrate` does (`verdict::decide`); the specimen placed anew each
 /// trial (`placed`). Counts right answers called suspect (false alarms), wrong answers (more than
 /// 1 deg or 1 mm off) judged ok, and how often the chosen result's 95 % bound, and each variant's
@@ -1187,13 +1198,16 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
         let (s, fan, solids) = case();
         let sensor = with_sigma(&common::declared(&fan, "fan-295"), 0.1);
         // (per-pose robot error mm, stated accuracy mm, stated repeatability mm, kinematic
-        // error: link mm, zero deg). The per-pose error moves each profile alone (0.1 mm per
-        // axis from the shift, 0.02 mm at the specimen from the turn): a repeatability, with no
-        // error common to the poses.
+        // error: link mm, zero deg, stated or the arm named alone). The per-pose error moves
+        // each profile alone (0.1 mm per axis from the shift, 0.02 mm at the specimen from the
+        // turn): a repeatability, with no error common to the poses. The last arm's errors are
+        // in another ratio than the one lasercal assumes where they are not stated (0.1 mm per
+        // 0.01 deg, `captures::ASSUMED_LINK_PER_ZERO`).
         for (robot_mm, stated_mm, repeat_mm, kinematic) in [
             (0.0, 0.0, 0.0, None),
             (0.3, 0.0, 0.1, None),
-            (0.0, 0.0, 0.0, Some((0.1, 0.01))),
+            (0.0, 0.0, 0.0, Some((0.1, 0.01, true))),
+            (0.0, 0.0, 0.0, Some((0.05, 0.02, false))),
         ] {
             let outcomes: Vec<Outcome> = (0..n)
                 .into_par_iter()
@@ -1211,7 +1225,7 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
                             );
                         }
                     }
-                    if let Some((link_mm, zero_deg)) = kinematic {
+                    if let Some((link_mm, zero_deg, _)) = kinematic {
                         let arm = uncalibrated(&s.rig.robot, link_mm * 1e-3, zero_deg, 6000 + t);
                         let mut q = [0.0; 6];
                         for p in &mut moved.profiles {
@@ -1231,22 +1245,22 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
                     }
                     file.judging.robot_accuracy = stated_mm * 1e-3;
                     file.judging.robot_repeatability = repeat_mm * 1e-3;
-                    if let Some((link_mm, zero_deg)) = kinematic {
+                    if let Some((link_mm, zero_deg, stated)) = kinematic {
+                        let (link, zero) = (link_mm * 1e-3, f64::to_radians(zero_deg));
                         let k = lasercal::captures::Kinematic::new(
                             "irb".into(),
                             std::sync::Arc::new(s.rig.robot.clone()),
-                            link_mm * 1e-3,
-                            f64::to_radians(zero_deg),
+                            if stated { link } else { 0.0 },
+                            if stated { zero } else { 0.0 },
                             file.profiles.iter().map(|p| (&p.base_to_flange, None)),
                         )
                         .unwrap();
-                        file.judging.robot_accuracy = k.point_sd();
+                        // Named alone, the file states the arm's accuracy (its errors' point sd).
+                        file.judging.robot_accuracy =
+                            lasercal::captures::point_sd_of(&s.rig.robot, link, zero);
                         file.kinematic = Some(k);
                     }
-                    let robot_mm = match kinematic {
-                        Some((l, z)) => format!("kinematic {l} mm / {z} deg"),
-                        None => format!("{robot_mm} mm"),
-                    };
+                    let robot_mm = row_name(robot_mm, kinematic);
                     let Ok(d) = decide(&file, &sensor, None) else {
                         return Outcome {
                             refused: true,
@@ -1327,10 +1341,7 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
                     .filter(|o| !o.refused && !o.right && o.ok)
                     .map(|o| o.what.clone()),
             );
-            let robot_mm = match kinematic {
-                Some((l, z)) => format!("kinematic {l} mm / {z} deg"),
-                None => format!("{robot_mm} mm"),
-            };
+            let robot_mm = row_name(robot_mm, kinematic);
             println!(
                 "| {name} | {robot_mm} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 outcomes.len(),
