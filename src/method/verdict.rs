@@ -472,7 +472,8 @@ pub fn quality(
                 .bow_shift(&cal.flange_to_sensor, caps.judging.edge_length)
         })
         .flatten();
-    let carried = carried_kinematic(caps);
+    let scans = few_scans(caps);
+    let carried = carried_kinematic(caps, scans);
     let kinematic = finite
         .zip(carried.as_ref())
         .and_then(|(_, k)| kinematic_shifts(cal, estimator, k));
@@ -541,7 +542,7 @@ pub fn quality(
         group_widening: finite.map(|f| f.honest.group_widening),
         // Where the bound carries the arm's kinematic error, nothing to warn of; where it
         // could not (a variant without a problem to move), the warning stays.
-        few_scans: few_scans(caps).filter(|_| kinematic.is_none()),
+        few_scans: scans.filter(|_| kinematic.is_none()),
         kinematic: kinematic
             .as_ref()
             .zip(carried.as_ref())
@@ -665,10 +666,14 @@ fn jitter_clause(q: &Quality, rms: f64, noise: f64) -> String {
 pub const MAX_FEW_SCANS: usize = 6;
 
 /// The arm's kinematic error the bounds carry: the one the captures state, or where they name
-/// the arm without one (not even a 0) and the poses are a few scans (`few_scans`), an uncalibrated arm's of the
-/// stated accuracy (`Kinematic::assumed`): the accuracy alone, common to every pose, does not
-/// turn the scans apart, and held 22-83 % of the rotations (docs/verdict.md).
-fn carried_kinematic(caps: &Captures) -> Option<std::borrow::Cow<'_, crate::captures::Kinematic>> {
+/// the arm without one (not even a 0) and the poses are `scans` few scans (`few_scans`), an
+/// uncalibrated arm's of the stated accuracy (`Kinematic::assumed`): the accuracy alone, common
+/// to every pose, does not turn the scans apart, and held 12-83 % of the results
+/// (docs/verdict.md).
+fn carried_kinematic(
+    caps: &Captures,
+    scans: Option<usize>,
+) -> Option<std::borrow::Cow<'_, crate::captures::Kinematic>> {
     let k = caps.kinematic.as_ref()?;
     if k.is_stated() {
         return Some(std::borrow::Cow::Borrowed(k));
@@ -677,7 +682,7 @@ fn carried_kinematic(caps: &Captures) -> Option<std::borrow::Cow<'_, crate::capt
     if k.errors_stated {
         return None;
     }
-    few_scans(caps)?;
+    scans?;
     k.assumed(caps.judging.robot_accuracy)
         .map(std::borrow::Cow::Owned)
 }
