@@ -268,6 +268,9 @@ pub struct Quality {
     /// A closed form's whole bounds (deg, mm): its distance from the fit (`from_fit_*`) and the
     /// fit's error together (`Honest::bounds_around`). None for a refined result.
     pub around_fit: Option<(f64, f64)>,
+    /// The covariance the bounds are drawn from (rad, m; as `covariance`) and its degrees of
+    /// freedom (the bounds' Student's t), for a user who carries the uncertainty on.
+    pub bound_covariance: Option<(nalgebra::Matrix6<f64>, usize)>,
     pub poses: usize,
     /// The directions of the transform in which the scatter between poses was measured
     /// (`Honest::pose_directions`).
@@ -525,6 +528,7 @@ pub fn quality(
         rejected: cal.missed,
         bounds: honest.as_ref().map(|h| h.bounds()),
         around_fit: honest.as_ref().zip(step).map(|(h, s)| h.bounds_around(&s)),
+        bound_covariance: honest.as_ref().map(|h| (h.covariance, h.dof)),
         radius_shift: radius_shift.map(|s| {
             (
                 s.fixed_rows::<3>(0).norm().to_degrees() * 1e-3,

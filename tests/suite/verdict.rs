@@ -369,6 +369,22 @@ fn calibrate_runs_every_variant_prints_the_verdict_and_exits_3_when_suspect() {
     assert_eq!(q["verdict"], "ok", "{q}");
     assert_eq!(q["covariance_rad_m"].as_array().unwrap().len(), 6, "{q}");
     assert_eq!(q["correlations"][2][2].as_f64(), Some(1.0), "{q}");
+    // The bounds' own covariance: each axis's 95 % bound is one Student's t (at `bound_dof`)
+    // times its sd, the same t on every axis, at least the normal's 1.96.
+    let c = &q["bound_covariance_rad_m"];
+    assert!(q["bound_dof"].as_u64().is_some_and(|d| d >= 1), "{q}");
+    let ratios: Vec<f64> = (0..6)
+        .map(|i| {
+            let (bound, unit) = match i {
+                0..3 => (q["bound_rotation_deg"][i].as_f64().unwrap(), 1f64.to_degrees()),
+                _ => (q["bound_translation_mm"][i - 3].as_f64().unwrap(), 1e3),
+            };
+            bound / (c[i][i].as_f64().unwrap().sqrt() * unit)
+        })
+        .collect();
+    for r in &ratios {
+        assert!(*r >= 1.959 && (r - ratios[0]).abs() <= 1e-9 * r, "{ratios:?} {q}");
+    }
     let loo = &q["leave_one_out"];
     assert!(loo["runs"].as_u64() == Some(4), "{q}");
     // Each group's move per axis; the one named as the largest is the move it reports.

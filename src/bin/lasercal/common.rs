@@ -407,6 +407,12 @@ fn verdict_json(
     // Where another variant's result widened the bound (`verdict::decide`).
     doc["between_variants"] = serde_json::json!(between);
     doc["orientation_groups"] = serde_json::json!(q.orientation_groups);
+    // The bounds' own covariance (the sensor's noise and what it leaves out) and its degrees of
+    // freedom (the bounds' Student's t).
+    doc["bound_covariance_rad_m"] = serde_json::json!(q.bound_covariance.map(|(c, _)| {
+        (0..6).map(|r| (0..6).map(|k| c[(r, k)]).collect::<Vec<_>>()).collect::<Vec<_>>()
+    }));
+    doc["bound_dof"] = serde_json::json!(q.bound_covariance.map(|(_, d)| d));
     doc["group_widening"] = serde_json::json!(q.group_widening);
     doc["kinematic"] = serde_json::json!(q.kinematic.as_ref().map(|k| serde_json::json!({
         "robot": k.robot, "link_error_mm": k.link_error_mm,
