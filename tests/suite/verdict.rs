@@ -376,14 +376,20 @@ fn calibrate_runs_every_variant_prints_the_verdict_and_exits_3_when_suspect() {
     let ratios: Vec<f64> = (0..6)
         .map(|i| {
             let (bound, unit) = match i {
-                0..3 => (q["bound_rotation_deg"][i].as_f64().unwrap(), 1f64.to_degrees()),
+                0..3 => (
+                    q["bound_rotation_deg"][i].as_f64().unwrap(),
+                    1f64.to_degrees(),
+                ),
                 _ => (q["bound_translation_mm"][i - 3].as_f64().unwrap(), 1e3),
             };
             bound / (c[i][i].as_f64().unwrap().sqrt() * unit)
         })
         .collect();
     for r in &ratios {
-        assert!(*r >= 1.959 && (r - ratios[0]).abs() <= 1e-9 * r, "{ratios:?} {q}");
+        assert!(
+            *r >= 1.959 && (r - ratios[0]).abs() <= 1e-9 * r,
+            "{ratios:?} {q}"
+        );
     }
     let loo = &q["leave_one_out"];
     assert!(loo["runs"].as_u64() == Some(4), "{q}");

@@ -410,7 +410,9 @@ fn verdict_json(
     // The bounds' own covariance (the sensor's noise and what it leaves out) and its degrees of
     // freedom (the bounds' Student's t).
     doc["bound_covariance_rad_m"] = serde_json::json!(q.bound_covariance.map(|(c, _)| {
-        (0..6).map(|r| (0..6).map(|k| c[(r, k)]).collect::<Vec<_>>()).collect::<Vec<_>>()
+        (0..6)
+            .map(|r| (0..6).map(|k| c[(r, k)]).collect::<Vec<_>>())
+            .collect::<Vec<_>>()
     }));
     doc["bound_dof"] = serde_json::json!(q.bound_covariance.map(|(_, d)| d));
     doc["group_widening"] = serde_json::json!(q.group_widening);
