@@ -1314,6 +1314,45 @@ fn free_poses_take_only_the_any_pose_estimator_on_raycast_profiles() {
     }
 }
 
+/// The independent generator's random rigs of `the_verdict_holds_*`: each specimen's any-pose
+/// estimator and its rig for a seed (16 free poses, z noise `sigma`), seeds from `base` on
+/// (each specimen 100 further).
+fn random_rigs(base: u64, sigma: f64) -> Vec<(MethodId, &'static str, Box<dyn Fn(u64) -> Setup>)> {
+    let any = |k: Kind| MethodId::new(k, Estimator::AnyPose);
+    vec![
+        (
+            any(Kind::Ball),
+            "ball",
+            Box::new(move |seed| random_setup(base + seed, 16, 3, sigma)),
+        ),
+        (
+            any(Kind::Plane),
+            "plane",
+            Box::new(move |seed| random_plane_setup(base + 100 + seed, 16, false, sigma)),
+        ),
+        (
+            any(Kind::Edge),
+            "bar",
+            Box::new(move |seed| random_bar_setup(base + 200 + seed, 16, sigma)),
+        ),
+        (
+            any(Kind::Disk),
+            "disk",
+            Box::new(move |seed| random_disk_setup(base + 300 + seed, 16, sigma)),
+        ),
+        (
+            any(Kind::Edge),
+            "ridge",
+            Box::new(move |seed| random_wedge_setup(base + 400 + seed, 16, sigma, false)),
+        ),
+        (
+            any(Kind::Edge),
+            "v-groove",
+            Box::new(move |seed| random_wedge_setup(base + 500 + seed, 16, sigma, true)),
+        ),
+    ]
+}
+
 #[test]
 fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
     // The independent generator's rigs (random fans, mountings, specimens, 16 free poses, z noise
@@ -1328,26 +1367,7 @@ fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
         sensor
     };
     let any = |k: Kind| MethodId::new(k, Estimator::AnyPose);
-    let cases: [(MethodId, &str, &dyn Fn(u64) -> Setup); 6] = [
-        (any(Kind::Ball), "ball", &|seed| {
-            random_setup(7000 + seed, 16, 3, sigma)
-        }),
-        (any(Kind::Plane), "plane", &|seed| {
-            random_plane_setup(7100 + seed, 16, false, sigma)
-        }),
-        (any(Kind::Edge), "bar", &|seed| {
-            random_bar_setup(7200 + seed, 16, sigma)
-        }),
-        (any(Kind::Disk), "disk", &|seed| {
-            random_disk_setup(7300 + seed, 16, sigma)
-        }),
-        (any(Kind::Edge), "ridge", &|seed| {
-            random_wedge_setup(7400 + seed, 16, sigma, false)
-        }),
-        (any(Kind::Edge), "v-groove", &|seed| {
-            random_wedge_setup(7500 + seed, 16, sigma, true)
-        }),
-    ];
+    let cases = random_rigs(7000, sigma);
     // LASERCAL_VERDICT_SEEDS rigs per estimator (default 10) for a larger measurement.
     let seeds: u64 = std::env::var("LASERCAL_VERDICT_SEEDS")
         .ok()
@@ -1454,27 +1474,7 @@ fn the_verdict_holds_on_random_rigs_with_robot_pose_error() {
     use lasercal::method::verdict::{Verdict, judge, quality};
     let sigma = 0.1e-3;
     let (shift, turn) = (0.3e-3, 0.3e-3);
-    let any = |k: Kind| MethodId::new(k, Estimator::AnyPose);
-    let cases: [(MethodId, &str, &dyn Fn(u64) -> Setup); 6] = [
-        (any(Kind::Ball), "ball", &|seed| {
-            random_setup(8000 + seed, 16, 3, sigma)
-        }),
-        (any(Kind::Plane), "plane", &|seed| {
-            random_plane_setup(8100 + seed, 16, false, sigma)
-        }),
-        (any(Kind::Edge), "bar", &|seed| {
-            random_bar_setup(8200 + seed, 16, sigma)
-        }),
-        (any(Kind::Disk), "disk", &|seed| {
-            random_disk_setup(8300 + seed, 16, sigma)
-        }),
-        (any(Kind::Edge), "ridge", &|seed| {
-            random_wedge_setup(8400 + seed, 16, sigma, false)
-        }),
-        (any(Kind::Edge), "v-groove", &|seed| {
-            random_wedge_setup(8500 + seed, 16, sigma, true)
-        }),
-    ];
+    let cases = random_rigs(8000, sigma);
     let seeds: u64 = std::env::var("LASERCAL_VERDICT_SEEDS")
         .ok()
         .and_then(|v| v.parse().ok())
