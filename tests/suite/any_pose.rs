@@ -1353,19 +1353,30 @@ fn random_rigs(base: u64, sigma: f64) -> Vec<(MethodId, &'static str, Box<dyn Fn
     ]
 }
 
+/// A rig's result from estimator `id`, judged as the verdict judges one result
+/// (`verdict::judge(verdict::quality(..))`), the sensor told its noise `sigma`, with its error
+/// against the rig's truth; None: the estimator refused the captures.
+fn judged_on_rig(
+    id: MethodId,
+    s: &Setup,
+    sigma: f64,
+) -> Option<(lasercal::method::verdict::Judged, PoseError)> {
+    use lasercal::method::verdict::{judge, quality};
+    let mut sensor = s.sensor.clone();
+    sensor.noise.z_sigma_near = sigma;
+    sensor.noise.z_sigma_far = sigma;
+    let (cal, r) = lasercal::method::estimate(id, &s.caps, &sensor).ok()?;
+    let j = judge(quality(&cal, r.as_ref(), id.estimator, &s.caps, &sensor));
+    Some((j, PoseError::between(&cal.flange_to_sensor, &s.truth)))
+}
+
 #[test]
 fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
     // The independent generator's rigs (random fans, mountings, specimens, 16 free poses, z noise
     // 0.1 mm, the sensor told so): correct captures are judged ok; a ball 5 % smaller than the
     // file says is judged suspect whenever the answer is off by more than 1 deg or 1 mm.
-    use lasercal::method::verdict::{Verdict, judge, quality};
+    use lasercal::method::verdict::Verdict;
     let sigma = 0.1e-3;
-    let told = |s: &Setup| {
-        let mut sensor = s.sensor.clone();
-        sensor.noise.z_sigma_near = sigma;
-        sensor.noise.z_sigma_far = sigma;
-        sensor
-    };
     let any = |k: Kind| MethodId::new(k, Estimator::AnyPose);
     let cases = random_rigs(7000, sigma);
     // LASERCAL_VERDICT_SEEDS rigs per estimator (default 10) for a larger measurement.
@@ -1378,14 +1389,10 @@ fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
     let mut per = std::collections::BTreeMap::new();
     for (id, what, setup) in cases {
         for seed in 0..seeds {
-            let s = setup(seed);
-            let sensor = told(&s);
-            let Ok((cal, r)) = lasercal::method::estimate(id, &s.caps, &sensor) else {
+            let Some((j, e)) = judged_on_rig(id, &setup(seed), sigma) else {
                 refused += 1;
                 continue;
             };
-            let j = judge(quality(&cal, r.as_ref(), id.estimator, &s.caps, &sensor));
-            let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
             // A wrong answer (beyond 1 deg or 1 mm) must not pass as ok.
             if !(e.rotation_error_deg < 1.0 && e.translation_error_mm < 1.0) {
                 off += 1;
@@ -1438,13 +1445,9 @@ fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
     for seed in 0..10u64 {
         let mut s = random_setup(7000 + seed, 16, 3, sigma);
         s.caps.specimen_radius = s.caps.specimen_radius.map(|r| r * 1.05);
-        let sensor = told(&s);
-        let id = any(Kind::Ball);
-        let Ok((cal, r)) = lasercal::method::estimate(id, &s.caps, &sensor) else {
+        let Some((j, e)) = judged_on_rig(any(Kind::Ball), &s, sigma) else {
             continue;
         };
-        let j = judge(quality(&cal, r.as_ref(), id.estimator, &s.caps, &sensor));
-        let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
         if e.rotation_error_deg > 1.0 || e.translation_error_mm > 1.0 {
             wrong += 1;
             assert_eq!(j.verdict, Verdict::Suspect, "seed {seed}: {e:?} judged ok");
@@ -1471,7 +1474,7 @@ fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
 /// docs/verdict.md has a release run of 1,000).
 #[test]
 fn the_verdict_holds_on_random_rigs_with_robot_pose_error() {
-    use lasercal::method::verdict::{Verdict, judge, quality};
+    use lasercal::method::verdict::Verdict;
     let sigma = 0.1e-3;
     let (shift, turn) = (0.3e-3, 0.3e-3);
     let cases = random_rigs(8000, sigma);
@@ -1491,15 +1494,10 @@ fn the_verdict_holds_on_random_rigs_with_robot_pose_error() {
                     lasercal::testkit::perturb(&mut g, &p.base_to_flange, turn, shift);
             }
             s.caps.judging.robot_repeatability = shift / 3.0;
-            let mut sensor = s.sensor.clone();
-            sensor.noise.z_sigma_near = sigma;
-            sensor.noise.z_sigma_far = sigma;
-            let Ok((cal, r)) = lasercal::method::estimate(id, &s.caps, &sensor) else {
+            let Some((j, e)) = judged_on_rig(id, &s, sigma) else {
                 refused += 1;
                 continue;
             };
-            let j = judge(quality(&cal, r.as_ref(), id.estimator, &s.caps, &sensor));
-            let e = PoseError::between(&cal.flange_to_sensor, &s.truth);
             if !(e.rotation_error_deg < 1.0 && e.translation_error_mm < 1.0) {
                 off += 1;
                 if j.verdict == Verdict::Ok {
