@@ -496,7 +496,14 @@ pub fn quality(
                 common,
                 own,
             ),
-            None => f.honest.with_systematic(common / ROBOT_REACH, common, own),
+            // The stated noise's share of the residuals' variance (the rest is the robot's,
+            // which the floor states apart).
+            None => f.honest.with_systematic(
+                common / ROBOT_REACH,
+                common,
+                own,
+                noise.map_or(1.0, |s| (s / f.residual_rms).powi(2)),
+            ),
         };
         let h = match &radius_shift {
             Some(s) => h.with_shift(s, caps.judging.radius_tolerance),
