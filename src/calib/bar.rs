@@ -34,15 +34,22 @@ pub struct BarSolution {
     pub problem: Problem<BarModel>,
 }
 
-pub fn solve(views: &[BarView], apex: &Vector3<f64>) -> Result<BarSolution, CalibError> {
+/// The bar from any views; the last fit stops after `max_iterations` (`CENSORED_ITERATIONS`
+/// for a result; fewer where only its fit's size is wanted, as a cause search's refits).
+pub fn solve(
+    views: &[BarView],
+    apex: &Vector3<f64>,
+    max_iterations: usize,
+) -> Result<BarSolution, CalibError> {
     let (views, plane) = super::plane::solve_faces(views, |v| &v.face, apex)?;
-    with_edges(&views, &plane)
+    with_edges(&views, &plane, max_iterations)
 }
 
 /// Steps 2-3 from the plane's solution.
 fn with_edges(
     views: &[&BarView],
     plane: &super::plane::PlaneSolution,
+    max_iterations: usize,
 ) -> Result<BarSolution, CalibError> {
     let x = plane.flange_to_sensor;
     let n = plane.plane.normal();
@@ -110,10 +117,8 @@ fn with_edges(
         offset: plane.plane.offset,
         edge_offsets: offsets,
     };
-    // The censored edges make the cost once but not twice differentiable where an edge's line
-    // meets its interval's end: Levenberg-Marquardt converges there only linearly.
     let opts = Options {
-        max_iterations: 500,
+        max_iterations,
         ..Options::default()
     };
     let (refined, bar) = refine(&model, &x, &bar, &opts)?;

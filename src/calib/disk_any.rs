@@ -41,6 +41,7 @@ pub fn solve(
     radius: f64,
     apex: &Vector3<f64>,
     weight: &dyn Fn(&Vector2<f64>) -> f64,
+    max_iterations: usize,
 ) -> Result<DiskAnySolution, CalibError> {
     let (views, plane) = super::plane::solve_faces(views, |v| &v.face, apex)?;
     let x = plane.flange_to_sensor;
@@ -100,9 +101,8 @@ pub fn solve(
         walls: Vec::new(),
     };
     let disk = DiskPose::new(Point3::from(centre), &n);
-    // Censored rims: once but not twice differentiable at an interval's end (see `calib::bar`).
     let opts = Options {
-        max_iterations: 500,
+        max_iterations,
         ..Options::default()
     };
     let (refined, disk) = refine(&model, &x, &disk, &opts)?;

@@ -176,6 +176,7 @@ impl Method for Ball {
         &self,
         c: &Captures,
         sensor: &SensorModel,
+        _censored_iterations: usize,
     ) -> Result<(super::Calibration, crate::calib::refine::Refined), Error> {
         any_pose(c, sensor)
     }

@@ -6,7 +6,7 @@
 //! a correction that makes the model fit `CLEARLY_BETTER` times better and no longer suspect
 //! names the cause. Refits cost one calibration each and run only for suspect results.
 
-use super::verdict::{Assessed, CLEARLY_BETTER, Verdict, assess, within_bounds};
+use super::verdict::{Assessed, CLEARLY_BETTER, Verdict, assess, assess_within, within_bounds};
 use crate::captures::{CaptureProfile, Captures, ProfileData};
 use crate::features::EdgeSense;
 use crate::sensor::SensorModel;
@@ -29,6 +29,12 @@ const TURNS: [Mistake; 3] = [
     Mistake::EulerSwapped,
     Mistake::EulerProductOrder,
 ];
+
+/// The iteration cap of a refit's censored features (a bar's edges, a disk's rim from any
+/// poses), against `calib::refine::CENSORED_ITERATIONS` for a result: only the refit's residuals
+/// are compared, and a correction that is not the cause creeps to the cap (an edge file with
+/// every orientation 3 deg off took 13 s to judge, its refits 500 iterations each).
+const REFIT_ITERATIONS: usize = 100;
 
 /// The farthest a flange can be from the robot's base (m): no serial arm reaches 10 m.
 const MAX_REACH_M: f64 = 10.0;
@@ -261,7 +267,7 @@ fn mirror(d: &mut ProfileData) {
 /// suspect.
 fn refit(caps: &Captures, sensor: &SensorModel, a: &Assessed, m: Mistake) -> Option<f64> {
     let c = m.undo(caps)?;
-    let r = assess(a.method, &c, sensor).ok()?;
+    let r = assess_within(a.method, &c, sensor, REFIT_ITERATIONS).ok()?;
     (r.judged.verdict != Verdict::Suspect)
         .then_some(r.judged.quality.residual_rms_mm)
         .flatten()
@@ -274,7 +280,7 @@ fn best_radius(caps: &Captures, sensor: &SensorModel, a: &Assessed) -> Option<(f
     let rms = |lf: f64| {
         Mistake::Radius(lf.exp())
             .undo(caps)
-            .and_then(|c| assess(a.method, &c, sensor).ok())
+            .and_then(|c| assess_within(a.method, &c, sensor, REFIT_ITERATIONS).ok())
             .and_then(|r| r.judged.quality.residual_rms_mm)
             .unwrap_or(f64::INFINITY)
     };
@@ -341,7 +347,7 @@ pub fn lets_run(caps: &Captures, sensor: &SensorModel, refused: super::MethodId)
     let (t, r) = MOVES
         .into_par_iter()
         .filter_map(|t| {
-            let r = assess(refused, &t.undo(caps)?, sensor).ok()?;
+            let r = assess_within(refused, &t.undo(caps)?, sensor, REFIT_ITERATIONS).ok()?;
             (r.judged.verdict != Verdict::Suspect).then_some((t, r.judged.quality.residual_rms_mm?))
         })
         .collect::<Vec<_>>()

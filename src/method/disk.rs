@@ -208,8 +208,9 @@ impl Method for Disk {
         &self,
         c: &Captures,
         sensor: &SensorModel,
+        censored_iterations: usize,
     ) -> Result<(super::Calibration, Refined), Error> {
-        any_pose(c, sensor)
+        any_pose(c, sensor, censored_iterations)
     }
 
     fn profile_features(
@@ -929,7 +930,11 @@ fn disk_view(
 }
 
 /// The disk's face and rim from any poses, whatever the groups (`calib::disk_any`).
-fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, Refined), Error> {
+fn any_pose(
+    c: &Captures,
+    sensor: &SensorModel,
+    censored_iterations: usize,
+) -> Result<(super::Calibration, Refined), Error> {
     let cfg = SplitMerge::for_sensor(sensor);
     let radius = c
         .specimen_radius
@@ -942,7 +947,13 @@ fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, R
         .collect();
     let noise = DepthNoise::fit(&samples);
     let weight = |p: &Vector2<f64>| DepthNoise::weight_or_one(noise.as_ref(), sensor, p);
-    let sol = crate::calib::disk_any::solve(&views, radius, &sensor.apex().coords, &weight)?;
+    let sol = crate::calib::disk_any::solve(
+        &views,
+        radius,
+        &sensor.apex().coords,
+        &weight,
+        censored_iterations,
+    )?;
     let cal = super::any_pose_calibration(
         &sol.refined,
         Some(sol.disk.centre),
@@ -958,7 +969,7 @@ fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, R
 /// `disk-any-pose`'s rotation: labels the data determine.
 fn inferred_scans(c: &Captures, sensor: &SensorModel) -> Result<Captures, Error> {
     // Without the any-pose estimator (features given, not raw profiles) nothing reads the signs.
-    let Ok((any, _)) = any_pose(c, sensor) else {
+    let Ok((any, _)) = any_pose(c, sensor, crate::calib::refine::CENSORED_ITERATIONS) else {
         return Err(CaptureError::MissingSign {
             group: c.groups[0].id,
             method: Kind::Disk,

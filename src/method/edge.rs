@@ -179,8 +179,9 @@ impl Method for Edge {
         &self,
         c: &Captures,
         sensor: &SensorModel,
+        censored_iterations: usize,
     ) -> Result<(super::Calibration, Refined), Error> {
-        any_pose(c, sensor)
+        any_pose(c, sensor, censored_iterations)
     }
 
     fn profile_features(
@@ -523,7 +524,11 @@ fn bar_view(
 }
 
 /// The bar's face and edges from any poses, whatever the groups (`calib::bar`).
-fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, Refined), Error> {
+fn any_pose(
+    c: &Captures,
+    sensor: &SensorModel,
+    censored_iterations: usize,
+) -> Result<(super::Calibration, Refined), Error> {
     let cfg = edge_config(sensor);
     if let Some(outside) = c.specimen_kind.two_faces() {
         let angle = faces_angle(c, sensor, outside, &cfg);
@@ -547,7 +552,7 @@ fn any_pose(c: &Captures, sensor: &SensorModel) -> Result<(super::Calibration, R
         return Ok((cal, sol.refined));
     }
     let (views, reports) = super::free_views(c, Kind::Edge, |g, p| bar_view(g, p, sensor, &cfg))?;
-    let sol = crate::calib::bar::solve(&views, &sensor.apex().coords)?;
+    let sol = crate::calib::bar::solve(&views, &sensor.apex().coords, censored_iterations)?;
     let cal = super::any_pose_calibration(
         &sol.refined,
         None,

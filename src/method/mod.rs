@@ -89,10 +89,13 @@ pub trait Method: Sync {
 
     /// The any-pose estimator: every profile that sees the specimen, whatever its group, with the
     /// labels inferred and no start given; the joint refinement's result included.
+    /// `censored_iterations` caps a fit of censored features (a bar's edges, a disk's rim:
+    /// `calib::refine::CENSORED_ITERATIONS` for a result; the ball and the plane have none).
     fn calibrate_any_pose(
         &self,
         _caps: &Captures,
         _sensor: &SensorModel,
+        _censored_iterations: usize,
     ) -> Result<(Calibration, Refined), Error> {
         Err(CaptureError::NoAnyPose {
             method: self.kind(),
@@ -1018,7 +1021,7 @@ pub fn refine_options(estimator: Estimator) -> Options {
         },
         // Censored rims and edges (any-pose disk and bar) converge only linearly.
         Estimator::AnyPose => Options {
-            max_iterations: 500,
+            max_iterations: crate::calib::refine::CENSORED_ITERATIONS,
             ..Default::default()
         },
         Estimator::ClosedForm | Estimator::Refined => Options::default(),
@@ -1032,7 +1035,19 @@ pub fn estimate(
     caps: &Captures,
     sensor: &SensorModel,
 ) -> Result<(Calibration, Option<Refined>), Error> {
-    let (cal, r) = estimate_at_stated_times(id, caps, sensor)?;
+    estimate_within(id, caps, sensor, crate::calib::refine::CENSORED_ITERATIONS)
+}
+
+/// `estimate` with the any-pose estimator's fit of censored features stopped after
+/// `censored_iterations` (`Method::calibrate_any_pose`): for refits whose residuals alone are
+/// compared (a cause search), where a wrong correction's fit would creep to the full cap.
+pub fn estimate_within(
+    id: MethodId,
+    caps: &Captures,
+    sensor: &SensorModel,
+    censored_iterations: usize,
+) -> Result<(Calibration, Option<Refined>), Error> {
+    let (cal, r) = estimate_at_stated_times(id, caps, sensor, censored_iterations)?;
     let Some(r) = r else {
         return Ok((cal, None));
     };
@@ -1048,7 +1063,7 @@ pub fn estimate(
     else {
         return Ok((cal, Some(r)));
     };
-    let (again, r2) = estimate_at_stated_times(id, &moved, sensor)?;
+    let (again, r2) = estimate_at_stated_times(id, &moved, sensor, censored_iterations)?;
     let Some(mut r2) = r2 else {
         return Ok((cal, Some(r)));
     };
@@ -1108,10 +1123,14 @@ fn estimate_at_stated_times(
     id: MethodId,
     caps: &Captures,
     sensor: &SensorModel,
+    censored_iterations: usize,
 ) -> Result<(Calibration, Option<Refined>), Error> {
     if id.estimator == Estimator::AnyPose {
-        let (mut cal, r) =
-            method(id.kind).calibrate_any_pose(caps, &extraction_sensor(caps, sensor))?;
+        let (mut cal, r) = method(id.kind).calibrate_any_pose(
+            caps,
+            &extraction_sensor(caps, sensor),
+            censored_iterations,
+        )?;
         let start = r.flange_to_sensor;
         let r = match with_clock(id, caps, &mut cal, &start) {
             Some(Ok(fit)) => fit,

@@ -83,6 +83,7 @@ impl Method for PlaneMethod {
         &self,
         c: &Captures,
         sensor: &SensorModel,
+        _censored_iterations: usize,
     ) -> Result<(Calibration, Refined), Error> {
         calibrate(c, sensor)
     }

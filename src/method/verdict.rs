@@ -956,7 +956,23 @@ pub fn assess(
     caps: &Captures,
     sensor: &SensorModel,
 ) -> Result<Assessed, crate::error::Error> {
-    let (calibration, refined) = super::estimate(method, caps, sensor)?;
+    assess_within(
+        method,
+        caps,
+        sensor,
+        crate::calib::refine::CENSORED_ITERATIONS,
+    )
+}
+
+/// `assess` with the any-pose fit of censored features stopped after `censored_iterations`
+/// (`super::estimate_within`).
+pub fn assess_within(
+    method: super::MethodId,
+    caps: &Captures,
+    sensor: &SensorModel,
+    censored_iterations: usize,
+) -> Result<Assessed, crate::error::Error> {
+    let (calibration, refined) = super::estimate_within(method, caps, sensor, censored_iterations)?;
     let judged = judge(quality(
         &calibration,
         refined.as_ref(),

@@ -481,6 +481,11 @@ pub struct Options {
     pub max_iterations: usize,
 }
 
+/// The iteration cap of the fits with censored features (a bar's edges, a disk's rim from any
+/// poses): their cost is once but not twice differentiable where a feature's line meets its
+/// interval's end, and Levenberg-Marquardt converges there only linearly.
+pub const CENSORED_ITERATIONS: usize = 500;
+
 impl Default for Options {
     fn default() -> Options {
         Options {
