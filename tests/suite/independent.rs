@@ -1374,7 +1374,8 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
 /// noise 0.1 mm, the specimen placed anew each trial), every variant run and judged as
 /// `calibrate` does: each wrong answer (more than 1 deg or 1 mm off) must be flagged (suspect or
 /// imprecise) or refused. Trials per case: `LASERCAL_INDEPENDENT_TRIALS` (default 1;
-/// docs/verdict.md has a release run).
+/// docs/verdict.md has a release run); one protocol: `LASERCAL_INDEPENDENT_CASE`; the mistakes
+/// whose names hold `LASERCAL_MISTAKE`.
 #[test]
 fn gross_mistakes_on_the_papers_protocols_from_another_generator_are_flagged() {
     use crate::verdict::mistake;
@@ -1401,7 +1402,14 @@ fn gross_mistakes_on_the_papers_protocols_from_another_generator_are_flagged() {
         "| mistake | protocol | results | wrong | wrong, flagged | refused | suspect | cause named first |"
     );
     println!("|---|---|---|---|---|---|---|---|");
+    // One protocol alone (`LASERCAL_INDEPENDENT_CASE=edge`) and the mistakes whose names hold
+    // `LASERCAL_MISTAKE` (`radians`); all by default.
+    let only = std::env::var("LASERCAL_INDEPENDENT_CASE").ok();
+    let only_mistake = std::env::var("LASERCAL_MISTAKE").ok();
     for (name, kind, case) in cases {
+        if only.as_deref().is_some_and(|c| c != name) {
+            continue;
+        }
         let (s, fan, solids) = case();
         let sensor = with_sigma(&common::declared(&fan, "fan-295"), 0.1);
         let truth = s.rig.flange_to_sensor;
@@ -1419,7 +1427,9 @@ fn gross_mistakes_on_the_papers_protocols_from_another_generator_are_flagged() {
             })
             .collect();
         for (what, cause, mutate) in &mistakes {
-            if files[0].specimen_radius.is_none() && what.starts_with("radius") {
+            if files[0].specimen_radius.is_none() && what.starts_with("radius")
+                || only_mistake.as_deref().is_some_and(|m| !what.contains(m))
+            {
                 continue;
             }
             let rows: Vec<([usize; 6], Option<String>)> = files
