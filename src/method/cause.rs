@@ -32,8 +32,10 @@ const TURNS: [Mistake; 3] = [
 
 /// The iteration cap of a refit's censored features (a bar's edges, a disk's rim from any
 /// poses), against `calib::refine::CENSORED_ITERATIONS` for a result: only the refit's residuals
-/// are compared, and a correction that is not the cause creeps to the cap (an edge file with
-/// every orientation 3 deg off took 13 s to judge, its refits 500 iterations each).
+/// are compared, and a correction that is not the cause can creep to the cap (the kit's
+/// gross-mistake test 107.6 -> 96.0 s with this cap, its table unchanged; docs/verdict.md).
+/// A capture whose disk scans are inferred (`disk::inferred_scans`) and a fit of the clock
+/// offset keep the full cap.
 const REFIT_ITERATIONS: usize = 100;
 
 /// The farthest a flange can be from the robot's base (m): no serial arm reaches 10 m.
