@@ -1471,13 +1471,15 @@ fn the_verdict_holds_on_profiles_lasercal_did_not_make() {
 /// wrong answer (beyond 1 deg or 1 mm) may be ok and no more than 1 in 25 right ones suspect;
 /// the 95 % bound's coverage is printed per estimator (covered, right answers, rotation
 /// covered, translation covered; `LASERCAL_VERDICT_SEEDS` rigs each, default 10;
-/// docs/verdict.md has a release run of 1,000).
+/// docs/verdict.md has a release run of 1,000; one specimen: `LASERCAL_VERDICT_CASE`).
 #[test]
 fn the_verdict_holds_on_random_rigs_with_robot_pose_error() {
     use lasercal::method::verdict::Verdict;
     let sigma = 0.1e-3;
     let (shift, turn) = (0.3e-3, 0.3e-3);
     let cases = random_rigs(8000, sigma);
+    // One specimen alone: `LASERCAL_VERDICT_CASE=plane` (ball, bar, disk, ridge, v-groove).
+    let only = std::env::var("LASERCAL_VERDICT_CASE").ok();
     let seeds: u64 = std::env::var("LASERCAL_VERDICT_SEEDS")
         .ok()
         .and_then(|v| v.parse().ok())
@@ -1487,6 +1489,9 @@ fn the_verdict_holds_on_random_rigs_with_robot_pose_error() {
     let mut over_all = std::collections::BTreeMap::new();
     let mut missed = Vec::new();
     for (id, what, setup) in cases {
+        if only.as_deref().is_some_and(|c| c != what) {
+            continue;
+        }
         for seed in 0..seeds {
             let mut s = setup(seed);
             let mut g = lasercal::testkit::rng(9000 + seed);
