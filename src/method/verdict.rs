@@ -212,6 +212,7 @@ fn kinematic_shifts(
         biases: moved.shifts.into_iter().zip(sds).collect(),
         pattern,
         others,
+        at_fit: moved.steps_at_fit.map(|s| (s, moved.pose_groups)),
     })
 }
 
@@ -222,6 +223,9 @@ struct KinematicShifts {
     biases: Vec<(nalgebra::Vector6<f64>, f64)>,
     pattern: Option<Vec<Vec<nalgebra::Vector6<f64>>>>,
     others: Vec<Vec<(nalgebra::Vector6<f64>, f64)>>,
+    /// The fit's own steps where the bound kept none, with each pose's orientation group
+    /// (`PoseShift::steps_at_fit`, `pose_groups`).
+    at_fit: Option<(Vec<nalgebra::Vector6<f64>>, Vec<u32>)>,
 }
 
 /// The stated accuracy `robot` (m) beyond what the kinematic error the bound carries explains.
@@ -492,6 +496,7 @@ pub fn quality(
             Some(k) => f.honest.with_kinematic(
                 &k.biases,
                 k.pattern.as_deref(),
+                k.at_fit.as_ref().map(|(s, g)| (s.as_slice(), g.as_slice())),
                 common / ROBOT_REACH,
                 common,
                 own,

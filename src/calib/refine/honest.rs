@@ -309,7 +309,7 @@ impl Honest {
         // in every direction: 99.0 % covered where the model alone held 95.5 %).
         let shown = self.residual * share + self.shift_scatter * per_pose;
         let weighed = (per_pose > 0.0 && finite && self.pose_directions == 6 && share > 0.0)
-            .then(|| self.unexplained(&[], &shown, self.carrying))
+            .then(|| self.unexplained(&self.steps, &[], &shown, self.carrying, None))
             .flatten();
         if let Some((excess, dof_excess, measured)) = weighed {
             // The scatter shrunk toward the floor's shape, not the residuals': the larger of
@@ -343,6 +343,8 @@ impl Honest {
     /// `with_systematic` where the arm's kinematic error is stated: `shifts` holds each error's
     /// bias on the fit per unit and its standard deviation (`Refinable::pose_shift`),
     /// `pattern` the poses' steps each error makes at one sd (as `steps`; None: not known),
+    /// `at_fit` the fit's own steps and each pose's orientation group where `of` kept no
+    /// steps (beyond `MAX_JACKKNIFE` poses: `Clustering`'s CR1 steps, `PoseShift::steps_at_fit`),
     /// `rotation`, `translation` the accuracy beyond them and `own` each pose's own error
     /// (as `with_systematic`'s).
     ///
@@ -360,6 +362,7 @@ impl Honest {
         &self,
         shifts: &[(nalgebra::Vector6<f64>, f64)],
         pattern: Option<&[Vec<nalgebra::Vector6<f64>>]>,
+        at_fit: Option<(&[nalgebra::Vector6<f64>], &[u32])>,
         rotation: f64,
         translation: f64,
         own: f64,
@@ -372,9 +375,13 @@ impl Honest {
         // The steps are weighed against what the independent part makes them show, as in
         // `with_systematic`.
         let shown = self.residual + self.shift_scatter * per_pose;
+        let (steps, groups) = match at_fit {
+            Some((s, g)) if self.steps.is_empty() => (s, Some(g).filter(|g| !g.is_empty())),
+            _ => (self.steps.as_slice(), None),
+        };
         let weighed = pattern
             .filter(|_| finite(&model))
-            .and_then(|p| self.unexplained(p, &shown, self.steps.len() as f64));
+            .and_then(|p| self.unexplained(steps, p, &shown, steps.len() as f64, groups));
         let (mut c, dof) = match weighed {
             Some((excess, dof_excess, _)) => {
                 let c = model + excess;
@@ -416,15 +423,17 @@ impl Honest {
     /// do not match the steps (another clustering).
     fn unexplained(
         &self,
+        steps: &[nalgebra::Vector6<f64>],
         pattern: &[Vec<nalgebra::Vector6<f64>>],
         independent: &Matrix6<f64>,
         poses: f64,
+        groups: Option<&[u32]>,
     ) -> Option<(Matrix6<f64>, usize, f64)> {
-        let g = self.steps.len();
+        let g = steps.len();
         if g < 2 || pattern.iter().any(|p| p.len() != g) {
             return None;
         }
-        let y = DVector::from_fn(6 * g, |r, _| self.steps[r / 6][r % 6]);
+        let y = DVector::from_fn(6 * g, |r, _| steps[r / 6][r % 6]);
         let (left, k) = if pattern.is_empty() {
             (y, 0)
         } else {
@@ -450,14 +459,38 @@ impl Honest {
             .collect();
         let (measured, pooled) = shrunk_spread(independent, &steps);
         let (raised, _, share) = larger_of(independent, &measured, 6);
-        // Widened as the groups widened the pose-level covariance, direction by direction (not
-        // every direction by the most widened one's factor).
-        let excess = match &self.group_map {
-            Some(w) => w * (raised - independent) * w.transpose(),
-            None => (raised - independent) * (self.group_widening * self.group_widening),
-        };
         let dof =
             (((poses.min(g as f64) - 1.0).max(1.0) * pooled - k as f64 / 6.0) as usize).max(1);
+        let by_groups = groups.filter(|l| l.len() == g).and_then(|labels| {
+            // The groups' design effect from these steps, the patterns' share taken out: the
+            // one `of` measured from the scores holds the patterns too, which are smooth in the
+            // pose and so shared by a group's poses. Every pose's error, the stated part too,
+            // is widened by it (a vibration shared by neighbouring poses: the edge protocol
+            // with every cause stated covered 85 % with the pose-level excess alone widened).
+            let big_g = labels.iter().map(|&c| c as usize + 1).max()?;
+            let mut summed = vec![nalgebra::Vector6::zeros(); big_g];
+            for (s, &c) in steps.iter().zip(labels) {
+                summed[c as usize] += s;
+            }
+            let between: Matrix6<f64> = summed
+                .iter()
+                .map(|s| s * s.transpose())
+                .sum::<Matrix6<f64>>()
+                * (big_g as f64 / (big_g - 1) as f64);
+            let w = design_map(&raised, &between, big_g)?;
+            let dof_g = (((big_g - 1) as f64 - k as f64 / 6.0) as usize).max(1);
+            Some((w * raised * w.transpose() - independent, dof.min(dof_g)))
+        });
+        // Widened as the groups widened the pose-level covariance, direction by direction (not
+        // every direction by the most widened one's factor).
+        let (excess, dof) = match (by_groups, &self.group_map) {
+            (Some(e), _) => e,
+            (None, Some(w)) => (w * (raised - independent) * w.transpose(), dof),
+            (None, None) => (
+                (raised - independent) * (self.group_widening * self.group_widening),
+                dof,
+            ),
+        };
         excess
             .iter()
             .all(|v| v.is_finite())
@@ -655,8 +688,16 @@ pub const MAX_JACKKNIFE: usize = 64;
 /// Each cluster's J_c^T J_c (p x p `g`, cluster c in columns pc..pc+p), by runs as `scores`.
 /// No clusters, or more than `MAX_JACKKNIFE`: p x 0.
 pub fn grams(j: &DMatrix<f64>, clusters: &[u32], g: usize) -> DMatrix<f64> {
+    if g > MAX_JACKKNIFE {
+        return DMatrix::zeros(j.ncols(), 0);
+    }
+    grams_of(j, clusters, g)
+}
+
+/// `grams` however many clusters.
+fn grams_of(j: &DMatrix<f64>, clusters: &[u32], g: usize) -> DMatrix<f64> {
     let (n, p) = (j.nrows(), j.ncols());
-    if clusters.len() != n || n == 0 || g > MAX_JACKKNIFE {
+    if clusters.len() != n || n == 0 {
         return DMatrix::zeros(p, 0);
     }
     let runs = runs(clusters);
@@ -818,14 +859,18 @@ fn steps_of(maps: &[DMatrix<f64>], scores: &DMatrix<f64>) -> Option<Vec<nalgebra
 /// would measure from a given change of the fit's residuals, refitted: for an error the
 /// residuals do not model (an arm's kinematic error), the scatter between poses its pattern
 /// makes, so that `Honest::with_kinematic` can tell it from scatter the stated errors do not
-/// explain. Only where `Honest::of` takes those steps (every direction measured, at most
-/// `MAX_JACKKNIFE` poses).
+/// explain. Only where every direction is measured. Beyond `MAX_JACKKNIFE` poses, where
+/// `Honest::of` takes the CR1 sandwich, the steps are its: A^-1 s_c times the square root of
+/// its small-sample factor, whose squares sum to it (`corrected` false); `Honest::of` keeps
+/// none of them there, so the fit's own are asked for too (`PoseShift::steps_at_fit`).
 pub struct Clustering {
     clusters: Vec<u32>,
     /// Each cluster's gram over the used columns.
     grams: Vec<DMatrix<f64>>,
     maps: Vec<DMatrix<f64>>,
     used: Vec<usize>,
+    /// The maps correct each pose's leverage (CR2; at most `MAX_JACKKNIFE` poses).
+    pub corrected: bool,
 }
 
 impl Clustering {
@@ -839,23 +884,31 @@ impl Clustering {
         used: &[usize],
     ) -> Option<Clustering> {
         let g = clusters.iter().map(|&c| c as usize + 1).max()?;
-        let (p, pj) = (used.len(), j.ncols());
-        if g > MAX_JACKKNIFE || pose_directions(g, p) < 6 {
+        let (n, p, pj) = (j.nrows(), used.len(), j.ncols());
+        if pose_directions(g, p) < 6 || n <= p {
             return None;
         }
-        let all = grams(j, &clusters, g);
+        let all = grams_of(j, &clusters, g);
         if all.ncols() != pj * g {
             return None;
         }
         let grams: Vec<DMatrix<f64>> = (0..g)
             .map(|c| DMatrix::from_fn(p, p, |r, k| all[(used[r], pj * c + used[k])]))
             .collect();
-        let maps = leverage_maps(&a.select_rows(used).select_columns(used), inv, &grams)?;
+        let corrected = g <= MAX_JACKKNIFE;
+        let maps = if corrected {
+            leverage_maps(&a.select_rows(used).select_columns(used), inv, &grams)?
+        } else {
+            // `clustered`'s CR1 factor, on each step's square root.
+            let factor = (g as f64 / (g - 1) as f64) * ((n - 1) as f64 / (n - p) as f64);
+            vec![inv.rows(0, 6) * factor.sqrt(); g]
+        };
         Some(Clustering {
             clusters,
             grams,
             maps,
             used: used.to_vec(),
+            corrected,
         })
     }
 
@@ -1147,21 +1200,55 @@ fn group_widening(
             measured: None,
         };
     }
-    let gamma = 6.0 / (big_g - 1) as f64;
-    let raised = em.eigenvalues.map(|v| spike(v, gamma).max(mean));
+    let raised = groups_raised(&em, mean, big_g);
     let mid = em.eigenvectors * Matrix6::from_diagonal(&raised) * em.eigenvectors.transpose();
     let from_groups: f64 = raised.iter().filter(|&&v| v > 1.0).sum();
-    // W = L V D^(1/2) V^T L^-1: W (L L^T) W^T = L V D V^T L^T.
-    let root = em.eigenvectors
-        * Matrix6::from_diagonal(&raised.map(f64::sqrt))
-        * em.eigenvectors.transpose();
-    let map = l.try_inverse().map(|li| l * root * li);
+    let map = groups_map(&l, &em, &raised);
     GroupWidened {
         covariance: l * mid * l.transpose(),
         factor: raised.max().sqrt(),
         map,
         measured: Some((from_groups / raised.sum(), big_g)),
     }
+}
+
+/// The groups' whitened eigenvalues `em` (their scatter over the pose-level covariance) as the
+/// error each implies beyond what `big_g` groups' noise gives (`spike`), at least `mean`.
+fn groups_raised(
+    em: &SymmetricEigen<f64, nalgebra::U6>,
+    mean: f64,
+    big_g: usize,
+) -> nalgebra::Vector6<f64> {
+    let gamma = 6.0 / (big_g - 1) as f64;
+    em.eigenvalues.map(|v| spike(v, gamma).max(mean))
+}
+
+/// W = L V D^(1/2) V^T L^-1 for the pose-level covariance's factor L, the groups' whitened
+/// eigenvectors V and `raised` D: W (L L^T) W^T = L V D V^T L^T.
+fn groups_map(
+    l: &Matrix6<f64>,
+    em: &SymmetricEigen<f64, nalgebra::U6>,
+    raised: &nalgebra::Vector6<f64>,
+) -> Option<Matrix6<f64>> {
+    let root = em.eigenvectors
+        * Matrix6::from_diagonal(&raised.map(f64::sqrt))
+        * em.eigenvectors.transpose();
+    l.try_inverse().map(|li| l * root * li)
+}
+
+/// The groups' design-effect map (`groups_map`) of the `between` groups' scatter (6 x 6) over
+/// the pose-level covariance `cov`, every direction measured by `big_g` groups; None where `cov`
+/// has no factor or the groups are too few.
+fn design_map(cov: &Matrix6<f64>, between: &Matrix6<f64>, big_g: usize) -> Option<Matrix6<f64>> {
+    if big_g < 7 {
+        return None;
+    }
+    let (l, em) = whitened(cov, between)?;
+    let mean = (em.eigenvalues.sum() / 6.0).max(1.0);
+    if !mean.is_finite() {
+        return None;
+    }
+    groups_map(&l, &em, &groups_raised(&em, mean, big_g))
 }
 
 /// Poses whose orientations agree to within this angle (rad) share a group
@@ -2246,8 +2333,90 @@ mod tests {
     /// the measured scatter of a large draw sets the bound.
     #[test]
     fn a_stated_kinematic_pattern_is_not_taken_for_scatter() {
+        pattern_not_taken_for_scatter(40);
+    }
+
+    /// The same beyond `MAX_JACKKNIFE` poses, where `Honest::of` keeps no steps and the fit's
+    /// own (CR1, `Clustering`) are passed in.
+    #[test]
+    fn beyond_the_jackknifes_poses_a_stated_pattern_is_not_taken_for_scatter_either() {
+        pattern_not_taken_for_scatter(100);
+    }
+
+    /// Beyond `MAX_JACKKNIFE` poses with orientation groups: an error each group's poses share
+    /// (a vibration neighbouring poses share) widens the bound by about what it causes once the
+    /// fit's own steps are summed per group, the stated patterns taken out; read pose by pose
+    /// it shows about a fifth of it (five poses a group).
+    #[test]
+    fn an_error_a_group_shares_widens_the_bound_beyond_the_patterns() {
         use nalgebra::Vector6;
-        let (poses, per) = (40usize, 30usize);
+        let (poses, per, size) = (100usize, 30usize, 5usize);
+        let n = poses * per;
+        let mut dr = Draws(5151);
+        let (j, cl, inv) = random_design(&mut dr, poses, per);
+        let used: Vec<usize> = (0..6).collect();
+        let clustering =
+            Clustering::of(&j, cl.clone(), &(j.transpose() * &j), &inv, &used).unwrap();
+        let labels: Vec<u32> = (0..poses).map(|c| (c / size) as u32).collect();
+        let change = DVector::from_fn(n, |i, _| (0.3 * (i / per) as f64).sin());
+        let fit_step = |r: &DVector<f64>| -&inv * j.tr_mul(r);
+        let shifts = vec![(
+            Vector6::from_iterator(fit_step(&change).iter().copied()),
+            1.0,
+        )];
+        let pattern = vec![clustering.steps(&j, &change, &fit_step(&change)).unwrap()];
+        let (sigma, tau) = (1e-3, 1e-2);
+        let shared: Vec<Vector6<f64>> = (0..poses / size)
+            .map(|_| Vector6::from_fn(|_, _| tau * dr.gauss()))
+            .collect();
+        let drawn = DVector::from_fn(n, |i, _| {
+            change[i] * 4.0 + sigma * dr.gauss() + (j.row(i) * shared[i / per / size])[0]
+        });
+        let refitted = &drawn + &j * fit_step(&drawn);
+        let sums = super::super::Sums::of(&refitted, &j, &cl, poses);
+        let cov = (&inv * sigma * sigma).fixed_view::<6, 6>(0, 0).into_owned();
+        let h = Honest::of(Some(&inv), &sums, &[], &used, &cov);
+        let steps = clustering.steps(&j, &drawn, &fit_step(&drawn)).unwrap();
+        let model = h.residual + shifts_covariance(&shifts);
+        let grouped = h.with_kinematic(
+            &shifts,
+            Some(&pattern),
+            Some((&steps, &labels)),
+            0.0,
+            0.0,
+            0.0,
+        );
+        let alone = h.with_kinematic(&shifts, Some(&pattern), Some((&steps, &[])), 0.0, 0.0, 0.0);
+        // What the shared errors cause: sum_G A^-1 (sum_{c in G} A_c) tau^2 (...) A^-1.
+        let caused: DMatrix<f64> = (0..poses / size)
+            .map(|g| {
+                let jg = j.rows(g * size * per, size * per);
+                let ag = jg.transpose() * jg;
+                &inv * &ag * &ag * &inv * (tau * tau)
+            })
+            .fold(DMatrix::zeros(6, 6), |s, m| s + m);
+        let trace = |c: &Matrix6<f64>| (c - model).trace();
+        let want = caused.trace();
+        eprintln!(
+            "excess over the model: summed per group {:.3}, pose by pose {:.3} of what the shared errors cause",
+            trace(&grouped.covariance) / want,
+            trace(&alone.covariance) / want
+        );
+        assert!(
+            trace(&grouped.covariance) > 0.5 * want && trace(&grouped.covariance) < 2.0 * want,
+            "summed per group: {} against {want}",
+            trace(&grouped.covariance)
+        );
+        assert!(
+            trace(&alone.covariance) < 0.5 * want,
+            "pose by pose: {} against {want}",
+            trace(&alone.covariance)
+        );
+    }
+
+    fn pattern_not_taken_for_scatter(poses: usize) {
+        use nalgebra::Vector6;
+        let per = 30usize;
         let n = poses * per;
         let mut dr = Draws(4242);
         let (j, cl, inv) = random_design(&mut dr, poses, per);
@@ -2288,9 +2457,15 @@ mod tests {
         let noise = DVector::from_fn(n, |_, _| sigma * dr.gauss());
         let drawn = &changes[0] * 3.0 - &changes[1] * 2.0 + &changes[2] * 5.0 + &noise;
         let h = honest_of(&drawn);
+        assert_eq!(h.steps.is_empty(), poses > MAX_JACKKNIFE);
+        assert_eq!(clustering.corrected, poses <= MAX_JACKKNIFE);
+        // The fit's own steps, where `of` kept none.
+        let at_fit = |r: &DVector<f64>| clustering.steps(&j, r, &fit_step(r)).unwrap();
+        let own_steps = at_fit(&drawn);
+        let fit = Some((own_steps.as_slice(), &[] as &[u32]));
         let model = h.residual + shifts_covariance(&shifts);
-        let with = h.with_kinematic(&shifts, Some(&pattern), 0.0, 0.0, 0.0);
-        let without = h.with_kinematic(&shifts, None, 0.0, 0.0, 0.0);
+        let with = h.with_kinematic(&shifts, Some(&pattern), fit, 0.0, 0.0, 0.0);
+        let without = h.with_kinematic(&shifts, None, fit, 0.0, 0.0, 0.0);
         for i in 0..6 {
             let (m, w) = (model[(i, i)], with.covariance[(i, i)]);
             assert!(
@@ -2306,7 +2481,9 @@ mod tests {
             .collect();
         let moved = DVector::from_fn(n, |i, _| (j.row(i) * own[i / per])[0]);
         let h = honest_of(&(&drawn + &moved));
-        let with = h.with_kinematic(&shifts, Some(&pattern), 0.0, 0.0, 0.0);
+        let own_steps = at_fit(&(&drawn + &moved));
+        let fit = Some((own_steps.as_slice(), &[] as &[u32]));
+        let with = h.with_kinematic(&shifts, Some(&pattern), fit, 0.0, 0.0, 0.0);
         // What independent per-pose shifts of tau through J cause: sum_c A^-1 A_c A_c A^-1.
         let caused: DMatrix<f64> = (0..poses)
             .map(|c| {

@@ -602,6 +602,13 @@ pub struct PoseShift {
     pub steps: Option<Vec<Vec<Vector6<f64>>>>,
     /// The fit's move per unit of each error through each of the other twists asked for.
     pub others: Vec<Vec<Vector6<f64>>>,
+    /// The poses' steps of the fit's own residuals (moved to the fit) where the clustering's
+    /// are CR1 (beyond `honest::MAX_JACKKNIFE` poses, where `Honest` keeps none) and the fit's
+    /// rows are its covariance's; None otherwise.
+    pub steps_at_fit: Option<Vec<Vector6<f64>>>,
+    /// Each of those poses' orientation group where the groups measure every direction
+    /// (`Refinable::orientation_groups`; empty: none).
+    pub pose_groups: Vec<u32>,
 }
 
 /// What a fit's figures need from its residuals r and Jacobian J, summed over the rows: J^T J,
@@ -903,6 +910,29 @@ impl<M: Model + 'static> Refinable for Problem<M> {
             }
         }
         let others = other_shifts(&j, used, inv, &along, &row_pose, &pose_flanges, others);
+        // Where `Honest` kept no steps of its own (the CR1 sandwich), the fit's, from the same
+        // rows; not where its covariance has rows of its own (`Model::covariance_rows`).
+        let steps_at_fit = clustering
+            .as_ref()
+            .filter(|c| !c.corrected && !m.has_covariance_rows() && steps.is_some())
+            .and_then(|c| {
+                let jtr = j.tr_mul(&r);
+                let d = -(inv * DVector::from_fn(used.len(), |i, _| jtr[used[i]]));
+                c.steps(&j, &r, &d)
+            });
+        let pose_groups = match &steps_at_fit {
+            Some(s) => {
+                let groups = self.orientation_groups();
+                let big_g = groups.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
+                let measured = honest::pose_directions(big_g, used.len()) == 6;
+                if measured && groups.len() == s.len() {
+                    groups
+                } else {
+                    Vec::new()
+                }
+            }
+            None => Vec::new(),
+        };
         shifts
             .iter()
             .all(|s| s.iter().all(|v| v.is_finite()))
@@ -910,6 +940,8 @@ impl<M: Model + 'static> Refinable for Problem<M> {
                 shifts,
                 steps,
                 others,
+                steps_at_fit,
+                pose_groups,
             })
     }
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable> {
