@@ -885,7 +885,7 @@ impl Clustering {
     ) -> Option<Clustering> {
         let g = clusters.iter().map(|&c| c as usize + 1).max()?;
         let (n, p, pj) = (j.nrows(), used.len(), j.ncols());
-        if pose_directions(g, p) < 6 || n <= p {
+        if p < 6 || pose_directions(g, p) < 6 || n <= p {
             return None;
         }
         let all = grams_of(j, &clusters, g);
