@@ -2039,7 +2039,6 @@ mod tests {
     #[test]
     fn the_shift_scatter_is_what_the_steps_show_under_pose_shifts() {
         let (poses, per, draws) = (10usize, 3usize, 20_000);
-        let n = poses * per;
         let used: Vec<usize> = (0..6).collect();
         let mut dr = Draws(77);
         let (mut j, cl, _) = random_design(&mut dr, poses, per);
@@ -2049,12 +2048,7 @@ mod tests {
         let mut mean = Matrix6::zeros();
         let mut expected = None;
         for _ in 0..draws {
-            let d: Vec<Vector3<f64>> = (0..poses)
-                .map(|_| Vector3::new(dr.gauss(), dr.gauss(), dr.gauss()))
-                .collect();
-            let r = DVector::from_fn(n, |i, _| {
-                (0..3).map(|t| j[(i, 3 + t)] * d[i / per][t]).sum::<f64>()
-            });
+            let r = shifted_rows(&mut dr, &j, per);
             let res = &r - &j * (&inv * j.transpose() * &r);
             let sums = super::super::Sums::of(&res, &j, &cl, poses);
             let h = Honest::of(Some(&inv), &sums, &[], &used, &sandwich(&inv, &j, &res));
@@ -2080,6 +2074,17 @@ mod tests {
             "the steps read the shifts as the fit takes them: {:?}",
             w.eigenvalues
         );
+    }
+
+    /// The rows' change when each pose's points (`per` consecutive rows of `j` a pose) move by
+    /// their own shift of unit sd per axis along the translation columns.
+    fn shifted_rows(dr: &mut Draws, j: &DMatrix<f64>, per: usize) -> DVector<f64> {
+        let d: Vec<Vector3<f64>> = (0..j.nrows() / per)
+            .map(|_| Vector3::new(dr.gauss(), dr.gauss(), dr.gauss()))
+            .collect();
+        DVector::from_fn(j.nrows(), |i, _| {
+            (0..3).map(|t| j[(i, 3 + t)] * d[i / per][t]).sum::<f64>()
+        })
     }
 
     /// Seeded draws: uniform in (0, 1) and standard normal (Box-Muller), one sequence.
@@ -2264,12 +2269,7 @@ mod tests {
         let draws = 4000;
         let mut mc = Matrix6::zeros();
         for _ in 0..draws {
-            let d: Vec<Vector3<f64>> = (0..poses)
-                .map(|_| Vector3::new(dr.gauss(), dr.gauss(), dr.gauss()))
-                .collect();
-            let r = DVector::from_fn(n, |i, _| {
-                (0..3).map(|t| j[(i, 3 + t)] * d[i / per][t]).sum::<f64>()
-            });
+            let r = shifted_rows(&mut dr, &j, per);
             let step = &inv * j.transpose() * r;
             mc += Matrix6::from_fn(|a, b| step[a] * step[b]) / draws as f64;
         }
