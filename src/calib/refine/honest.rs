@@ -57,12 +57,9 @@ pub struct Honest {
     /// standard deviation per axis (m) would give the transform: what a robot's stated accuracy
     /// predicts from the pose set's design, where too few poses cannot measure it.
     pub per_pose_shift: Matrix6<f64>,
-    /// What the same shifts make the poses' leverage-corrected steps show (`shift_scatter`:
-    /// their expected sum of squares; `per_pose_shift` where the steps are not taken). The
-    /// steps read a pose error through each pose's leverage, not as the fit takes it: on the
-    /// independent kit's 16 free plane poses they show it several times over in the
-    /// directions one or two poses carry, so a stated error is weighed against this.
-    pub shift_scatter: Matrix6<f64>,
+    /// What `shift_scatter` needs where the leverage-corrected steps were taken (None: they
+    /// were not), kept so that only a result weighed against a stated error pays for it.
+    pub leverage: Option<std::sync::Arc<Leverage>>,
     /// The poses' leverage-corrected steps the clustered covariance came from (empty: it took
     /// none, `clustered`), kept to be weighed again against a stated error model.
     pub steps: Vec<nalgebra::Vector6<f64>>,
@@ -71,6 +68,15 @@ pub struct Honest {
     /// How many poses carry the bound's leading directions (`carried_by`; the poses where not
     /// counted): the scatter's degrees of freedom when weighed again (`unexplained`).
     pub carrying: f64,
+}
+
+/// J^T J `a` and its inverse `inv` over the columns a fit used, and each pose's J_c^T J_c over
+/// them (`grams`): what `Honest::shift_scatter` computes from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Leverage {
+    pub a: DMatrix<f64>,
+    pub inv: DMatrix<f64>,
+    pub grams: Vec<DMatrix<f64>>,
 }
 
 /// The covariance of biases that move the transform by `shift` per unit of independent errors
@@ -113,7 +119,7 @@ impl Honest {
             group_map: None,
             residual: Matrix6::from_element(f64::INFINITY),
             per_pose_shift: Matrix6::zeros(),
-            shift_scatter: Matrix6::zeros(),
+            leverage: None,
             steps: Vec::new(),
             residual_dof: 0,
             carrying: 0.0,
@@ -177,7 +183,7 @@ impl Honest {
             group_map: None,
             residual: *cov,
             per_pose_shift,
-            shift_scatter: per_pose_shift,
+            leverage: None,
             steps: Vec::new(),
             residual_dof: n.saturating_sub(p).max(1),
             carrying: g as f64,
@@ -190,13 +196,6 @@ impl Honest {
         };
         let informative = pose_directions(g, p);
         let (clustered, pooled, steps) = clustered(inv, sums, &grams, used, cov, informative);
-        let shift_scatter = (!steps.is_empty())
-            .then(|| {
-                let a = sums.ata.select_rows(used).select_columns(used);
-                shift_scatter(&a, inv, &grams)
-            })
-            .flatten()
-            .unwrap_or(per_pose_shift);
         // The scores of g poses span at most g - 1 directions, and the specimen's parameters
         // take p - 6 of them: with few poses (8 ball or plane poses) the clustered covariance
         // says nothing in the transform's remaining directions. There the residual-level one is
@@ -250,7 +249,13 @@ impl Honest {
             group_map: widened.map,
             residual: *cov,
             per_pose_shift,
-            shift_scatter,
+            leverage: (!steps.is_empty()).then(|| {
+                std::sync::Arc::new(Leverage {
+                    a: sums.ata.select_rows(used).select_columns(used),
+                    inv: inv.clone(),
+                    grams,
+                })
+            }),
             steps,
             residual_dof: n - p,
             carrying,
@@ -307,9 +312,11 @@ impl Honest {
         // What the stated model makes the poses' steps show, which is what they are weighed
         // against (against `stated` itself, the plane's steps read its pose errors as an excess
         // in every direction: 99.0 % covered where the model alone held 95.5 %).
-        let shown = self.residual * share + self.shift_scatter * per_pose;
         let weighed = (per_pose > 0.0 && finite && self.pose_directions == 6 && share > 0.0)
-            .then(|| self.unexplained(&self.steps, &[], &shown, self.carrying, None))
+            .then(|| {
+                let shown = self.residual * share + self.shift_scatter() * per_pose;
+                self.unexplained(&self.steps, &[], &shown, self.carrying, None)
+            })
             .flatten();
         if let Some((excess, dof_excess, measured)) = weighed {
             // The scatter shrunk toward the floor's shape, not the residuals': the larger of
@@ -372,16 +379,16 @@ impl Honest {
         let independent = self.residual + self.per_pose_shift * per_pose;
         let model = independent + kinematic;
         let finite = |m: &Matrix6<f64>| m.iter().all(|v| v.is_finite());
-        // The steps are weighed against what the independent part makes them show, as in
-        // `with_systematic`.
-        let shown = self.residual + self.shift_scatter * per_pose;
         let (steps, groups) = match at_fit {
             Some((s, g)) if self.steps.is_empty() => (s, Some(g).filter(|g| !g.is_empty())),
             _ => (self.steps.as_slice(), None),
         };
-        let weighed = pattern
-            .filter(|_| finite(&model))
-            .and_then(|p| self.unexplained(steps, p, &shown, steps.len() as f64, groups));
+        let weighed = pattern.filter(|_| finite(&model)).and_then(|p| {
+            // The steps are weighed against what the independent part makes them show, as in
+            // `with_systematic`.
+            let shown = self.residual + self.shift_scatter() * per_pose;
+            self.unexplained(steps, p, &shown, steps.len() as f64, groups)
+        });
         let (mut c, dof) = match weighed {
             Some((excess, dof_excess, _)) => {
                 let c = model + excess;
@@ -495,6 +502,19 @@ impl Honest {
             .iter()
             .all(|v| v.is_finite())
             .then_some((excess, dof, share))
+    }
+
+    /// What each pose's points shifted by its own independent error of unit sd per axis make
+    /// the poses' leverage-corrected steps show (their expected sum of squares, the free
+    /// function `shift_scatter`; `per_pose_shift` where the steps are not taken). The steps read
+    /// a pose error through each pose's leverage, not as the fit takes it: on the independent
+    /// kit's 16 free plane poses they show it several times over in the directions one or two
+    /// poses carry, so a stated error is weighed against this.
+    pub fn shift_scatter(&self) -> Matrix6<f64> {
+        self.leverage
+            .as_ref()
+            .and_then(|l| shift_scatter(&l.a, &l.inv, &l.grams))
+            .unwrap_or(self.per_pose_shift)
     }
 
     /// The same with a bias added that moves the transform by `shift` per unit of an error of
@@ -2059,7 +2079,7 @@ mod tests {
                 .map(|s| s * s.transpose())
                 .sum::<Matrix6<f64>>()
                 / draws as f64;
-            expected = Some((h.shift_scatter, h.per_pose_shift));
+            expected = Some((h.shift_scatter(), h.per_pose_shift));
         }
         let (e, fit) = expected.unwrap();
         let off = (mean - e).norm() / e.norm();
