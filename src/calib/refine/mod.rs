@@ -603,8 +603,8 @@ pub struct PoseShift {
     /// The fit's move per unit of each error through each of the other twists asked for.
     pub others: Vec<Vec<Vector6<f64>>>,
     /// The poses' steps of the fit's own residuals (moved to the fit) where the clustering's
-    /// are CR1 (beyond `honest::MAX_JACKKNIFE` poses, where `Honest` keeps none) and the fit's
-    /// rows are its covariance's; None otherwise.
+    /// are CR1 (beyond `honest::MAX_JACKKNIFE` poses, where `Honest` keeps none) and the
+    /// model's covariance has no rows of its own (`Model::covariance_rows`); None otherwise.
     pub steps_at_fit: Option<Vec<Vector6<f64>>>,
     /// Each of those poses' orientation group where the groups measure every direction
     /// (`Refinable::orientation_groups`; empty: none).
