@@ -483,14 +483,19 @@ mod tests {
     /// Exact arcs of a ball of radius 69.5 mm from 8 poses: the model, the true transform and
     /// centre, the radius.
     fn eight_poses() -> (BallModel, Isometry3<f64>, Vector3<f64>, f64) {
+        ball_poses(8)
+    }
+
+    /// `eight_poses`' ring with `n` poses.
+    fn ball_poses(n: usize) -> (BallModel, Isometry3<f64>, Vector3<f64>, f64) {
         let x = Isometry3::new(
             Vector3::new(0.006, 0.054, 0.364),
             Vector3::new(0.02, -0.01, 1.5),
         );
         let (c, radius) = (Vector3::new(-0.315, -0.304, 0.150), 0.0695);
         let mut m = BallModel::new(radius);
-        for k in 0..8 {
-            let a = k as f64 * std::f64::consts::TAU / 8.0;
+        for k in 0..n {
+            let a = k as f64 * std::f64::consts::TAU / n as f64;
             // The sensor 0.2 m above the ball, looking down, its plane within 25 mm of the
             // centre; the flange where that puts it.
             let turn = nalgebra::UnitQuaternion::from_scaled_axis(Vector3::z() * 0.3 * a)
@@ -630,6 +635,85 @@ mod tests {
         }
         .pose_shift(&x, &|_| None, &[]);
         assert!(none.is_none());
+    }
+
+    /// Each pose's step under an error's twists, from `pose_shift`'s sums over the six unit
+    /// twists, is the clustering's from the residuals' own change (central differences at
+    /// h = 1e-6; to 1e-5 of the largest step, the first error's to 1e-5 of the fit's move):
+    /// with the leverage corrected (12 poses) and beyond `MAX_JACKKNIFE` (70, the CR1 steps).
+    #[test]
+    fn the_pose_shifts_steps_are_the_clusterings_of_the_residuals_change() {
+        use super::super::{Normal, Problem, Refinable, ata, eval, honest::Clustering};
+        use nalgebra::Vector6;
+        let twists = |f: &Isometry3<f64>| {
+            let a = f.rotation.scaled_axis();
+            Some(vec![
+                Vector6::new(0.0, 0.0, 0.0, 0.3, -0.2, 1.0),
+                Vector6::new(0.4 * a.z, 0.1, -0.3, 5.0 * f.translation.z, 0.2 * a.x, -0.5),
+            ])
+        };
+        for n in [12, 70] {
+            let (m, x, c, _) = ball_poses(n);
+            let moved = Problem {
+                model: m.clone(),
+                specimen: c,
+            }
+            .pose_shift(&x, &twists, &[])
+            .unwrap();
+            let t = Transform::from_isometry(&x);
+            let labels = m.labels(&t, &c);
+            let (_, j) = eval(&m, &t, &c, &labels, true);
+            let a = ata(&j);
+            let normal = Normal::of(&a);
+            let inv = normal.inverse().unwrap();
+            let clustering = Clustering::of(&j, m.clusters(), &a, inv, &normal.used).unwrap();
+            assert_eq!(
+                clustering.corrected,
+                n <= super::super::honest::MAX_JACKKNIFE
+            );
+            let steps = moved
+                .steps
+                .as_ref()
+                .expect("the poses measure every direction");
+            assert_eq!(steps.len(), 2);
+            let h = 1e-6;
+            for (e, got) in steps.iter().enumerate() {
+                let shifted = |h: f64| {
+                    let moved = m.map_poses(&mut |f| {
+                        let tw = twists(f).unwrap()[e] * h;
+                        f * Isometry3::new(
+                            tw.fixed_rows::<3>(3).into_owned(),
+                            tw.fixed_rows::<3>(0).into(),
+                        )
+                    });
+                    eval(&moved, &t, &c, &labels, false).0
+                };
+                let dr = (shifted(h) - shifted(-h)) / (2.0 * h);
+                let jtg = j.tr_mul(&dr);
+                let d = -(inv * DVector::from_fn(normal.used.len(), |i, _| jtg[normal.used[i]]));
+                let want = clustering.steps(&j, &dr, &d).unwrap();
+                assert_eq!(got.len(), n);
+                // Scaled by the fit's move too: the first error, a translation alike at every
+                // pose in its own frame, is the mounting's and moves no pose's step.
+                let fit = Vector6::from_fn(|i, _| d[i]);
+                let largest = want.iter().map(|s| s.norm()).fold(0.0, f64::max);
+                let scale = if e == 0 {
+                    largest.max(fit.norm())
+                } else {
+                    assert!(largest > 1e-3 * fit.norm(), "{n} poses: no step");
+                    largest
+                };
+                for (g, w) in got.iter().zip(&want) {
+                    assert!(
+                        (g - w).norm() <= 1e-5 * scale,
+                        "{n} poses, error {e}: {} of {scale}",
+                        (g - w).norm()
+                    );
+                }
+                // The fit's own move, from the same sums.
+                assert!((moved.shifts[e] - fit).norm() <= 1e-5 * fit.norm());
+            }
+        }
     }
 
     #[test]

@@ -945,10 +945,29 @@ impl Clustering {
         if s.nrows() != g {
             return None;
         }
-        let moved = DMatrix::from_fn(g, self.used.len(), |c, k| {
-            s[(c, self.used[k])] + self.grams[c].row(k).dot(&d.transpose())
+        self.steps_from(&s.select_columns(&self.used), d)
+    }
+
+    /// `steps` from each pose's score over the used columns (clusters x used), summed by the
+    /// caller.
+    pub fn steps_from(
+        &self,
+        scores: &DMatrix<f64>,
+        d: &DVector<f64>,
+    ) -> Option<Vec<nalgebra::Vector6<f64>>> {
+        let (g, p) = (self.grams.len(), self.used.len());
+        if scores.shape() != (g, p) {
+            return None;
+        }
+        let moved = DMatrix::from_fn(g, p, |c, k| {
+            scores[(c, k)] + self.grams[c].row(k).dot(&d.transpose())
         });
         steps_of(&self.maps, &moved)
+    }
+
+    /// The number of clusters.
+    pub fn len(&self) -> usize {
+        self.grams.len()
     }
 }
 

@@ -890,26 +890,25 @@ impl<M: Model + 'static> Refinable for Problem<M> {
         let along: Vec<DVector<f64>> = (0..6)
             .map(|a| (moved(&Vector6::ith(a, h)) - &r) / h)
             .collect();
-        let clustering = honest::Clustering::of(&j, self.clusters(), &a, inv, used);
-        let mut dr = DVector::zeros(r.len());
+        let clusters = self.clusters();
+        let along_per = PoseSums::of(&j, used, &along, &row_pose, &clusters);
+        let clustering = honest::Clustering::of(&j, clusters, &a, inv, used);
         let mut steps = clustering.as_ref().map(|_| Vec::with_capacity(errors));
         let mut shifts = Vec::with_capacity(errors);
         for e in 0..errors {
-            for (i, v) in dr.iter_mut().enumerate() {
-                let tw = &poses[row_pose[i]][e];
-                *v = (0..6).map(|a| along[a][i] * tw[a]).sum();
-            }
-            let jtg = j.tr_mul(&dr);
-            let d = -(inv * DVector::from_fn(used.len(), |i, _| jtg[used[i]]));
+            // An error's J^T dr per cluster from the six passes' sums, weighted by each pose's
+            // twist: no pass over J per error (24 errors had taken 48).
+            let (jtg, scores) = along_per.weighted(&|pose| poses[pose][e], clustering.as_ref());
+            let d = -(inv * jtg);
             shifts.push(Vector6::from_fn(|i, _| d[i]));
-            if let (Some(c), Some(out)) = (&clustering, &mut steps) {
-                match c.steps(&j, &dr, &d) {
+            if let (Some(c), Some(out), Some(s)) = (&clustering, &mut steps, &scores) {
+                match c.steps_from(s, &d) {
                     Some(m) => out.push(m),
                     None => steps = None,
                 }
             }
         }
-        let others = other_shifts(&j, used, inv, &along, &row_pose, &pose_flanges, others);
+        let others = other_shifts(inv, &along_per, &pose_flanges, others);
         // Where `Honest` kept no steps of its own (the CR1 sandwich), the fit's, from the same
         // rows; not where its covariance has rows of its own (`Model::covariance_rows`).
         let steps_at_fit = clustering
@@ -1232,32 +1231,105 @@ fn n_residuals<M: Model>(m: &M) -> usize {
     m.n_residuals()
 }
 
-/// `Refinable::pose_shift`'s moves through each of `sets` (other twists for the same
-/// errors): per pose and twist axis, the used columns of J^T times the residuals' derivative
-/// `along` that axis on the pose's rows (one pass), so that each set costs a sum over poses.
-/// Empty where a pose has no answer in a set or a move is not finite.
+/// J^T of the residuals' derivatives along each of the six unit twists of their poses, summed
+/// per (cluster, pose) pair over the used columns (`Refinable::pose_shift`): an error that
+/// moves each pose by its own twist changes J^T r by these sums weighted by the twists, so
+/// six passes over J serve every error.
+struct PoseSums {
+    /// Each pair's six sums, `p` values each: [(pair * 6 + axis) * p + column].
+    sums: Vec<f64>,
+    /// Each pair's cluster (`u32::MAX`: no clusters) and pose.
+    pairs: Vec<(u32, usize)>,
+    p: usize,
+}
+
+impl PoseSums {
+    fn of(
+        j: &DMatrix<f64>,
+        used: &[usize],
+        along: &[DVector<f64>],
+        row_pose: &[usize],
+        clusters: &[u32],
+    ) -> PoseSums {
+        let mut index: rustc_hash::FxHashMap<(u32, usize), usize> = Default::default();
+        let mut pairs = Vec::new();
+        let mut last = None;
+        let row_pair: Vec<usize> = row_pose
+            .iter()
+            .enumerate()
+            .map(|(i, &pose)| {
+                let key = (clusters.get(i).copied().unwrap_or(u32::MAX), pose);
+                match last {
+                    Some((k, at)) if k == key => at,
+                    _ => {
+                        let at = *index.entry(key).or_insert_with(|| {
+                            pairs.push(key);
+                            pairs.len() - 1
+                        });
+                        last = Some((key, at));
+                        at
+                    }
+                }
+            })
+            .collect();
+        let p = used.len();
+        let mut sums = vec![0.0; pairs.len() * 6 * p];
+        for (k, &u) in used.iter().enumerate() {
+            let col = j.column(u);
+            for (i, &pr) in row_pair.iter().enumerate() {
+                for ax in 0..6 {
+                    sums[(pr * 6 + ax) * p + k] += col[i] * along[ax][i];
+                }
+            }
+        }
+        PoseSums { sums, pairs, p }
+    }
+
+    /// J^T dr over the used columns for the change dr each pose's twist `twist(pose)` makes,
+    /// and with `clustering` each cluster's part of it (clusters x used columns).
+    fn weighted(
+        &self,
+        twist: &dyn Fn(usize) -> Vector6<f64>,
+        clustering: Option<&honest::Clustering>,
+    ) -> (DVector<f64>, Option<DMatrix<f64>>) {
+        let p = self.p;
+        let mut total = DVector::zeros(p);
+        let mut scores = clustering.map(|c| DMatrix::zeros(c.len(), p));
+        for (pr, &(cluster, pose)) in self.pairs.iter().enumerate() {
+            let t = twist(pose);
+            let mut part = vec![0.0; p];
+            for (ax, w) in t.iter().enumerate() {
+                let row = &self.sums[(pr * 6 + ax) * p..(pr * 6 + ax + 1) * p];
+                for (v, s) in part.iter_mut().zip(row) {
+                    *v += w * s;
+                }
+            }
+            for (v, s) in total.iter_mut().zip(&part) {
+                *v += s;
+            }
+            if let Some(m) = &mut scores {
+                // A pair outside the clusters (none numbered) leaves the steps unknown.
+                if (cluster as usize) < m.nrows() {
+                    for (k, s) in part.iter().enumerate() {
+                        m[(cluster as usize, k)] += s;
+                    }
+                } else {
+                    return (total, None);
+                }
+            }
+        }
+        (total, scores)
+    }
+}
+
+/// The fit's move per unit of each error through each of the other twists `sets`, from the
+/// same sums (`PoseSums`); empty where a pose has no answer in one of them.
 fn other_shifts(
-    j: &DMatrix<f64>,
-    used: &[usize],
     inv: &DMatrix<f64>,
-    along: &[DVector<f64>],
-    row_pose: &[usize],
+    along: &PoseSums,
     poses: &[&Isometry3<f64>],
     sets: &[&dyn Fn(&Isometry3<f64>) -> Option<Vec<Vector6<f64>>>],
 ) -> Vec<Vec<Vector6<f64>>> {
-    if sets.is_empty() {
-        return Vec::new();
-    }
-    let p = used.len();
-    let mut per = vec![DVector::<f64>::zeros(p); poses.len() * 6];
-    for (k, &u) in used.iter().enumerate() {
-        let col = j.column(u);
-        for (i, &c) in row_pose.iter().enumerate() {
-            for ax in 0..6 {
-                per[c * 6 + ax][k] += col[i] * along[ax][i];
-            }
-        }
-    }
     let of = |twists: &&dyn Fn(&Isometry3<f64>) -> Option<Vec<Vector6<f64>>>| {
         let tw: Vec<Vec<Vector6<f64>>> = poses.iter().map(|f| twists(f)).collect::<Option<_>>()?;
         let errors = tw.first().map_or(0, Vec::len);
@@ -1266,13 +1338,7 @@ fn other_shifts(
         }
         (0..errors)
             .map(|e| {
-                let mut g = DVector::<f64>::zeros(p);
-                for (c, t) in tw.iter().enumerate() {
-                    for ax in 0..6 {
-                        g.axpy(t[e][ax], &per[c * 6 + ax], 1.0);
-                    }
-                }
-                let d = -(inv * g);
+                let d = -(inv * along.weighted(&|pose| tw[pose][e], None).0);
                 let s = Vector6::from_fn(|i, _| d[i]);
                 s.iter().all(|v| v.is_finite()).then_some(s)
             })
