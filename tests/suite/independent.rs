@@ -1153,8 +1153,8 @@ fn uncalibrated(
 /// uncalibrated arm (`uncalibrated`: joint origins 0.1 mm, zeros 0.01 deg; the profiles cast
 /// from where that arm goes at the configuration the nominal one needs, the file stating the arm
 /// and its kinematic error), and once more with another (0.05 mm, 0.02 deg) whose file names
-/// the arm and its accuracy alone (on the disk's four scans the verdict then assumes an error
-/// of that accuracy in its own ratio, `Kinematic::assumed`). Every
+/// the arm and its accuracy alone (the verdict then assumes an error of that accuracy in its
+/// own ratio, `Kinematic::assumed`). Every
 /// variant run and judged as `calibrate` does (`verdict::decide`); the specimen placed anew each
 /// trial (`placed`). Counts right answers called suspect (false alarms), wrong answers (more than
 /// 1 deg or 1 mm off) judged ok, and how often the chosen result's 95 % bound, and each variant's

@@ -1068,6 +1068,59 @@ fn a_few_scans_with_robot_error_carry_the_arms_kinematic_error_or_are_told_of_it
     );
 }
 
+/// An arm named alone on poses that are no few scans (the plane's 48 poses on a circle): the
+/// bound carries an uncalibrated arm's error of the stated accuracy, not the accuracy as an
+/// error common to every pose (docs/verdict.md, "Forty-second session"). The simulated arm's
+/// errors are in the assumed ratio and the file's accuracy is their point sd, so the assumed
+/// error is the stated one and so are the bounds; stated as 0 (a calibrated arm), the accuracy
+/// alone, wider here.
+#[test]
+fn an_arm_named_alone_carries_an_uncalibrated_arms_error_on_any_pose_set() {
+    let dir = tempfile::tempdir().unwrap();
+    let (caps, doc) = common::simulated_capture(dir.path(), "plane-48-circle.toml", "p.json");
+    let bound = |file: &std::path::Path, name: &str| {
+        let json = dir.path().join(name);
+        let (code, out, err, result) = common::calibrate_json(file, &json);
+        assert!([0, 3, 4].contains(&code), "{err}");
+        let q = &result["quality"];
+        let b = (
+            q["error_bound_deg"].as_f64().unwrap(),
+            q["error_bound_mm"].as_f64().unwrap(),
+        );
+        (b, out, q["kinematic"].clone())
+    };
+    let (stated, ..) = bound(&caps, "stated.json");
+    let named_path = dir.path().join("named.json");
+    let mut named = doc.clone();
+    for f in ["link_error_mm", "joint_offset_error_deg"] {
+        named.as_object_mut().unwrap().remove(f).unwrap();
+    }
+    std::fs::write(&named_path, named.to_string()).unwrap();
+    let (assumed, out, k) = bound(&named_path, "named.json");
+    assert!(
+        out.contains("no kinematic error is stated for robots/irb120_3_58.urdf, so the arm's")
+            && !out.contains("a few scans"),
+        "{out}"
+    );
+    assert_eq!(k["assumed"], true, "{k}");
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-6 * b;
+    assert!(
+        close(assumed.0, stated.0) && close(assumed.1, stated.1),
+        "assumed {assumed:?} against stated {stated:?}"
+    );
+    let calibrated_path = dir.path().join("calibrated.json");
+    let mut calibrated = named.clone();
+    calibrated["link_error_mm"] = 0.0.into();
+    calibrated["joint_offset_error_deg"] = 0.0.into();
+    std::fs::write(&calibrated_path, calibrated.to_string()).unwrap();
+    let (alone, out, k) = bound(&calibrated_path, "calibrated.json");
+    assert!(k.is_null() && !out.contains("no kinematic error"), "{out}");
+    assert!(
+        alone.1 > assumed.1,
+        "accuracy alone {alone:?}, assumed {assumed:?}"
+    );
+}
+
 /// The arm and its kinematic error in a capture file: written by `simulate`, read back, and
 /// every bad statement refused with the field, the value and the fix (a file whose poses the
 /// named arm cannot reach, an error without an arm, an unknown arm, errors out of range).
