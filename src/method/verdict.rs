@@ -693,9 +693,10 @@ pub const MAX_FEW_SCANS: usize = 6;
 /// The arm's kinematic error the bounds carry: the one the captures state, or where they name
 /// the arm without one (not even a 0), an uncalibrated arm's of the stated accuracy
 /// (`Kinematic::assumed`). The accuracy alone, common to every pose, does not turn a few scans
-/// apart (it held 12-83 % of the disk's four scans), and where the poses are few it enters as
-/// an independent error per pose, 5-20 times too wide on the ball's 8 poses and 2.5 times on
-/// the edge paper's 250 (docs/verdict.md, "Forty-second session").
+/// apart (it held 12-83 % of the disk's four scans), and elsewhere its bounds were 5-8 times
+/// the assumed error's on the ball's 8 poses (where it also enters as an error independent per
+/// pose) and 2.5 times in translation on the edge paper's 250 (docs/verdict.md, "Forty-second
+/// session").
 fn carried_kinematic(caps: &Captures) -> Option<std::borrow::Cow<'_, crate::captures::Kinematic>> {
     let k = caps.kinematic.as_ref()?;
     if k.is_stated() {
