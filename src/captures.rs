@@ -353,15 +353,33 @@ impl Kinematic {
     /// ratio `ASSUMED_LINK_PER_ZERO`, at this arm's configurations for the same poses (the
     /// other configurations not followed). None where `accuracy` is not positive.
     pub fn assumed(&self, accuracy: f64) -> Option<Kinematic> {
-        let unit = point_sd_of(&self.robot, ASSUMED_LINK_PER_ZERO, 1.0);
-        let zero = accuracy / unit;
-        (zero > 0.0 && zero.is_finite()).then(|| Kinematic {
-            link_sd: ASSUMED_LINK_PER_ZERO * zero,
-            joint_zero_sd: zero,
-            assumed: true,
-            others: std::sync::Arc::new(Vec::new()),
-            ..self.clone()
-        })
+        self.assumed_split(accuracy, assumed_link_share(&self.robot))
+    }
+
+    /// `assumed` with the share `link_share` (0 to 1) of the accuracy's variance (as
+    /// `point_sd` counts it) in the joint origins, the rest in the zeros: the split the poses'
+    /// steps show (`Honest::error_split`). None where `accuracy` is not positive or the share
+    /// is outside 0 to 1.
+    pub fn assumed_split(&self, accuracy: f64, link_share: f64) -> Option<Kinematic> {
+        let (link_unit, zero_unit) = point_variances(&self.robot, 1.0, 1.0);
+        let link = (link_share * accuracy * accuracy / link_unit).sqrt();
+        let zero = ((1.0 - link_share) * accuracy * accuracy / zero_unit).sqrt();
+        let fine = |v: f64| v >= 0.0 && v.is_finite();
+        (accuracy > 0.0 && (0.0..=1.0).contains(&link_share) && fine(link) && fine(zero)).then(
+            || Kinematic {
+                link_sd: link,
+                joint_zero_sd: zero,
+                assumed: true,
+                others: std::sync::Arc::new(Vec::new()),
+                ..self.clone()
+            },
+        )
+    }
+
+    /// The share of `point_sd`'s variance in the joint origins (the rest in the zeros).
+    pub fn link_share(&self) -> f64 {
+        let (l, z) = point_variances(&self.robot, self.link_sd, self.joint_zero_sd);
+        l / (l + z)
     }
 
     /// About one standard deviation of a point's offset along one direction that this error
@@ -464,6 +482,12 @@ fn other_configurations(
 /// link lengths, a joint's typical distance from the flange) spread over three directions. An
 /// allowance, not a model of the arm.
 pub fn point_sd_of(robot: &crate::robot::Robot, link_sd: f64, angle_sd: f64) -> f64 {
+    let (l, a) = point_variances(robot, link_sd, angle_sd);
+    (l + a).sqrt()
+}
+
+/// `point_sd_of`'s variance in its two parts: the link errors' and the angle errors'.
+fn point_variances(robot: &crate::robot::Robot, link_sd: f64, angle_sd: f64) -> (f64, f64) {
     let reach: f64 = robot
         .joints
         .iter()
@@ -471,7 +495,18 @@ pub fn point_sd_of(robot: &crate::robot::Robot, link_sd: f64, angle_sd: f64) -> 
         .sum();
     let n = robot.joints.len() as f64;
     let lever = reach / 2.0;
-    (n * link_sd * link_sd + n * angle_sd * angle_sd * lever * lever / 3.0).sqrt()
+    (
+        n * link_sd * link_sd,
+        n * angle_sd * angle_sd * lever * lever / 3.0,
+    )
+}
+
+/// The share of an assumed arm error's variance in its joint origins at the ratio
+/// `ASSUMED_LINK_PER_ZERO` (`point_sd_of`'s parts): where the steps show no split, the one
+/// `Kinematic::assumed` takes.
+pub fn assumed_link_share(robot: &crate::robot::Robot) -> f64 {
+    let (l, z) = point_variances(robot, ASSUMED_LINK_PER_ZERO, 1.0);
+    l / (l + z)
 }
 
 /// An uncalibrated arm's joint origin error (m, per axis) per radian of joint zero error, where
@@ -624,5 +659,14 @@ mod tests {
             assert_eq!(k.twists_at(p), named.twists_at(p));
         }
         assert!(named.assumed(0.0).is_none());
+        // Another split keeps the accuracy and takes the share asked for, at both ends too.
+        assert!((k.link_share() - assumed_link_share(&robot)).abs() < 1e-12);
+        for share in [0.0, 0.25, 0.9, 1.0] {
+            let s = named.assumed_split(0.3e-3, share).unwrap();
+            assert!((s.point_sd() / 0.3e-3 - 1.0).abs() < 1e-12);
+            assert!((s.link_share() - share).abs() < 1e-12, "{share}");
+        }
+        assert!(named.assumed_split(0.3e-3, 1.5).is_none());
+        assert!(named.assumed_split(0.3e-3, f64::NAN).is_none());
     }
 }

@@ -421,6 +421,9 @@ fn verdict_json(
         "joint_offset_error_deg": k.joint_offset_error_deg, "sd_deg": k.sd_deg, "sd_mm": k.sd_mm,
         // Not stated: an uncalibrated arm's of the stated accuracy (a few scans).
         "assumed": k.assumed,
+        // Where assumed: the share of its variance in the joint origins the poses' steps show.
+        "link_share_read": k.link_share_read.map(|r| r.0),
+        "link_share_read_sd": k.link_share_read.map(|r| r.1),
         // The largest over the arm's other configurations where the joints were not given.
         "other_configurations_sd_deg": k.other_configurations.map(|o| o.0),
         "other_configurations_sd_mm": k.other_configurations.map(|o| o.1),

@@ -347,6 +347,111 @@ impl Honest {
         }
     }
 
+    /// How an assumed arm error of known size splits between its two kinds of error, read from
+    /// the poses' steps: the share `t` of the error's variance in one kind (joint origins),
+    /// the rest in the other (zeros), where `pattern` (per error, each pose's step at one sd,
+    /// as `with_kinematic`'s) was drawn at the share `assumed` and `second[e]` marks the errors
+    /// of the other kind. The steps (this fit's, or `at_fit` where it kept none) are whitened
+    /// by what the independent part makes each show (`shift_scatter` at `own`, spread evenly
+    /// over the poses), their scale read again from what no pattern can make; their part the
+    /// patterns span is then Gaussian with covariance B D(t) B^T + s^2 I, D(t) each error's
+    /// variance relative to the assumed (t / assumed, (1 - t) / (1 - assumed)). The likelihood
+    /// on a grid of t, a flat prior: the posterior mean and sd of t. Since the bias covariance
+    /// is linear in t, the one at the mean is the posterior mean covariance. None where there
+    /// are too few steps or no pattern is seen.
+    pub fn error_split(
+        &self,
+        pattern: &[Vec<nalgebra::Vector6<f64>>],
+        second: &[bool],
+        assumed: f64,
+        at_fit: Option<&[nalgebra::Vector6<f64>]>,
+        own: f64,
+    ) -> Option<(f64, f64)> {
+        let steps = match at_fit {
+            Some(s) if self.steps.is_empty() => s,
+            _ => self.steps.as_slice(),
+        };
+        let g = steps.len();
+        let e = pattern.len();
+        if g < 2 || e == 0 || second.len() != e || pattern.iter().any(|p| p.len() != g) {
+            return None;
+        }
+        if !(assumed > 0.0 && assumed < 1.0) {
+            return None;
+        }
+        let shown = (self.residual + self.shift_scatter() * (own * own)) / g as f64;
+        let l = shown.cholesky()?.l();
+        let white = |d: &nalgebra::Vector6<f64>| l.solve_lower_triangular(d);
+        let mut y = DVector::zeros(6 * g);
+        for (p, d) in steps.iter().enumerate() {
+            y.rows_mut(6 * p, 6).copy_from(&white(d)?);
+        }
+        let mut b = DMatrix::zeros(6 * g, e);
+        for (k, col) in pattern.iter().enumerate() {
+            for (p, d) in col.iter().enumerate() {
+                b.view_mut((6 * p, k), (6, 1)).copy_from(&white(d)?);
+            }
+        }
+        if !(y.iter().chain(b.iter()).all(|v| v.is_finite())) {
+            return None;
+        }
+        let svd = b.svd(true, true);
+        let (u, vt) = (svd.u?, svd.v_t?);
+        let top = svd.singular_values.max();
+        if !(top > 0.0) {
+            return None;
+        }
+        // The patterns' span to a relative tolerance, as `unexplained` takes it.
+        let keep: Vec<usize> = (0..svd.singular_values.len())
+            .filter(|&i| svd.singular_values[i] > 1e-6 * top)
+            .collect();
+        let k = keep.len();
+        // The rest's dimensions: the steps' sum is fixed (a fit's scores sum to zero), so six
+        // fewer.
+        let rest = (6 * g).saturating_sub(k + 6);
+        if k == 0 || rest < 6 {
+            return None;
+        }
+        let z = u.select_columns(&keep).tr_mul(&y);
+        let s2 = ((y.norm_squared() - z.norm_squared()).max(0.0) / rest as f64).max(1e-6);
+        // M = S V^T over the kept directions: z = M a + noise, a each error's amount in sds.
+        let m = DMatrix::from_fn(k, e, |r, c| svd.singular_values[keep[r]] * vt[(keep[r], c)]);
+        const GRID: usize = 40;
+        let log_likelihood = |t: f64| -> Option<f64> {
+            let w = DVector::from_fn(e, |c, _| {
+                if second[c] {
+                    (1.0 - t) / (1.0 - assumed)
+                } else {
+                    t / assumed
+                }
+            });
+            let mut c = &m * DMatrix::from_diagonal(&w) * m.transpose();
+            for i in 0..k {
+                c[(i, i)] += s2;
+            }
+            let ch = c.cholesky()?;
+            let log_det: f64 = ch.l().diagonal().iter().map(|v| 2.0 * v.ln()).sum();
+            let q = z.dot(&ch.solve(&z));
+            Some(-0.5 * (log_det + q))
+        };
+        let grid: Vec<(f64, f64)> = (0..=GRID)
+            .map(|i| {
+                let t = i as f64 / GRID as f64;
+                log_likelihood(t).map(|v| (t, v))
+            })
+            .collect::<Option<_>>()?;
+        let best = grid.iter().map(|g| g.1).fold(f64::NEG_INFINITY, f64::max);
+        let weights: Vec<(f64, f64)> = grid.iter().map(|&(t, v)| (t, (v - best).exp())).collect();
+        let total: f64 = weights.iter().map(|w| w.1).sum();
+        let mean = weights.iter().map(|(t, w)| t * w).sum::<f64>() / total;
+        let var = weights
+            .iter()
+            .map(|(t, w)| (t - mean).powi(2) * w)
+            .sum::<f64>()
+            / total;
+        (mean.is_finite() && var.is_finite()).then(|| (mean, var.sqrt()))
+    }
+
     /// `with_systematic` where the arm's kinematic error is stated: `shifts` holds each error's
     /// bias on the fit per unit and its standard deviation (`Refinable::pose_shift`),
     /// `pattern` the poses' steps each error makes at one sd (as `steps`; None: not known),
@@ -2364,6 +2469,64 @@ mod tests {
         for (a, b) in steps.iter().zip(&h.steps) {
             assert!((a - b).norm() < 1e-9 * b.norm().max(1e-12), "{a} vs {b}");
         }
+    }
+
+    /// The split of an arm error between its two kinds is read back from steps drawn at a
+    /// known split (patterns drawn at another): all in the first kind, all in the second, or
+    /// the assumed one; and too few steps give none.
+    #[test]
+    fn an_arm_errors_split_is_read_from_the_poses_steps() {
+        use nalgebra::Vector6;
+        let (g, errors, assumed) = (40usize, 24usize, 0.4);
+        let second: Vec<bool> = (0..errors).map(|e| e % 4 == 3).collect();
+        let h = Honest {
+            residual: Matrix6::identity() * (g as f64 * 1e-4),
+            ..Honest::unknown()
+        };
+        let read = |t: f64, seed: u64| {
+            let mut dr = Draws(seed);
+            let pattern: Vec<Vec<Vector6<f64>>> = (0..errors)
+                .map(|_| {
+                    (0..g)
+                        .map(|_| Vector6::from_fn(|_, _| 0.1 * dr.gauss()))
+                        .collect()
+                })
+                .collect();
+            let mut steps: Vec<Vector6<f64>> = (0..g)
+                .map(|_| Vector6::from_fn(|_, _| 1e-2 * dr.gauss()))
+                .collect();
+            for (e, col) in pattern.iter().enumerate() {
+                let w = if second[e] {
+                    (1.0 - t) / (1.0 - assumed)
+                } else {
+                    t / assumed
+                };
+                let a = w.sqrt() * dr.gauss();
+                for (s, d) in steps.iter_mut().zip(col) {
+                    *s += d * a;
+                }
+            }
+            let h = Honest { steps, ..h.clone() };
+            h.error_split(&pattern, &second, assumed, None, 0.0)
+                .unwrap()
+        };
+        for seed in 0..5 {
+            let (t, sd) = read(1.0, 11 + seed);
+            assert!(t > 0.8 && sd < 0.2, "all in the first kind: {t} ± {sd}");
+            let (t, sd) = read(0.0, 21 + seed);
+            assert!(t < 0.2 && sd < 0.2, "all in the second kind: {t} ± {sd}");
+        }
+        let mean: f64 = (0..10).map(|seed| read(assumed, 31 + seed).0).sum::<f64>() / 10.0;
+        assert!(
+            (mean - assumed).abs() < 0.15,
+            "at the assumed split: {mean}"
+        );
+        let few = Honest {
+            steps: vec![Vector6::zeros(); 1],
+            ..h.clone()
+        };
+        let one: Vec<Vec<Vector6<f64>>> = vec![vec![Vector6::zeros(); 1]; errors];
+        assert!(few.error_split(&one, &second, assumed, None, 0.0).is_none());
     }
 
     /// A stated error's pattern over the poses, however large its draw, is not taken for
