@@ -70,6 +70,9 @@ pub struct Honest {
     pub carrying: f64,
 }
 
+/// The chi-square distribution's 99 % quantile at 2 degrees of freedom (-2 ln 0.01).
+const CHI2_2_99: f64 = 9.210_340_372;
+
 /// J^T J `a` and its inverse `inv` over the columns a fit used, and each pose's J_c^T J_c over
 /// them (`grams`): what `Honest::shift_scatter` computes from.
 #[derive(Debug, Clone, PartialEq)]
@@ -347,18 +350,19 @@ impl Honest {
         }
     }
 
-    /// How an assumed arm error of known size splits between its two kinds of error, read from
+    /// How an assumed arm error of stated size splits between its two kinds of error, read from
     /// the poses' steps: the share `t` of the error's variance in one kind (joint origins),
     /// the rest in the other (zeros), where `pattern` (per error, each pose's step at one sd,
     /// as `with_kinematic`'s) was drawn at the share `assumed` and `second[e]` marks the errors
     /// of the other kind. The steps (this fit's, or `at_fit` where it kept none) are whitened
     /// by what the independent part makes each show (`shift_scatter` at `own`, spread evenly
     /// over the poses), their scale read again from what no pattern can make; their part the
-    /// patterns span is then Gaussian with covariance B D(t) B^T + s^2 I, D(t) each error's
-    /// variance relative to the assumed (t / assumed, (1 - t) / (1 - assumed)). The likelihood
-    /// on a grid of t, a flat prior: the posterior mean and sd of t. Since the bias covariance
+    /// patterns span is then Gaussian with covariance B D B^T + s^2 I, D each error's variance
+    /// relative to the assumed (a t / assumed, a (1 - t) / (1 - assumed), a the size's share
+    /// of the stated, integrated out). The likelihood on a grid, a weak prior at the assumed
+    /// share: the posterior mean and sd of t. Since the bias covariance
     /// is linear in t, the one at the mean is the posterior mean covariance. None where there
-    /// are too few steps or no pattern is seen.
+    /// are too few steps or the steps do not show the patterns (chi-square 99 % over none).
     pub fn error_split(
         &self,
         pattern: &[Vec<nalgebra::Vector6<f64>>],
@@ -416,14 +420,21 @@ impl Honest {
         let s2 = ((y.norm_squared() - z.norm_squared()).max(0.0) / rest as f64).max(1e-6);
         // M = S V^T over the kept directions: z = M a + noise, a each error's amount in sds.
         let m = DMatrix::from_fn(k, e, |r, c| svd.singular_values[keep[r]] * vt[(keep[r], c)]);
+        // The arm's error may be smaller than the accuracy stated (a bound): its size is a
+        // second unknown, `scale` its variance over the stated one, integrated out (flat in its
+        // log). With the size fixed, steps that show no pattern made the kind whose patterns
+        // are the smaller in the steps the likely one (10 % in the origins on a disk's four
+        // scans without arm error); with it free they leave the share at its prior.
         const GRID: usize = 40;
-        let log_likelihood = |t: f64| -> Option<f64> {
+        const SCALES: usize = 16;
+        let log_likelihood = |t: f64, scale: f64| -> Option<f64> {
             let w = DVector::from_fn(e, |c, _| {
-                if second[c] {
-                    (1.0 - t) / (1.0 - assumed)
-                } else {
-                    t / assumed
-                }
+                scale
+                    * if second[c] {
+                        (1.0 - t) / (1.0 - assumed)
+                    } else {
+                        t / assumed
+                    }
             });
             let mut c = &m * DMatrix::from_diagonal(&w) * m.transpose();
             for i in 0..k {
@@ -434,14 +445,27 @@ impl Honest {
             let q = z.dot(&ch.solve(&z));
             Some(-0.5 * (log_det + q))
         };
-        let grid: Vec<(f64, f64)> = (0..=GRID)
-            .map(|i| {
-                let t = i as f64 / GRID as f64;
-                log_likelihood(t).map(|v| (t, v))
-            })
-            .collect::<Option<_>>()?;
-        let best = grid.iter().map(|g| g.1).fold(f64::NEG_INFINITY, f64::max);
-        let weights: Vec<(f64, f64)> = grid.iter().map(|&(t, v)| (t, (v - best).exp())).collect();
+        // A weak prior at the assumed share (a Beta of total weight 2: flat at one half), on
+        // the cells' midpoints; scales from 1e-3 to 4 times the stated variance.
+        let (pa, pb) = (2.0 * assumed, 2.0 * (1.0 - assumed));
+        let mut cells = Vec::with_capacity(GRID * SCALES);
+        for i in 0..GRID {
+            let t = (i as f64 + 0.5) / GRID as f64;
+            let prior = (pa - 1.0) * t.ln() + (pb - 1.0) * (1.0 - t).ln();
+            for j in 0..SCALES {
+                let scale = 1e-3 * 4e3f64.powf(j as f64 / (SCALES - 1) as f64);
+                cells.push((t, prior + log_likelihood(t, scale)?));
+            }
+        }
+        let best = cells.iter().map(|g| g.1).fold(f64::NEG_INFINITY, f64::max);
+        // Only where the steps show the patterns: against none at all, the best cell must gain
+        // the chi-square's 99 % at its two parameters (else both kinds are equally unseen, and
+        // the kind of fewer errors merely costs the least to leave unseen).
+        let none = log_likelihood(0.5, 0.0)?;
+        if !(best - none > 0.5 * CHI2_2_99) {
+            return None;
+        }
+        let weights: Vec<(f64, f64)> = cells.iter().map(|&(t, v)| (t, (v - best).exp())).collect();
         let total: f64 = weights.iter().map(|w| w.1).sum();
         let mean = weights.iter().map(|(t, w)| t * w).sum::<f64>() / total;
         let var = weights
@@ -2483,7 +2507,7 @@ mod tests {
             residual: Matrix6::identity() * (g as f64 * 1e-4),
             ..Honest::unknown()
         };
-        let read = |t: f64, seed: u64| {
+        let read_sized = |t: f64, size: f64, seed: u64| {
             let mut dr = Draws(seed);
             let pattern: Vec<Vec<Vector6<f64>>> = (0..errors)
                 .map(|_| {
@@ -2501,15 +2525,15 @@ mod tests {
                 } else {
                     t / assumed
                 };
-                let a = w.sqrt() * dr.gauss();
+                let a = size * w.sqrt() * dr.gauss();
                 for (s, d) in steps.iter_mut().zip(col) {
                     *s += d * a;
                 }
             }
             let h = Honest { steps, ..h.clone() };
             h.error_split(&pattern, &second, assumed, None, 0.0)
-                .unwrap()
         };
+        let read = |t: f64, seed: u64| read_sized(t, 1.0, seed).unwrap();
         for seed in 0..5 {
             let (t, sd) = read(1.0, 11 + seed);
             assert!(t > 0.8 && sd < 0.2, "all in the first kind: {t} ± {sd}");
@@ -2521,6 +2545,11 @@ mod tests {
             (mean - assumed).abs() < 0.15,
             "at the assumed split: {mean}"
         );
+        // No arm error in the steps (the stated accuracy a bound it is well inside): no share
+        // is read (the kind of fewer errors, read regardless, came out at 1 %).
+        for seed in 0..5 {
+            assert_eq!(read_sized(1.0, 0.0, 41 + seed), None, "no arm error");
+        }
         let few = Honest {
             steps: vec![Vector6::zeros(); 1],
             ..h.clone()
