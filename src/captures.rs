@@ -391,15 +391,24 @@ impl Kinematic {
 
     /// Each error's standard deviation, in `robot::Robot::error_twists`' order.
     pub fn sds(&self) -> Vec<f64> {
-        let per = crate::robot::kinematics::ERRORS_PER_JOINT;
-        (0..self.robot.joints.len() * per)
-            .map(|e| {
-                if e % per == per - 1 {
+        self.zero_errors()
+            .into_iter()
+            .map(|zero| {
+                if zero {
                     self.joint_zero_sd
                 } else {
                     self.link_sd
                 }
             })
+            .collect()
+    }
+
+    /// Which errors, in `robot::Robot::error_twists`' order, are joint zeros (the rest joint
+    /// origins).
+    pub fn zero_errors(&self) -> Vec<bool> {
+        let per = crate::robot::kinematics::ERRORS_PER_JOINT;
+        (0..self.robot.joints.len() * per)
+            .map(|e| e % per == per - 1)
             .collect()
     }
 

@@ -253,10 +253,10 @@ fn read_split(
     if !k.assumed {
         return None;
     }
-    let per = crate::robot::kinematics::ERRORS_PER_JOINT;
-    let second: Vec<bool> = (0..shifts.biases.len())
-        .map(|e| e % per == per - 1)
-        .collect();
+    let second = k.zero_errors();
+    if second.len() != shifts.biases.len() {
+        return None;
+    }
     let assumed = k.link_share();
     let read = honest.error_split(
         shifts.pattern.as_deref()?,
