@@ -572,42 +572,15 @@ pub fn quality(
         }
     }
     let honest = finite.map(|f| {
-        // The accuracy is common to the poses (less what a stated kinematic error carries);
-        // the repeatability is each pose's own.
-        let common = beyond(
-            caps.judging.robot_accuracy,
-            carried.as_deref().filter(|_| kinematic.is_some()),
-        );
-        let own = caps.judging.robot_repeatability;
-        let h = match &kinematic {
-            Some(k) => f.honest.with_kinematic(
-                &k.biases,
-                k.pattern.as_deref(),
-                k.at_fit.as_ref().map(|(s, g)| (s.as_slice(), g.as_slice())),
-                common / ROBOT_REACH,
-                common,
-                own,
-            ),
-            // The stated noise's share of the residuals' variance (the rest is the robot's,
-            // which the floor states apart).
-            None => f.honest.with_systematic(
-                common / ROBOT_REACH,
-                common,
-                own,
-                noise.map_or(1.0, |s| (s / f.residual_rms).powi(2)),
-            ),
-        };
-        let h = match &radius_shift {
-            Some(s) => h.with_shift(s, caps.judging.radius_tolerance),
-            None => h,
-        };
-        // A bow of the stated peak to valley toward an unknown direction across the edge:
-        // its two components, each of mean square pv^2 / 2.
-        let pv = caps.judging.straightness * std::f64::consts::FRAC_1_SQRT_2;
-        match &bow_shift {
-            Some([a, b]) => h.with_shift(a, pv).with_shift(b, pv),
-            None => h,
-        }
+        honest_bound(
+            f,
+            caps,
+            kinematic.as_ref(),
+            carried.as_deref(),
+            noise,
+            radius_shift.as_ref(),
+            bow_shift.as_ref(),
+        )
     });
     Quality {
         residual_rms_mm: rms.map(|r| r * 1e3),
@@ -670,6 +643,55 @@ pub fn quality(
             (b - a).max(0.0)
         }),
         between_variants: None,
+    }
+}
+
+/// The honest bound's covariance of a result with figures `f`: the robot's stated accuracy
+/// (common to the poses, less what a carried kinematic error explains) and repeatability (each
+/// pose's own), the kinematic biases where carried, and a stated radius tolerance's and
+/// straightness's shifts.
+fn honest_bound(
+    f: &Refined,
+    caps: &Captures,
+    kinematic: Option<&KinematicShifts>,
+    carried: Option<&crate::captures::Kinematic>,
+    noise: Option<f64>,
+    radius_shift: Option<&nalgebra::Vector6<f64>>,
+    bow_shift: Option<&[nalgebra::Vector6<f64>; 2]>,
+) -> crate::calib::refine::honest::Honest {
+    let common = beyond(
+        caps.judging.robot_accuracy,
+        carried.filter(|_| kinematic.is_some()),
+    );
+    let own = caps.judging.robot_repeatability;
+    let h = match kinematic {
+        Some(k) => f.honest.with_kinematic(
+            &k.biases,
+            k.pattern.as_deref(),
+            k.at_fit.as_ref().map(|(s, g)| (s.as_slice(), g.as_slice())),
+            common / ROBOT_REACH,
+            common,
+            own,
+        ),
+        // The stated noise's share of the residuals' variance (the rest is the robot's, which
+        // the floor states apart).
+        None => f.honest.with_systematic(
+            common / ROBOT_REACH,
+            common,
+            own,
+            noise.map_or(1.0, |s| (s / f.residual_rms).powi(2)),
+        ),
+    };
+    let h = match radius_shift {
+        Some(s) => h.with_shift(s, caps.judging.radius_tolerance),
+        None => h,
+    };
+    // A bow of the stated peak to valley toward an unknown direction across the edge: its two
+    // components, each of mean square pv^2 / 2.
+    let pv = caps.judging.straightness * std::f64::consts::FRAC_1_SQRT_2;
+    match bow_shift {
+        Some([a, b]) => h.with_shift(a, pv).with_shift(b, pv),
+        None => h,
     }
 }
 
