@@ -671,6 +671,11 @@ mod tests {
     /// A 50 mm disk at z = 0.01 seen from 12 poses, 150 face points and two chord ends each,
     /// with z noise `noise` (m).
     fn model(noise: f64) -> (DiskModel, Isometry3<f64>, DiskPose) {
+        model_of(noise, 12)
+    }
+
+    /// `model` from `poses` poses.
+    fn model_of(noise: f64, poses: usize) -> (DiskModel, Isometry3<f64>, DiskPose) {
         let x = Isometry3::new(
             Vector3::new(0.006, 0.054, 0.364),
             Vector3::new(3.1, -0.02, 0.1),
@@ -681,7 +686,7 @@ mod tests {
             radius: 0.05,
             ..DiskModel::default()
         };
-        for k in 0..12 {
+        for k in 0..poses {
             let a = k as f64;
             // The sensor about 0.3 m from the disk looking down (its z to the base's -z), tilted
             // and turned about the vertical, its laser plane up to 20 mm off the centre.
@@ -822,6 +827,55 @@ mod tests {
         assert!((&sums.ata - &gram).norm() <= 1e-12 * gram.norm());
         assert!((sums.rss - rf.norm_squared()).abs() <= 1e-15 * rf.norm_squared());
         assert!((&sums.atr - jf.transpose() * &rf).norm() <= 1e-12 * sums.atr.norm());
+    }
+
+    /// Beyond `honest::MAX_JACKKNIFE` poses the covariance rows keep every pose's gram, where
+    /// a model without rims keeps none: the bound then takes the leverage-corrected steps and
+    /// the design floor a stated repeatability needs (zero without the grams).
+    #[test]
+    fn censored_rows_keep_every_poses_gram_however_many_poses() {
+        use crate::calib::refine::{Problem, Refinable};
+        let poses = crate::calib::refine::honest::MAX_JACKKNIFE + 6;
+        let (mut m, x, disk) = model_of(2e-5, poses);
+        let plain = Problem {
+            model: m.clone(),
+            specimen: disk,
+        };
+        assert_eq!(plain.sums(&x).grams.ncols(), 0);
+        // Each chord end as a rim interval half a face spacing wide, half a spacing beside the
+        // end (violated: the rim's rows enter the covariance).
+        let d = Vector2::new(0.08 / 399.0, 0.0);
+        m.rims = (m.ends.iter())
+            .map(|(f, e)| (*f, e + d, e + d * 2.0))
+            .collect();
+        m.ends.clear();
+        let (g, p) = (poses, 11);
+        let problem = Problem {
+            model: m.clone(),
+            specimen: disk,
+        };
+        let sums = problem.sums(&x);
+        assert_eq!(sums.grams.ncols(), p * g);
+        let (_, j) = crate::calib::refine::covariance_rows_into(
+            &m,
+            &Transform::from_isometry(&x),
+            &disk,
+            &[],
+            None,
+        );
+        let clusters = m.clusters();
+        let rows: Vec<usize> = (0..j.nrows()).filter(|&i| clusters[i] == 3).collect();
+        let jc = j.select_rows(&rows);
+        let gram = jc.transpose() * &jc;
+        let kept = sums.grams.columns(3 * p, p);
+        assert!(
+            (kept - &gram).norm() <= 1e-12 * gram.norm(),
+            "{kept} {gram}"
+        );
+        let (fit, _) = refine(&m, &x, &disk, &Options::default()).unwrap();
+        assert_eq!(fit.honest.clusters, g);
+        assert_eq!(fit.honest.steps.len(), g);
+        assert!(fit.honest.per_pose_shift.trace() > 0.0);
     }
 
     #[test]

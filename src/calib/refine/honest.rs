@@ -844,7 +844,7 @@ pub fn grams(j: &DMatrix<f64>, clusters: &[u32], g: usize) -> DMatrix<f64> {
 }
 
 /// `grams` however many clusters.
-fn grams_of(j: &DMatrix<f64>, clusters: &[u32], g: usize) -> DMatrix<f64> {
+pub(crate) fn grams_of(j: &DMatrix<f64>, clusters: &[u32], g: usize) -> DMatrix<f64> {
     let (n, p) = (j.nrows(), j.ncols());
     if clusters.len() != n || n == 0 {
         return DMatrix::zeros(p, 0);
