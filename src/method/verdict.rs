@@ -599,7 +599,15 @@ pub fn quality(
         profiles: caps.profiles.len(),
         rejected: cal.missed,
         bounds: honest.as_ref().map(|h| h.bounds()),
-        around_fit: honest.as_ref().zip(step).map(|(h, s)| h.bounds_around(&s)),
+        around_fit: honest.as_ref().zip(step).map(|(h, s)| {
+            match (h.per_pose_variance > 0.0)
+                .then(|| pose_responses(cal, estimator, caps, sensor))
+                .flatten()
+            {
+                Some((fit, closed)) => h.bounds_around_moved(&s, &fit, &closed),
+                None => h.bounds_around(&s),
+            }
+        }),
         bound_covariance: honest.as_ref().map(|h| (h.covariance, h.dof)),
         radius_shift: radius_shift.map(|s| {
             (
@@ -693,6 +701,88 @@ fn honest_bound(
         Some([a, b]) => h.with_shift(a, pv).with_shift(b, pv),
         None => h,
     }
+}
+
+/// How a closed form and the least-squares fit of its features (near the closed form's
+/// result) move per metre of each flange pose's shift along its own x, y and z, three errors a
+/// pose: the closed form run again on the captures with that pose moved (forward differences;
+/// its solves are smooth), the fit's from `Refinable::pose_shift`. For the closed form's bound
+/// under a stated per-pose error (`Honest::bounds_around_moved`). None: not a closed form, no
+/// fit, more poses than `honest::MAX_JACKKNIFE` (a run per pose and axis), poses on a clock's
+/// timeline, or a run that failed.
+fn pose_responses(
+    cal: &Calibration,
+    estimator: super::Estimator,
+    caps: &Captures,
+    sensor: &SensorModel,
+) -> Option<(Vec<Vector6<f64>>, Vec<Vector6<f64>>)> {
+    use crate::calib::refine::honest::{MAX_JACKKNIFE, pose_key};
+    if estimator != super::Estimator::ClosedForm || caps.timing.is_some() {
+        return None;
+    }
+    let problem = cal.refinable.as_ref()?;
+    let mut poses: Vec<[u64; 7]> = Vec::new();
+    let mut of_profile = Vec::with_capacity(caps.profiles.len());
+    for p in &caps.profiles {
+        let key = pose_key(&p.base_to_flange);
+        let i = match poses.iter().position(|k| *k == key) {
+            Some(i) => i,
+            None => {
+                if poses.len() == MAX_JACKKNIFE {
+                    return None;
+                }
+                poses.push(key);
+                poses.len() - 1
+            }
+        };
+        of_profile.push(i);
+    }
+    let n = poses.len();
+    let twists = |f: &Isometry3<f64>| {
+        let i = poses.iter().position(|k| *k == pose_key(f))?;
+        Some(
+            (0..3 * n)
+                .map(|e| {
+                    if e / 3 == i {
+                        Vector6::ith(3 + e % 3, 1.0)
+                    } else {
+                        Vector6::zeros()
+                    }
+                })
+                .collect(),
+        )
+    };
+    let fit = problem
+        .pose_shift(&cal.flange_to_sensor, &twists, &[])?
+        .shifts;
+    // A millimetre's thousandth: far above the rounding of coordinates near a metre, far below
+    // a lever arm (the solves' curvature).
+    let h = 1e-6;
+    let id = super::MethodId::new(caps.method, estimator);
+    let mut closed = Vec::with_capacity(3 * n);
+    let mut moved = caps.clone();
+    for e in 0..3 * n {
+        let shift = Isometry3::translation(
+            if e % 3 == 0 { h } else { 0.0 },
+            if e % 3 == 1 { h } else { 0.0 },
+            if e % 3 == 2 { h } else { 0.0 },
+        );
+        for ((m, p), &i) in moved
+            .profiles
+            .iter_mut()
+            .zip(&caps.profiles)
+            .zip(&of_profile)
+        {
+            m.base_to_flange = if i == e / 3 {
+                p.base_to_flange * shift
+            } else {
+                p.base_to_flange
+            };
+        }
+        let (run, _) = super::estimate(id, &moved, sensor).ok()?;
+        closed.push(step_between(&cal.flange_to_sensor, &run.flange_to_sensor) / h);
+    }
+    (fit.len() == closed.len()).then_some((fit, closed))
 }
 
 /// A profiler crystal's drift against the controller's, for the note on a drift left out (ppm).
