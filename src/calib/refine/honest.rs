@@ -704,18 +704,13 @@ impl Honest {
         }
         // V's pseudo-inverse: a direction where the closed form moves as the fit does (G = F)
         // carries no offset to read.
-        let eig = SymmetricEigen::new(v);
-        let top = eig.eigenvalues.max();
+        let top = v.norm();
         if !(top > 0.0 && top.is_finite()) {
             return self.bounds_around(offset);
         }
-        let mut v_plus = Matrix6::zeros();
-        for (i, &l) in eig.eigenvalues.iter().enumerate() {
-            if l > 1e-9 * top {
-                let u = eig.eigenvectors.column(i);
-                v_plus += u * u.transpose() / l;
-            }
-        }
+        let Ok(v_plus) = v.pseudo_inverse(1e-9 * top) else {
+            return self.bounds_around(offset);
+        };
         let b = k * v_plus;
         let d = -offset;
         let mean = d + b * d;
