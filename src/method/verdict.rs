@@ -809,7 +809,7 @@ const NOISE_DRAWS: u64 = 16;
 /// protocol, mean squared Mahalanobis distance 568 where 6 is the fit's own): Hausman's lemma
 /// leaves that in Var(d), not in the fit's error. None: captures without raw points, or a run
 /// that failed.
-fn noise_response(
+pub fn noise_response(
     cal: &Calibration,
     estimator: super::Estimator,
     caps: &Captures,
