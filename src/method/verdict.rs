@@ -611,7 +611,9 @@ pub fn quality(
                             let v = noise_response(cal, estimator, caps, sensor, sd)?;
                             // Var(d) = Var(closed form) - Var(fit) under the noise alone.
                             let share = (sd / f.residual_rms).powi(2);
-                            Some(psd(&(v - f.honest.residual * share)))
+                            Some(crate::calib::refine::honest::psd(
+                                &(v - f.honest.residual * share),
+                            ))
                         })
                         .unwrap_or_else(Matrix6::zeros);
                     h.bounds_around_moved(&s, &fit, &closed, &n)
@@ -857,14 +859,6 @@ pub fn noise_response(
 
 /// The seed of `noise_response`'s draws: fixed, so the verdict is a function of the data.
 const NOISE_SEED: u64 = 0x6e6f_6973_6521;
-
-/// `m` with its negative eigenvalues set to zero.
-fn psd(m: &Matrix6<f64>) -> Matrix6<f64> {
-    let e = nalgebra::SymmetricEigen::new(*m);
-    e.eigenvectors
-        * Matrix6::from_diagonal(&e.eigenvalues.map(|l| l.max(0.0)))
-        * e.eigenvectors.transpose()
-}
 
 /// A profiler crystal's drift against the controller's, for the note on a drift left out (ppm).
 const DRIFT_NOTE_PPM: f64 = 100.0;

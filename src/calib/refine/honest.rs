@@ -95,6 +95,15 @@ pub fn shifts_covariance(shifts: &[(nalgebra::Vector6<f64>, f64)]) -> Matrix6<f6
         .sum()
 }
 
+/// `m` (symmetric) with its negative eigenvalues set to zero: a difference of covariances whose
+/// remainder is rounding or sampling noise where it dips below zero.
+pub fn psd(m: &Matrix6<f64>) -> Matrix6<f64> {
+    let e = SymmetricEigen::new(*m);
+    e.eigenvectors
+        * Matrix6::from_diagonal(&e.eigenvalues.map(|l| l.max(0.0)))
+        * e.eigenvectors.transpose()
+}
+
 /// 95 % bounds on the transform's error: per axis and on the whole rotation and translation.
 /// The two whole bounds are one 95 % statement: the rotation and the translation error lie
 /// within them together in at least 95 % of calibrations (`ok` needs both within the
@@ -706,7 +715,8 @@ impl Honest {
         }
         // The sensor noise moves the offset too, uncorrelated with the fit's error (the fit is
         // efficient under it: Hausman's lemma): in V, not in K. Left out, a direction the shifts
-        // barely move read the noise as a shift (92.4-93.5 % covered, docs/verdict.md).
+        // barely move read the noise as a shift (the kit's ball protocol 93.5 % covered,
+        // docs/verdict.md).
         let v = v + noise / s2;
         // V's pseudo-inverse: a direction where the closed form moves as the fit does (G = F)
         // carries no offset to read.
@@ -724,11 +734,7 @@ impl Honest {
         let c = self.covariance - (read + read.transpose()) * 0.5;
         // What the offset explains is at most the shifts' part of C (Cauchy-Schwarz), and C
         // holds it where the per-pose error is stated: a negative remainder is rounding.
-        let e = SymmetricEigen::new(c);
-        let c = e.eigenvectors
-            * Matrix6::from_diagonal(&e.eigenvalues.map(|l| l.max(0.0)))
-            * e.eigenvectors.transpose();
-        self.bounds_of(&c, &mean)
+        self.bounds_of(&psd(&c), &mean)
     }
 
     /// The whole bounds (deg, mm) on an error of mean `mean` and covariance `cov` (the t factor
