@@ -600,26 +600,7 @@ pub fn quality(
         rejected: cal.missed,
         bounds: honest.as_ref().map(|h| h.bounds()),
         around_fit: honest.as_ref().zip(step).map(|(h, s)| {
-            match (h.per_pose_variance > 0.0)
-                .then(|| pose_responses(cal, estimator, caps, sensor))
-                .flatten()
-            {
-                Some((fit, closed)) => {
-                    let n = noise
-                        .zip(figures)
-                        .and_then(|(sd, f)| {
-                            let v = noise_response(cal, estimator, caps, sensor, sd)?;
-                            // Var(d) = Var(closed form) - Var(fit) under the noise alone.
-                            let share = (sd / f.residual_rms).powi(2);
-                            Some(crate::calib::refine::honest::psd(
-                                &(v - f.honest.residual * share),
-                            ))
-                        })
-                        .unwrap_or_else(Matrix6::zeros);
-                    h.bounds_around_moved(&s, &fit, &closed, &n)
-                }
-                None => h.bounds_around(&s),
-            }
+            closed_form_bound(h, &s, cal, estimator, caps, sensor, noise.zip(figures))
         }),
         bound_covariance: honest.as_ref().map(|h| (h.covariance, h.dof)),
         radius_shift: radius_shift.map(|s| {
@@ -714,6 +695,38 @@ fn honest_bound(
         Some([a, b]) => h.with_shift(a, pv).with_shift(b, pv),
         None => h,
     }
+}
+
+/// A closed form's bound around the fit it is `step` from (`Honest::bounds_around`), read
+/// through each pose's response where a per-pose error is stated (`pose_responses`), the
+/// sensor noise's part of the offset then measured (`noise_response`) where `noise` holds the
+/// stated noise and the fit's figures.
+fn closed_form_bound(
+    h: &crate::calib::refine::honest::Honest,
+    step: &Vector6<f64>,
+    cal: &Calibration,
+    estimator: super::Estimator,
+    caps: &Captures,
+    sensor: &SensorModel,
+    noise: Option<(f64, &Refined)>,
+) -> (f64, f64) {
+    let responses = (h.per_pose_variance > 0.0)
+        .then(|| pose_responses(cal, estimator, caps, sensor))
+        .flatten();
+    let Some((fit, closed)) = responses else {
+        return h.bounds_around(step);
+    };
+    let n = noise
+        .and_then(|(sd, f)| {
+            let v = noise_response(cal, estimator, caps, sensor, sd)?;
+            // Var(d) = Var(closed form) - Var(fit) under the noise alone.
+            let share = (sd / f.residual_rms).powi(2);
+            Some(crate::calib::refine::honest::psd(
+                &(v - f.honest.residual * share),
+            ))
+        })
+        .unwrap_or_else(Matrix6::zeros);
+    h.bounds_around_moved(step, &fit, &closed, &n)
 }
 
 /// How a closed form and the least-squares fit of its features (near the closed form's
