@@ -172,6 +172,16 @@ impl Method for Ball {
         calibrate(c, sensor)
     }
 
+    fn closed_form_recast(
+        &self,
+        c: &Captures,
+        sensor: &SensorModel,
+        cal: &super::Calibration,
+        twists: &dyn Fn(&Isometry3<f64>) -> Option<Vec<nalgebra::Vector6<f64>>>,
+    ) -> Option<Vec<nalgebra::Vector6<f64>>> {
+        recast(c, sensor, cal, twists)
+    }
+
     fn calibrate_any_pose(
         &self,
         c: &Captures,
@@ -410,9 +420,18 @@ fn circle_of(
     })
 }
 
-/// Arc circles and their centres per group, the two-step solve, and the refinement problem (when
-/// every capture kept its arc points).
-fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
+/// The closed form's problem from the captures: each capture's ball centre from its arc's
+/// circle, with the flange pose it was seen from (the rotation set's first, then the
+/// translation set's, in the problem's order), and the arc-point refinement model where every
+/// capture kept its arc points.
+struct Built {
+    problem: BallProblem,
+    poses: Vec<Isometry3<f64>>,
+    arc_points: Option<BallModel>,
+}
+
+/// Arc circles and their centres per group (the labels inferred where the file gives none).
+fn build(c: &Captures, sensor: &SensorModel) -> Result<Built, Error> {
     let inferred;
     let c = if c.groups.iter().all(|g| g.sign == 0.0)
         && c.groups.iter().all(|g| g.role != Role::Rotation)
@@ -427,6 +446,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         .specimen_radius
         .ok_or(CaptureError::MissingRadius { method: Kind::Ball })?;
     let (mut rotation_set, mut translation_set) = (Vec::new(), Vec::new());
+    let (mut rotation_poses, mut translation_poses) = (Vec::new(), Vec::new());
     let mut arc_points = Some(BallModel::new(radius));
     for g in &c.groups {
         let mut centres = Vec::new();
@@ -448,32 +468,51 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             }
             centres.push((p, centre_from_arc(&circle, radius, g.sign)));
         }
+        let capture = |f: &Isometry3<f64>, q: Vector3<f64>| BallCapture {
+            r_tcp: f.rotation.to_rotation_matrix(),
+            t_tcp: f.translation.vector,
+            q_in_sensor: q,
+        };
         match g.role {
-            Role::Rotation => rotation_set.extend(centres.iter().map(|(p, q)| BallCapture {
-                r_tcp: p.base_to_flange.rotation.to_rotation_matrix(),
-                t_tcp: p.base_to_flange.translation.vector,
-                q_in_sensor: *q,
-            })),
+            Role::Rotation => {
+                for (p, q) in &centres {
+                    rotation_set.push(capture(&p.base_to_flange, *q));
+                    rotation_poses.push(p.base_to_flange);
+                }
+            }
             Role::Translation => {
                 let Some((p, _)) = centres.first() else {
                     continue;
                 };
                 let q =
                     centres.iter().map(|(_, q)| *q).sum::<Vector3<f64>>() / centres.len() as f64;
-                translation_set.push(BallCapture {
-                    r_tcp: p.base_to_flange.rotation.to_rotation_matrix(),
-                    t_tcp: p.base_to_flange.translation.vector,
-                    q_in_sensor: q,
-                });
+                translation_set.push(capture(&p.base_to_flange, q));
+                translation_poses.push(p.base_to_flange);
             }
             _ => return Err(CaptureError::WrongRole { group: g.id }.into()),
         }
     }
-    let sol = crate::calib::ball::solve(&BallProblem {
-        orientation_tolerance_deg: c.orientation_tolerance_deg,
-        rotation_set,
-        translation_set,
-    })?;
+    rotation_poses.extend(translation_poses);
+    Ok(Built {
+        problem: BallProblem {
+            orientation_tolerance_deg: c.orientation_tolerance_deg,
+            rotation_set,
+            translation_set,
+        },
+        poses: rotation_poses,
+        arc_points,
+    })
+}
+
+/// Arc circles and their centres per group, the two-step solve, and the refinement problem (when
+/// every capture kept its arc points).
+fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
+    let Built {
+        problem,
+        arc_points,
+        ..
+    } = build(c, sensor)?;
+    let sol = crate::calib::ball::solve(&problem)?;
     Ok(super::Calibration {
         full_profile: None,
         refinable: arc_points.map(|model| {
@@ -489,6 +528,57 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
         missed: 0,
         groups: Vec::new(),
     })
+}
+
+/// The closed form's response to errors that move each capture's actual flange pose, its arcs
+/// re-cast from there (`Method::closed_form_recast`). A turn or shift of the actual flange moves
+/// the ball's centre in the sensor frame (q^i) as the rigid motion says, with the ball where
+/// the closed form put it; the arc's circle is the plane's section of the sphere at that centre,
+/// so moving q^i is the re-cast to first order (the circle's noise is the same draw). The
+/// solves are smooth: forward differences of a micrometre.
+fn recast(
+    c: &Captures,
+    sensor: &SensorModel,
+    cal: &super::Calibration,
+    twists: &dyn Fn(&Isometry3<f64>) -> Option<Vec<nalgebra::Vector6<f64>>>,
+) -> Option<Vec<nalgebra::Vector6<f64>>> {
+    let Built { problem, poses, .. } = build(c, sensor).ok()?;
+    let centre = Point3::from(cal.centre_in_base?);
+    let at = crate::calib::ball::solve(&problem).ok()?.flange_to_sensor;
+    let per_pose: Vec<Vec<nalgebra::Vector6<f64>>> =
+        poses.iter().map(twists).collect::<Option<_>>()?;
+    let errors = per_pose.first()?.len();
+    if per_pose.iter().any(|t| t.len() != errors) {
+        return None;
+    }
+    // Where the flange pose sees the ball (m, flange frame), and how q^i moves per unit of a
+    // flange twist [w; v]: the actual flange f exp(xi) sees the centre at
+    // X^-1 exp(-xi) f^-1 c, so dq = -R_X^T (w x p + v).
+    let seen: Vec<Vector3<f64>> = poses
+        .iter()
+        .map(|f| (f.inverse() * centre).coords)
+        .collect();
+    let h = 1e-6;
+    let to_sensor = at.rotation.inverse();
+    let mut out = Vec::with_capacity(errors);
+    for e in 0..errors {
+        let mut moved = problem.clone();
+        let captures = moved
+            .rotation_set
+            .iter_mut()
+            .chain(moved.translation_set.iter_mut());
+        for ((cap, p), t) in captures.zip(&seen).zip(&per_pose) {
+            let (w, v) = (t[e].fixed_rows::<3>(0), t[e].fixed_rows::<3>(3));
+            cap.q_in_sensor -= to_sensor * (w.cross(p) + v) * h;
+        }
+        let sol = crate::calib::ball::solve(&moved).ok()?;
+        // Stated as the recorded pose's move (`Refinable::pose_shift`'s sign): the closed form
+        // answers an actual move as it would the opposite move of the record.
+        out.push(-super::verdict::step_between(&at, &sol.flange_to_sensor) / h);
+    }
+    out.iter()
+        .all(|s| s.iter().all(|v| v.is_finite()))
+        .then_some(out)
 }
 
 /// The any-pose estimator (`calib::ball_any`): every profile's arc, whatever its group's role; the

@@ -103,6 +103,24 @@ pub trait Method: Sync {
         .into())
     }
 
+    /// How the closed form's result moves per unit of each of several errors that move each
+    /// pose's actual flange f (where its profiles were taken) by `twists(f)[e]` ([rotation rad;
+    /// translation m] in f's frame, first order), the profiles re-cast from the moved pose with
+    /// the specimen where the closed form `cal` put it. Stated as the move of the recorded pose
+    /// that does the same (`Refinable::pose_shift`'s sign, which the fit answers either way):
+    /// a closed form that takes a set's orientation as shared answers a moved record otherwise
+    /// than a moved pose. Rotation rad in the sensor frame, translation m. None: the method
+    /// does not re-cast, or a solve failed.
+    fn closed_form_recast(
+        &self,
+        _caps: &Captures,
+        _sensor: &SensorModel,
+        _cal: &Calibration,
+        _twists: &dyn Fn(&Isometry3<f64>) -> Option<Vec<nalgebra::Vector6<f64>>>,
+    ) -> Option<Vec<nalgebra::Vector6<f64>>> {
+        None
+    }
+
     /// Each profile's feature and the specimen-surface points it came from (for views and
     /// their residuals), one entry per `caps.profiles`, None where the feature was not found.
     fn profile_features(
