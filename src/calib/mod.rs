@@ -10,6 +10,7 @@ pub mod edge;
 pub mod ellipse;
 pub mod faces;
 pub mod plane;
+pub mod recast;
 pub mod refine;
 
 use nalgebra::{Isometry3, Matrix3, Rotation3, UnitQuaternion};

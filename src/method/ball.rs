@@ -535,7 +535,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
 /// the ball's centre in the sensor frame (q^i) as the rigid motion says, with the ball where
 /// the closed form put it; the arc's circle is the plane's section of the sphere at that centre,
 /// so moving q^i is the re-cast to first order (the circle's noise is the same draw). The
-/// solves are smooth: forward differences of a micrometre.
+/// solves are smooth: central differences of a micrometre.
 fn recast(
     c: &Captures,
     sensor: &SensorModel,
@@ -551,30 +551,28 @@ fn recast(
     if per_pose.iter().any(|t| t.len() != errors) {
         return None;
     }
-    // Where the flange pose sees the ball (m, flange frame), and how q^i moves per unit of a
-    // flange twist [w; v]: the actual flange f exp(xi) sees the centre at
-    // X^-1 exp(-xi) f^-1 c, so dq = -R_X^T (w x p + v).
-    let seen: Vec<Vector3<f64>> = poses
-        .iter()
-        .map(|f| (f.inverse() * centre).coords)
-        .collect();
     let h = 1e-6;
-    let to_sensor = at.rotation.inverse();
-    let mut out = Vec::with_capacity(errors);
-    for e in 0..errors {
+    let run = |e: usize, h: f64| {
         let mut moved = problem.clone();
         let captures = moved
             .rotation_set
             .iter_mut()
             .chain(moved.translation_set.iter_mut());
-        for ((cap, p), t) in captures.zip(&seen).zip(&per_pose) {
-            let (w, v) = (t[e].fixed_rows::<3>(0), t[e].fixed_rows::<3>(3));
-            cap.q_in_sensor -= to_sensor * (w.cross(p) + v) * h;
+        for ((cap, f), t) in captures.zip(&poses).zip(&per_pose) {
+            // The ball's centre as this pose saw it (the closed form's centre and result).
+            let q = (at.inverse() * (f.inverse() * centre)).coords;
+            cap.q_in_sensor += crate::calib::recast::point_move(&at, &q, &t[e]) * h;
         }
-        let sol = crate::calib::ball::solve(&moved).ok()?;
+        crate::calib::ball::solve(&moved)
+            .ok()
+            .map(|s| s.flange_to_sensor)
+    };
+    let mut out = Vec::with_capacity(errors);
+    for e in 0..errors {
         // Stated as the recorded pose's move (`Refinable::pose_shift`'s sign): the closed form
         // answers an actual move as it would the opposite move of the record.
-        out.push(-super::verdict::step_between(&at, &sol.flange_to_sensor) / h);
+        let step = super::verdict::step_between(&run(e, -h)?, &run(e, h)?);
+        out.push(-step / (2.0 * h));
     }
     out.iter()
         .all(|s| s.iter().all(|v| v.is_finite()))

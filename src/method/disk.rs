@@ -204,6 +204,25 @@ impl Method for Disk {
         calibrate(c, sensor)
     }
 
+    fn closed_form_feature_noise(
+        &self,
+        c: &Captures,
+        sensor: &SensorModel,
+        sd: f64,
+    ) -> Option<nalgebra::Matrix6<f64>> {
+        feature_noise(c, sensor, sd)
+    }
+
+    fn closed_form_recast(
+        &self,
+        c: &Captures,
+        sensor: &SensorModel,
+        cal: &super::Calibration,
+        twists: &dyn Fn(&Isometry3<f64>) -> Option<Vec<nalgebra::Vector6<f64>>>,
+    ) -> Option<Vec<nalgebra::Vector6<f64>>> {
+        recast(c, sensor, cal, twists)
+    }
+
     fn calibrate_any_pose(
         &self,
         c: &Captures,
@@ -1116,8 +1135,22 @@ fn without_scans(left_out: &[bool], spans: &[Span], lists: Lists) -> Lists {
     (scans, kept(ends, |s| &s.0), kept(face, |s| &s.1), walls)
 }
 
-/// Chords from every scan, the disk paper's transformation solution, and the refinement problem.
-fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
+/// The closed form's scans of chords from the captures (the scans inferred where the file
+/// gives poses alone), with every chord end seen from its flange pose (two a chord, in the
+/// scans' order), the face points, each end's walls, the groups' reports, each kept scan's
+/// face noise samples and the profiles whose chord was not found.
+struct Built {
+    problem: DiskProblem,
+    ends: Vec<SeenPoint>,
+    face: Vec<SeenPoint>,
+    beyond: Vec<Walls>,
+    reports: Vec<super::GroupReport>,
+    samples: Vec<Vec<(f64, f64, f64)>>,
+    missed: usize,
+}
+
+/// Chords from every scan: the closed form's problem.
+fn build(c: &Captures, sensor: &SensorModel) -> Result<Built, Error> {
     let inferred;
     let c = if !c.groups.is_empty() && c.groups.iter().all(|g| g.role == Role::Pose) {
         inferred = inferred_scans(c, sensor)?;
@@ -1234,6 +1267,126 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     }
     let mut problem = DiskProblem::new(radius, scans);
     problem.min_scan_angle = 0.5f64.to_radians();
+    Ok(Built {
+        problem,
+        ends,
+        face,
+        beyond,
+        reports,
+        samples,
+        missed,
+    })
+}
+
+/// The closed form's response to errors that move each profile's actual flange pose, its chords
+/// re-cast from there (`Method::closed_form_recast`): each chord end is where the laser plane
+/// cuts the disk's rim, a circle fixed in the base (the closed form's centre, the ends' plane
+/// and the stated radius), so it moves as the moved plane's cut of the rim does
+/// (`recast::plane_cut_move`). The solves are smooth: central differences of a micrometre.
+fn recast(
+    c: &Captures,
+    sensor: &SensorModel,
+    cal: &super::Calibration,
+    twists: &dyn Fn(&Isometry3<f64>) -> Option<Vec<nalgebra::Vector6<f64>>>,
+) -> Option<Vec<nalgebra::Vector6<f64>>> {
+    use crate::calib::recast::plane_cut_move;
+    let Built { problem, ends, .. } = build(c, sensor).ok()?;
+    let chords: usize = problem.scans.iter().map(|s| s.chords.len()).sum();
+    if ends.len() != 2 * chords {
+        return None;
+    }
+    let at = crate::calib::disk::solve(&problem).ok()?.flange_to_sensor;
+    let centre = cal.centre_in_base?;
+    let normal = plane_normal(&ends, &at, &sensor.apex());
+    // Each end's move per unit of each error, its pose's twists asked for once a run of ends.
+    let mut moves: Vec<Vec<Vector2<f64>>> = Vec::with_capacity(ends.len());
+    let mut last: Option<(Isometry3<f64>, Vec<nalgebra::Vector6<f64>>)> = None;
+    for (f, q) in &ends {
+        let t = match &last {
+            Some((g, t)) if g == f => t.clone(),
+            _ => {
+                let t = twists(f)?;
+                last = Some((*f, t.clone()));
+                t
+            }
+        };
+        let to_base = f * at;
+        let p_in_base = to_base * Point3::new(q.x, 0.0, q.y);
+        let tangent = to_base.rotation.inverse() * normal.cross(&(p_in_base.coords - centre));
+        moves.push(
+            t.iter()
+                .map(|xi| plane_cut_move(&at, q, &tangent, xi))
+                .collect::<Option<_>>()?,
+        );
+    }
+    let errors = moves.first()?.len();
+    if moves.iter().any(|m| m.len() != errors) {
+        return None;
+    }
+    let h = 1e-6;
+    let run = |e: usize, h: f64| {
+        let mut moved = problem.clone();
+        let chords = moved.scans.iter_mut().flat_map(|s| s.chords.iter_mut());
+        for (chord, m) in chords.zip(moves.chunks_exact(2)) {
+            chord.a += m[0][e] * h;
+            chord.b += m[1][e] * h;
+        }
+        crate::calib::disk::solve(&moved)
+            .ok()
+            .map(|s| s.flange_to_sensor)
+    };
+    let mut out = Vec::with_capacity(errors);
+    for e in 0..errors {
+        // Stated as the recorded pose's move (`Refinable::pose_shift`'s sign).
+        let step = super::verdict::step_between(&run(e, -h)?, &run(e, h)?);
+        out.push(-step / (2.0 * h));
+    }
+    out.iter()
+        .all(|s| s.iter().all(|v| v.is_finite()))
+        .then_some(out)
+}
+
+/// The disk closed form's covariance under an error of sd `sd` on each chord end's x and z
+/// (`Method::closed_form_feature_noise`): the closed form solved again with every end moved by
+/// a hundredth of a seeded draw of it (the solves are smooth at that size), its moves scaled
+/// back and their mean square taken over `verdict::NOISE_DRAWS` draws.
+fn feature_noise(c: &Captures, sensor: &SensorModel, sd: f64) -> Option<nalgebra::Matrix6<f64>> {
+    if !(sd > 0.0) {
+        return None;
+    }
+    let Built { problem, .. } = build(c, sensor).ok()?;
+    let at = crate::calib::disk::solve(&problem).ok()?.flange_to_sensor;
+    let h = 1e-2;
+    let mut sum = nalgebra::Matrix6::zeros();
+    for m in 0..super::verdict::NOISE_DRAWS {
+        let mut g = crate::rng::stream(super::verdict::NOISE_SEED, &[m]);
+        let mut moved = problem.clone();
+        for chord in moved.scans.iter_mut().flat_map(|s| s.chords.iter_mut()) {
+            for end in [&mut chord.a, &mut chord.b] {
+                end.x += h * sd * crate::rng::gauss(&mut g);
+                end.y += h * sd * crate::rng::gauss(&mut g);
+            }
+        }
+        let sol = crate::calib::disk::solve(&moved).ok()?;
+        let w = super::verdict::step_between(&at, &sol.flange_to_sensor) / h;
+        sum += w * w.transpose();
+    }
+    let v = sum / super::verdict::NOISE_DRAWS as f64;
+    v.iter().all(|x| x.is_finite()).then_some(v)
+}
+
+/// Chords from every scan, the disk paper's transformation solution, and the refinement problem.
+fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
+    let Built {
+        problem,
+        ends,
+        face,
+        beyond,
+        reports,
+        samples,
+        missed,
+    } = build(c, sensor)?;
+    let radius = problem.radius;
     let sol = crate::calib::disk::solve(&problem)?;
     let normal = plane_normal(&ends, &sol.flange_to_sensor, &sensor.apex());
     let specimen = DiskPose::new(sol.centre_in_base.into(), &normal);

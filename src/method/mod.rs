@@ -121,6 +121,20 @@ pub trait Method: Sync {
         None
     }
 
+    /// The closed form's covariance (rotation rad in the sensor frame, translation m) when each
+    /// coordinate of every feature it solves from takes an independent error of sd `sd` (m):
+    /// for a closed form whose features the profiles' columns place as much as their depths
+    /// (the disk's chord ends), where moving the profiles' depths (`verdict::noise_response`)
+    /// would miss that part. None: the method leaves it to the depths.
+    fn closed_form_feature_noise(
+        &self,
+        _caps: &Captures,
+        _sensor: &SensorModel,
+        _sd: f64,
+    ) -> Option<nalgebra::Matrix6<f64>> {
+        None
+    }
+
     /// Each profile's feature and the specimen-surface points it came from (for views and
     /// their residuals), one entry per `caps.profiles`, None where the feature was not found.
     fn profile_features(

@@ -743,9 +743,17 @@ fn closed_form_bound(
     }
     let n = noise
         .and_then(|(sd, f)| {
-            let v = noise_response(cal, estimator, caps, sensor, sd)?;
-            // Var(d) = Var(closed form) - Var(fit) under the noise alone.
-            let share = (sd / f.residual_rms).powi(2);
+            // Var(d) = Var(closed form) - Var(fit) under the noise alone: the features' own
+            // where the method reads them at the residuals' scale (the disk's chord ends, which
+            // the columns place), else the stated noise on the profiles' depths.
+            let method = super::method(caps.method);
+            let (v, share) = match method.closed_form_feature_noise(caps, sensor, f.residual_rms) {
+                Some(v) => (v, 1.0),
+                None => (
+                    noise_response(cal, estimator, caps, sensor, sd)?,
+                    (sd / f.residual_rms).powi(2),
+                ),
+            };
             Some(crate::calib::refine::honest::psd(
                 &(v - f.honest.residual * share),
             ))
@@ -873,7 +881,7 @@ fn pose_responses(
 /// Draws of the sensor noise `noise_response` takes: a 6 x 6 covariance from 16 rank-one
 /// terms, its directions' variances to about +-35 % (sqrt(2 / 16)), a regulariser of V
 /// (`Honest::bounds_around_moved`), not a bound.
-const NOISE_DRAWS: u64 = 16;
+pub(crate) const NOISE_DRAWS: u64 = 16;
 
 /// The closed form's covariance under the stated sensor noise `sd` (m) on every profile point's
 /// depth: the closed form run again on the captures with each point's depth moved by a
@@ -930,7 +938,7 @@ pub fn noise_response(
 }
 
 /// The seed of `noise_response`'s draws: fixed, so the verdict is a function of the data.
-const NOISE_SEED: u64 = 0x6e6f_6973_6521;
+pub(crate) const NOISE_SEED: u64 = 0x6e6f_6973_6521;
 
 /// A profiler crystal's drift against the controller's, for the note on a drift left out (ppm).
 const DRIFT_NOTE_PPM: f64 = 100.0;
