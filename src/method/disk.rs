@@ -1358,7 +1358,7 @@ fn feature_noise(c: &Captures, sensor: &SensorModel, sd: f64) -> Option<nalgebra
     let at = crate::calib::disk::solve(&problem).ok()?.flange_to_sensor;
     let h = 1e-2;
     let mut sum = nalgebra::Matrix6::zeros();
-    for m in 0..super::verdict::NOISE_DRAWS {
+    for m in 0..super::verdict::FEATURE_NOISE_DRAWS {
         let mut g = crate::rng::stream(super::verdict::NOISE_SEED, &[m]);
         let mut moved = problem.clone();
         for chord in moved.scans.iter_mut().flat_map(|s| s.chords.iter_mut()) {
@@ -1371,7 +1371,7 @@ fn feature_noise(c: &Captures, sensor: &SensorModel, sd: f64) -> Option<nalgebra
         let w = super::verdict::step_between(&at, &sol.flange_to_sensor) / h;
         sum += w * w.transpose();
     }
-    let v = sum / super::verdict::NOISE_DRAWS as f64;
+    let v = sum / super::verdict::FEATURE_NOISE_DRAWS as f64;
     v.iter().all(|x| x.is_finite()).then_some(v)
 }
 

@@ -883,6 +883,13 @@ fn pose_responses(
 /// (`Honest::bounds_around_moved`), not a bound.
 pub(crate) const NOISE_DRAWS: u64 = 16;
 
+/// Draws of a closed form's features' noise (`Method::closed_form_feature_noise`): where the
+/// features' own noise is most of Var(d) (the edge paper's protocol with the arm's error stated:
+/// ten times the kinematic part) V's inverse takes it whole, and an estimate from n draws
+/// inflates that inverse by n / (n - 7) on average (1.8 at 16, 1.12 at 64; the edge's d'V^-1 d
+/// averaged 15 and 6.7, 6 honest).
+pub(crate) const FEATURE_NOISE_DRAWS: u64 = 64;
+
 /// The closed form's covariance under the stated sensor noise `sd` (m) on every profile point's
 /// depth: the closed form run again on the captures with each point's depth moved by a
 /// hundredth of a seeded draw of it (the solves are smooth at that size; extraction's choices

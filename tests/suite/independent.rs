@@ -1276,7 +1276,8 @@ fn uncalibrated(
 /// trial (`placed`). Counts right answers called suspect (false alarms), wrong answers (more than
 /// 1 deg or 1 mm off) judged ok, and how often the chosen result's 95 % bound, and each variant's
 /// own, holds its error. Trials per case: `LASERCAL_INDEPENDENT_TRIALS` (default 2;
-/// docs/verdict.md has a release run of 1,000); one case alone: `LASERCAL_INDEPENDENT_CASE`.
+/// docs/verdict.md has a release run of 1,000); one case alone: `LASERCAL_INDEPENDENT_CASE`; the
+/// robot rows whose names hold `LASERCAL_INDEPENDENT_ROWS` alone (`kinematic`: the two arms).
 #[test]
 fn the_verdict_on_the_papers_protocols_from_another_generator() {
     use lasercal::calib::PoseError;
@@ -1326,6 +1327,10 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
             (0.0, 0.0, 0.0, Some((0.1, 0.01, true))),
             (0.0, 0.0, 0.0, Some((0.05, 0.02, false))),
         ] {
+            let rows = std::env::var("LASERCAL_INDEPENDENT_ROWS").ok();
+            if rows.is_some_and(|r| !row_name(robot_mm, kinematic).contains(&r)) {
+                continue;
+            }
             let outcomes: Vec<Outcome> = (0..n)
                 .into_par_iter()
                 .map(|t| {
