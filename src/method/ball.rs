@@ -535,7 +535,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
 /// the ball's centre in the sensor frame (q^i) as the rigid motion says, with the ball where
 /// the closed form put it; the arc's circle is the plane's section of the sphere at that centre,
 /// so moving q^i is the re-cast to first order (the circle's noise is the same draw). The
-/// solves are smooth: central differences of a micrometre.
+/// closed form is solved again from the moved centres (`super::recast_responses`).
 fn recast(
     c: &Captures,
     sensor: &SensorModel,
@@ -551,8 +551,7 @@ fn recast(
     if per_pose.iter().any(|t| t.len() != errors) {
         return None;
     }
-    let h = 1e-6;
-    let run = |e: usize, h: f64| {
+    super::recast_responses(errors, |e, h| {
         let mut moved = problem.clone();
         let captures = moved
             .rotation_set
@@ -566,17 +565,7 @@ fn recast(
         crate::calib::ball::solve(&moved)
             .ok()
             .map(|s| s.flange_to_sensor)
-    };
-    let mut out = Vec::with_capacity(errors);
-    for e in 0..errors {
-        // Stated as the recorded pose's move (`Refinable::pose_shift`'s sign): the closed form
-        // answers an actual move as it would the opposite move of the record.
-        let step = super::verdict::step_between(&run(e, -h)?, &run(e, h)?);
-        out.push(-step / (2.0 * h));
-    }
-    out.iter()
-        .all(|s| s.iter().all(|v| v.is_finite()))
-        .then_some(out)
+    })
 }
 
 /// The any-pose estimator (`calib::ball_any`): every profile's arc, whatever its group's role; the

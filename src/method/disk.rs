@@ -1282,7 +1282,8 @@ fn build(c: &Captures, sensor: &SensorModel) -> Result<Built, Error> {
 /// re-cast from there (`Method::closed_form_recast`): each chord end is where the laser plane
 /// cuts the disk's rim, a circle fixed in the base (the closed form's centre, the ends' plane
 /// and the stated radius), so it moves as the moved plane's cut of the rim does
-/// (`recast::plane_cut_move`). The solves are smooth: central differences of a micrometre.
+/// (`recast::plane_cut_move`); the closed form is solved again from the moved ends
+/// (`super::recast_responses`).
 fn recast(
     c: &Captures,
     sensor: &SensorModel,
@@ -1323,8 +1324,7 @@ fn recast(
     if moves.iter().any(|m| m.len() != errors) {
         return None;
     }
-    let h = 1e-6;
-    let run = |e: usize, h: f64| {
+    super::recast_responses(errors, |e, h| {
         let mut moved = problem.clone();
         let chords = moved.scans.iter_mut().flat_map(|s| s.chords.iter_mut());
         for (chord, m) in chords.zip(moves.chunks_exact(2)) {
@@ -1334,22 +1334,13 @@ fn recast(
         crate::calib::disk::solve(&moved)
             .ok()
             .map(|s| s.flange_to_sensor)
-    };
-    let mut out = Vec::with_capacity(errors);
-    for e in 0..errors {
-        // Stated as the recorded pose's move (`Refinable::pose_shift`'s sign).
-        let step = super::verdict::step_between(&run(e, -h)?, &run(e, h)?);
-        out.push(-step / (2.0 * h));
-    }
-    out.iter()
-        .all(|s| s.iter().all(|v| v.is_finite()))
-        .then_some(out)
+    })
 }
 
 /// The disk closed form's covariance under an error of sd `sd` on each chord end's x and z
 /// (`Method::closed_form_feature_noise`): the closed form solved again with every end moved by
 /// a hundredth of a seeded draw of it (the solves are smooth at that size), its moves scaled
-/// back and their mean square taken over `verdict::NOISE_DRAWS` draws.
+/// back and their mean square taken over `verdict::FEATURE_NOISE_DRAWS` draws.
 fn feature_noise(c: &Captures, sensor: &SensorModel, sd: f64) -> Option<nalgebra::Matrix6<f64>> {
     if !(sd > 0.0) {
         return None;

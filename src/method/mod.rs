@@ -168,6 +168,27 @@ pub struct ProfileFeature {
     pub surface: Vec<nalgebra::Vector2<f64>>,
 }
 
+/// A closed form's responses to `errors` errors that move its poses (`Method::closed_form_recast`):
+/// `run(e, h)` is the closed form solved with its features re-cast `h` of error e's unit away.
+/// Central differences of a micrometre (the solves are smooth), stated as
+/// the recorded pose's move that does the same (`Refinable::pose_shift`'s sign): the closed
+/// form answers an actual move as it would the opposite move of the record.
+pub(crate) fn recast_responses(
+    errors: usize,
+    run: impl Fn(usize, f64) -> Option<Isometry3<f64>>,
+) -> Option<Vec<nalgebra::Vector6<f64>>> {
+    let h = 1e-6;
+    let out: Vec<nalgebra::Vector6<f64>> = (0..errors)
+        .map(|e| {
+            let step = verdict::step_between(&run(e, -h)?, &run(e, h)?);
+            Some(-step / (2.0 * h))
+        })
+        .collect::<Option<_>>()?;
+    out.iter()
+        .all(|s| s.iter().all(|v| v.is_finite()))
+        .then_some(out)
+}
+
 /// Each profile with its group through `f`, in profile order: `Method::profile_features`' walk
 /// (None where the profile's group is not in the file or `f` finds nothing).
 pub(crate) fn each_profile(
