@@ -245,23 +245,41 @@ pub fn solve(p: &EdgeProblem) -> Result<EdgeSolution, CalibError> {
         .iter()
         .map(|(_, c)| c.r_tcp * (r_s * p3(&c.p_in_sensor)) + c.t_tcp)
         .collect();
-    let pass = |t: &Vector3<f64>| {
-        let (mut ata, mut atr) = (Matrix3::zeros(), Vector3::zeros());
-        for i in 0..all.len() {
-            for j in i + 1..all.len() {
-                if all[i].0 == all[j].0 {
-                    continue;
-                }
-                let c = all[j].1.r_tcp.matrix() - all[i].1.r_tcp.matrix();
-                let a = ux_t * c;
-                let b = -(world[j] - world[i]).cross(&u);
-                ata += a.transpose() * a;
-                atr += a.transpose() * (b - a * t);
-            }
+    // Summed over pairs in different groups without visiting them (O(n), not O(n^2): the
+    // verdict solves this again for every re-cast and noise move): with a = [u]x^T dR and
+    // b = u x dw, a^T a = dR^T S dR and a^T b = dR^T T dw, and over all pairs of n values
+    // sum (x_j - x_i)^T M (y_j - y_i) = n sum x^T M y - (sum x)^T M (sum y); the pairs within a
+    // group are taken out the same way. Centred first, so nothing cancels.
+    let s_m = ux_t.transpose() * ux_t;
+    let t_m = ux_t.transpose() * skew(&u);
+    let n = all.len() as f64;
+    let mean_r = all
+        .iter()
+        .map(|(_, c)| c.r_tcp.matrix())
+        .sum::<Matrix3<f64>>()
+        / n;
+    let mean_w = world.iter().sum::<Vector3<f64>>() / n;
+    let (mut ata, mut atb) = (Matrix3::zeros(), Vector3::zeros());
+    let mut start = 0;
+    while start < all.len() {
+        let g = all[start].0;
+        let end = start + all[start..].iter().take_while(|(h, _)| *h == g).count();
+        let (mut sum_r, mut sum_w) = (Matrix3::zeros(), Vector3::zeros());
+        let (mut rr, mut rw) = (Matrix3::zeros(), Vector3::zeros());
+        for i in start..end {
+            let r = all[i].1.r_tcp.matrix() - mean_r;
+            let w = world[i] - mean_w;
+            rr += r.transpose() * s_m * r;
+            rw += r.transpose() * t_m * w;
+            sum_r += r;
+            sum_w += w;
         }
-        (ata, atr)
-    };
-    let (ata, atb) = pass(&Vector3::zeros());
+        let k = (end - start) as f64;
+        // All pairs (the sums over every value are zero once centred), less this group's own.
+        ata += rr * (n - k) + sum_r.transpose() * s_m * sum_r;
+        atb += rw * (n - k) + sum_r.transpose() * t_m * sum_w;
+        start = end;
+    }
     let eig = ata.symmetric_eigenvalues();
     if !(eig.min() > 1e-18 * eig.max()) {
         return Err(CalibError::Degenerate {
@@ -278,8 +296,7 @@ pub fn solve(p: &EdgeProblem) -> Result<EdgeSolution, CalibError> {
         fix: "use more varied rotations",
     })?;
     let mut t = chol.solve(&atb);
-    let (_, r) = pass(&t);
-    t += chol.solve(&r);
+    t += chol.solve(&(atb - ata * t));
     let flange_to_sensor = Isometry3::from_parts(
         Translation3::from(t),
         UnitQuaternion::from_rotation_matrix(&r_s),

@@ -175,6 +175,27 @@ impl Method for Edge {
         calibrate(c, sensor)
     }
 
+    /// The edge point's noise falls mostly along the laser line (where the top face's line
+    /// ends), the fit weighs its distance from the edge in both directions alike.
+    fn closed_form_noise_moves(
+        &self,
+        c: &Captures,
+        sensor: &SensorModel,
+        sd: f64,
+    ) -> Option<Vec<crate::calib::refine::honest::Moved>> {
+        noise_moves(c, sensor, sd)
+    }
+
+    fn closed_form_recast(
+        &self,
+        c: &Captures,
+        sensor: &SensorModel,
+        _cal: &super::Calibration,
+        twists: &dyn Fn(&Isometry3<f64>) -> Option<Vec<nalgebra::Vector6<f64>>>,
+    ) -> Option<Vec<nalgebra::Vector6<f64>>> {
+        recast(c, sensor, twists)
+    }
+
     fn calibrate_any_pose(
         &self,
         c: &Captures,
@@ -720,8 +741,24 @@ fn inferred_groups(c: &Captures) -> std::borrow::Cow<'_, Captures> {
     std::borrow::Cow::Owned(out)
 }
 
-fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
-    let c = &*inferred_groups(c);
+/// The closed form's edge points, group by group, and what the variants built on it keep.
+struct Built<'a> {
+    problem: EdgeProblem,
+    /// Each edge point with the flange pose that saw it, in `problem`'s order.
+    points: Vec<(Isometry3<f64>, Vector2<f64>)>,
+    /// The profile each edge point came from, in the same order.
+    sources: Vec<&'a crate::captures::CaptureProfile>,
+    /// A ridge's or groove's faces' angle (`faces_angle`).
+    angle: Option<f64>,
+    profiles: Vec<(Isometry3<f64>, features::EdgeProfile)>,
+    face: Vec<(Isometry3<f64>, Vector2<f64>)>,
+    two_faces: Vec<(usize, Isometry3<f64>, [Vec<Vector2<f64>>; 2])>,
+    reports: Vec<super::GroupReport>,
+    missed: usize,
+}
+
+/// Edge points from every group (`c` with its groups inferred): the closed form's problem.
+fn build<'a>(c: &'a Captures, sensor: &SensorModel) -> Result<Built<'a>, Error> {
     let sense = c.edge_sense.unwrap_or(EdgeSense::Falling);
     let cfg = edge_config(sensor);
     let angle = c
@@ -762,7 +799,7 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
                             .step_by(stride)
                             .map(|f| (p.base_to_flange, f)),
                     );
-                    pts.push((p.base_to_flange, q));
+                    pts.push(((p.base_to_flange, q), p));
                     profiles.push((p.base_to_flange, seen));
                     caps.push(EdgeCapture {
                         r_tcp: p.base_to_flange.rotation.to_rotation_matrix(),
@@ -778,12 +815,15 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
     }
     // A group with fewer than 3 edge points gives no rotation equations: left out, if 2 remain.
     super::leave_out_thin_groups(&mut reports, 3, 2, Kind::Edge)?;
-    let (mut groups, mut points, mut profiles, mut face) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut groups, mut points, mut sources, mut profiles, mut face) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for ((caps, pts, e, f), r) in per_group.into_iter().zip(&reports) {
         if !r.left_out {
             groups.push(caps);
-            points.extend(pts);
+            for (point, source) in pts {
+                points.push(point);
+                sources.push(source);
+            }
             profiles.extend(e);
             face.extend(f);
         }
@@ -799,10 +839,185 @@ fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, E
             e.other = None;
         }
     }
-    let sol = crate::calib::edge::solve(&EdgeProblem {
-        groups,
-        orientation_tolerance_deg: c.orientation_tolerance_deg,
-    })?;
+    Ok(Built {
+        problem: EdgeProblem {
+            groups,
+            orientation_tolerance_deg: c.orientation_tolerance_deg,
+        },
+        points,
+        sources,
+        angle,
+        profiles,
+        face,
+        two_faces,
+        reports,
+        missed,
+    })
+}
+
+/// The closed form's response to errors that move each profile's actual flange pose, its edge
+/// points re-cast from there (`Method::closed_form_recast`): each is where the laser plane cuts
+/// the edge, a line fixed in the base (the closed form's), so it moves as the moved plane's cut
+/// of that line does (`recast::plane_cut_move`); the closed form is solved again from the moved
+/// points (`super::recast_responses`).
+fn recast(
+    c: &Captures,
+    sensor: &SensorModel,
+    twists: &dyn Fn(&Isometry3<f64>) -> Option<Vec<nalgebra::Vector6<f64>>>,
+) -> Option<Vec<nalgebra::Vector6<f64>>> {
+    use crate::calib::recast::plane_cut_move;
+    let c = &*inferred_groups(c);
+    let Built {
+        problem, points, ..
+    } = build(c, sensor).ok()?;
+    if points.len() != problem.groups.iter().map(Vec::len).sum::<usize>() {
+        return None;
+    }
+    let sol = crate::calib::edge::solve(&problem).ok()?;
+    let at = sol.flange_to_sensor;
+    let mut moves: Vec<Vec<Vector2<f64>>> = Vec::with_capacity(points.len());
+    for (f, q) in &points {
+        let tangent = (f * at).rotation.inverse() * sol.edge_direction;
+        moves.push(
+            twists(f)?
+                .iter()
+                .map(|xi| plane_cut_move(&at, q, &tangent, xi))
+                .collect::<Option<_>>()?,
+        );
+    }
+    let errors = moves.first()?.len();
+    if moves.iter().any(|m| m.len() != errors) {
+        return None;
+    }
+    super::recast_responses(errors, |e, h| {
+        let mut moved = problem.clone();
+        for (capture, m) in moved.groups.iter_mut().flatten().zip(&moves) {
+            capture.p_in_sensor += m[e] * h;
+        }
+        crate::calib::edge::solve(&moved)
+            .ok()
+            .map(|s| s.flange_to_sensor)
+    })
+}
+
+/// How the closed form and its edge points' fit move under the stated noise `sd` (m) on the
+/// profiles' depths (`Method::closed_form_noise_moves`): each edge point's covariance from
+/// `verdict::NOISE_DRAWS` draws of its own profile's depths (a hundredth of each, the point found
+/// again and the move scaled back; sd on x and z where the file gives the point), and along
+/// each of its two principal directions a move of
+/// that variance: the closed form solved again and the fit's Gauss-Newton step taken again with
+/// the point moved (central differences of a micrometre). None: a profile not raw, or a solve
+/// that failed.
+fn noise_moves(
+    c: &Captures,
+    sensor: &SensorModel,
+    sd: f64,
+) -> Option<Vec<crate::calib::refine::honest::Moved>> {
+    use crate::calib::refine::{Refinable, fit_step, honest::Moved};
+    if !(sd > 0.0) {
+        return None;
+    }
+    let c = &*inferred_groups(c);
+    let Built {
+        problem,
+        points,
+        sources,
+        angle,
+        ..
+    } = build(c, sensor).ok()?;
+    if points.len() != sources.len()
+        || points.len() != problem.groups.iter().map(Vec::len).sum::<usize>()
+    {
+        return None;
+    }
+    let sol = crate::calib::edge::solve(&problem).ok()?;
+    let at = sol.flange_to_sensor;
+    let specimen = EdgeLine::new(sol.edge_point.into(), &sol.edge_direction);
+    let (sense, cfg) = (
+        c.edge_sense.unwrap_or(EdgeSense::Falling),
+        edge_config(sensor),
+    );
+    let found = |prof: &crate::sensor::Profile| match c.specimen_kind.two_faces() {
+        Some(outside) => corner_of(prof, sensor, outside, angle, &cfg)
+            .ok()
+            .map(|(e, _)| e.end.point),
+        None => features::edge_point_and_face(prof, sensor, sense, &cfg)
+            .ok()
+            .map(|e| e.end.point),
+    };
+    let (h, step) = (1e-2, 1e-6);
+    let draws = super::verdict::NOISE_DRAWS;
+    let mut out = Vec::with_capacity(2 * points.len());
+    for (i, (src, (_, q))) in sources.iter().zip(&points).enumerate() {
+        let cov = match &src.data {
+            ProfileData::Raw(prof) => {
+                let mut cov = nalgebra::Matrix2::zeros();
+                for m in 0..draws {
+                    let mut g = rng::stream(super::verdict::NOISE_SEED, &[i as u64, m]);
+                    let mut moved = prof.clone();
+                    for p in moved.points.iter_mut().flatten() {
+                        p.z += h * sd * rng::gauss(&mut g);
+                    }
+                    let w = (found(&moved)? - q) / h;
+                    cov += w * w.transpose() / draws as f64;
+                }
+                cov
+            }
+            // A profiler that reports the edge point: the noise on its x and z.
+            ProfileData::EdgePoint(_) => nalgebra::Matrix2::identity() * (sd * sd),
+            _ => return None,
+        };
+        let eig = nalgebra::SymmetricEigen::new(cov);
+        for (k, &variance) in eig.eigenvalues.iter().enumerate() {
+            if !(variance > 0.0) {
+                continue;
+            }
+            let e: Vector2<f64> = eig.eigenvectors.column(k).into_owned();
+            let closed = |s: f64| {
+                let mut moved = problem.clone();
+                moved.groups.iter_mut().flatten().nth(i)?.p_in_sensor += e * s;
+                crate::calib::edge::solve(&moved)
+                    .ok()
+                    .map(|r| r.flange_to_sensor)
+            };
+            let fit = |s: f64| {
+                let mut moved = points.clone();
+                moved[i].1 += e * s;
+                let p = Problem {
+                    model: EdgeModel { points: moved },
+                    specimen,
+                };
+                fit_step(&p as &dyn Refinable, &at)
+            };
+            let closed =
+                super::verdict::step_between(&closed(-step)?, &closed(step)?) / (2.0 * step);
+            out.push(Moved {
+                // Both steps from the same transform: their difference is the fit's move.
+                fit: (fit(step) - fit(-step)) / (2.0 * step),
+                closed,
+                variance,
+            });
+        }
+    }
+    out.iter()
+        .all(|m| m.fit.iter().chain(m.closed.iter()).all(|v| v.is_finite()))
+        .then_some(out)
+}
+
+fn calibrate(c: &Captures, sensor: &SensorModel) -> Result<super::Calibration, Error> {
+    let c = &*inferred_groups(c);
+    let Built {
+        problem,
+        points,
+        sources: _,
+        angle: _,
+        profiles,
+        face,
+        two_faces,
+        reports,
+        missed,
+    } = build(c, sensor)?;
+    let sol = crate::calib::edge::solve(&problem)?;
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
     let full_profile = if c.specimen_kind.two_faces().is_some() {
         // Both faces' points from the closed form's transform (`calib::faces`), the profiles of

@@ -135,6 +135,22 @@ pub trait Method: Sync {
         None
     }
 
+    /// How the closed form and its features' least-squares fit move under the stated noise `sd`
+    /// (m) on the profiles' depths, one move per independent part of it with its variance
+    /// (`Honest::bounds_around_moved`): for a closed form whose fit does not weigh its features'
+    /// noise as it falls (the edge point's, mostly along the laser line), where Hausman's lemma
+    /// (the fit's error uncorrelated with the closed form's distance from it) fails for the noise
+    /// too. None: the method's fit is efficient under its features' noise, or the captures do
+    /// not say.
+    fn closed_form_noise_moves(
+        &self,
+        _caps: &Captures,
+        _sensor: &SensorModel,
+        _sd: f64,
+    ) -> Option<Vec<crate::calib::refine::honest::Moved>> {
+        None
+    }
+
     /// Each profile's feature and the specimen-surface points it came from (for views and
     /// their residuals), one entry per `caps.profiles`, None where the feature was not found.
     fn profile_features(

@@ -741,6 +741,14 @@ fn closed_form_bound(
     if moves.is_empty() {
         return h.bounds_around(step);
     }
+    // Where the fit does not weigh the features' noise as it falls, Hausman's lemma fails for
+    // the noise too: its parts enter as moves of both.
+    let method = super::method(caps.method);
+    if let Some(drawn) = noise.and_then(|(sd, _)| method.closed_form_noise_moves(caps, sensor, sd))
+    {
+        moves.extend(drawn);
+        return h.bounds_around_moved(step, &moves, &Matrix6::zeros());
+    }
     let n = noise
         .and_then(|(sd, f)| {
             // Var(d) = Var(closed form) - Var(fit) under the noise alone: the features' own

@@ -621,6 +621,28 @@ fn the_disk_closed_forms_recast_holds_on_the_kits_profiles() {
     assert!(apart > 0.1, "moved records {apart}");
 }
 
+/// The edge's points re-cast (each slid along the base-fixed edge into the moved laser plane)
+/// against the exact edge points of the paper's 25 x 10 poses cast from the moved poses. The
+/// recorded poses moved instead give another answer: the closed form takes each group's
+/// orientation as shared.
+#[test]
+fn the_edge_closed_forms_recast_is_what_moved_poses_cast() {
+    let (s, fan, _) = edge_case();
+    let sensor = common::declared(&fan, "fan-295");
+    let caps = trial_captures(&s, Kind::Edge, 1, 0).0.unwrap();
+    let file = exact_features(&caps, &s, 0.0, 1);
+    let (worst, apart) = recast_against_cast(
+        &s,
+        Kind::Edge,
+        &file,
+        &sensor,
+        &|moved| exact_features(moved, &s, 0.0, 1),
+        1e-4,
+    );
+    assert!(worst < 1e-3, "re-cast {worst}");
+    assert!(apart > 0.1, "moved records {apart}");
+}
+
 /// The same captures with each profile's exact feature (chord ends, arc points, edge point) and the
 /// profile's z noise on it: what the methods get from a sensor that reports features.
 fn exact_features(caps: &Captures, s: &Setup, sigma: f64, seed: u64) -> Captures {

@@ -231,11 +231,11 @@ fn capture_files_round_trip() {
             let (a, _) = estimate(id, &caps, &s.rig.sensor).unwrap();
             let (b, _) = estimate(id, &back, &sensor).unwrap();
             let e = lasercal::calib::PoseError::between(&a.flange_to_sensor, &b.flange_to_sensor);
-            // The file holds mm in shortest round-trip decimal: equal to rounding. The any-pose
-            // estimator's refinement starts from its own linear solve, which rounding moves; the
-            // refinement stops when a step gains under 1e-12 of the cost, which locates the
-            // minimum to about 1e-10 m at this noise: equal to that.
-            let tol = if estimator == Estimator::AnyPose {
+            // The file holds mm in shortest round-trip decimal: equal to rounding. A refinement
+            // starts from a solve that rounding moves and stops when a step gains under 1e-12 of
+            // the cost, which locates the minimum to about 1e-9 m at this noise: whether the
+            // last step is taken can go either way (edge-refined: 6e-7 deg, 8e-7 mm apart).
+            let tol = if matches!(estimator, Estimator::AnyPose | Estimator::Refined) {
                 1e-6
             } else {
                 1e-9

@@ -1846,6 +1846,13 @@ pub fn assess(p: &dyn Refinable, x: &Isometry3<f64>, status: Status) -> (Refined
     )
 }
 
+/// The Gauss-Newton step from `x` toward `p`'s least-squares fit (`assess`'s step, without the
+/// figures): how a closed form's fit moves with its features (`method::edge`'s noise moves).
+pub fn fit_step(p: &dyn Refinable, x: &Isometry3<f64>) -> Vector6<f64> {
+    let sums = p.sums(x);
+    gauss_newton_step(&sums, &Normal::of(&sums.ata))
+}
+
 /// The share of the residuals' sum of squares the fit's step removes below which a closed
 /// form's figures are taken at its own transform (`sums_at_fit`): on the disk paper's Fig. 15,
 /// 1e-3 took most trials to the fit and the sweep from 3.1 s to 4.0 s; at 1e-2 none of the
