@@ -906,7 +906,7 @@ fn recast(
 /// again and the move scaled back; sd on x and z where the file gives the point), and along
 /// each of its two principal directions a move of
 /// that variance: the closed form solved again and the fit's Gauss-Newton step taken again with
-/// the point moved (central differences of a micrometre). None: a profile not raw, or a solve
+/// the point moved a micrometre. None: a profile neither raw nor an edge point, or a solve
 /// that failed.
 fn noise_moves(
     c: &Captures,
@@ -946,6 +946,15 @@ fn noise_moves(
             .map(|e| e.end.point),
     };
     let (h, step) = (1e-2, 1e-6);
+    let fit_at = fit_step(
+        &Problem {
+            model: EdgeModel {
+                points: points.clone(),
+            },
+            specimen,
+        } as &dyn Refinable,
+        &at,
+    );
     let draws = super::verdict::NOISE_DRAWS;
     let mut out = Vec::with_capacity(2 * points.len());
     for (i, (src, (_, q))) in sources.iter().zip(&points).enumerate() {
@@ -989,12 +998,12 @@ fn noise_moves(
                 };
                 fit_step(&p as &dyn Refinable, &at)
             };
-            let closed =
-                super::verdict::step_between(&closed(-step)?, &closed(step)?) / (2.0 * step);
+            // Forward differences (the solves are smooth; a micrometre against lever arms of a
+            // decimetre): half the solves of central ones.
             out.push(Moved {
                 // Both steps from the same transform: their difference is the fit's move.
-                fit: (fit(step) - fit(-step)) / (2.0 * step),
-                closed,
+                fit: (fit(step) - fit_at) / step,
+                closed: super::verdict::step_between(&at, &closed(step)?) / step,
                 variance,
             });
         }
