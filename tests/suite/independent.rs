@@ -1342,6 +1342,44 @@ fn uncalibrated(
     arm
 }
 
+/// One line per variant of a decided trial (`LASERCAL_INDEPENDENT_DIAG`): the true error's
+/// squared Mahalanobis distance under the bound's covariance (`d2`, 6 on average where the
+/// covariance is honest) and its degrees of freedom, the rotation and translation errors over
+/// their bounds (`r`, `t`), the noise ratio, the scatter's and the groups' widening, and the
+/// carried kinematic part's sds (deg, mm). What the coverage counts cannot say: whether a
+/// bound that over-covers is too wide in its covariance or in its quantile.
+fn diagnose(name: &str, t: u64, d: &lasercal::method::verdict::Decision, truth: &Isometry3<f64>) {
+    use lasercal::calib::PoseError;
+    for (id, r) in &d.results {
+        let Ok(v) = r.as_ref() else { continue };
+        let q = &v.judged.quality;
+        let f = &v.calibration.flange_to_sensor;
+        // As the covariance: rotation rad in the sensor frame, translation m.
+        let w = (truth.rotation.inverse() * f.rotation).scaled_axis();
+        let dt = f.translation.vector - truth.translation.vector;
+        let x = nalgebra::Vector6::new(w.x, w.y, w.z, dt.x, dt.y, dt.z);
+        let (d2, dof) = q
+            .bound_covariance
+            .and_then(|(c, dof)| c.try_inverse().map(|ci| ((x.transpose() * ci * x)[0], dof)))
+            .unwrap_or((f64::NAN, 0));
+        let (br, bt) = q.own_error_bound();
+        let e = PoseError::between(f, truth);
+        let (kd, km) = q
+            .kinematic
+            .as_ref()
+            .map_or((0.0, 0.0), |k| (k.sd_deg, k.sd_mm));
+        println!(
+            "diag {name} {t} {id} nr {:.3} d2 {d2:.3} dof {dof} r {:.3} t {:.3} inf {:.3} gw {:.3} \
+             ksd {kd:.5} {km:.5}",
+            q.noise_ratio.unwrap_or(f64::NAN),
+            e.rotation_error_deg / br,
+            e.translation_error_mm / bt,
+            q.inflation.unwrap_or(f64::NAN),
+            q.group_widening.unwrap_or(f64::NAN),
+        );
+    }
+}
+
 /// The verdict on the papers' own protocols as another generator makes them: the disk paper's
 /// four scans, its ball's rotation and translation sets and the edge paper's 25 orientations of
 /// 10 translations (its parallel bar), every profile from `testkit::fan`
@@ -1359,7 +1397,8 @@ fn uncalibrated(
 /// 1 deg or 1 mm off) judged ok, and how often the chosen result's 95 % bound, and each variant's
 /// own, holds its error. Trials per case: `LASERCAL_INDEPENDENT_TRIALS` (default 2;
 /// docs/verdict.md has a release run of 1,000); one case alone: `LASERCAL_INDEPENDENT_CASE`; the
-/// robot rows whose names hold `LASERCAL_INDEPENDENT_ROWS` alone (`kinematic`: the two arms).
+/// robot rows whose names hold `LASERCAL_INDEPENDENT_ROWS` alone (`kinematic`: the two arms); each
+/// variant's covariance against its true error with `LASERCAL_INDEPENDENT_DIAG` (`diagnose`).
 #[test]
 fn the_verdict_on_the_papers_protocols_from_another_generator() {
     use lasercal::calib::PoseError;
@@ -1485,6 +1524,9 @@ fn the_verdict_on_the_papers_protocols_from_another_generator() {
                     let a = d.assessed();
                     let e = PoseError::between(&a.calibration.flange_to_sensor, truth);
                     let (br, bt) = d.judged.quality.error_bound();
+                    if std::env::var("LASERCAL_INDEPENDENT_DIAG").is_ok() {
+                        diagnose(name, t, &d, truth);
+                    }
                     let lines = d.judged.lines().cloned().collect::<Vec<_>>().join(" | ");
                     Outcome {
                         refused: false,
