@@ -624,9 +624,10 @@ pub fn quality(
         }),
         poses: figures.map_or(0, |f| f.honest.clusters),
         pose_directions: figures.map_or(0, |f| f.honest.pose_directions),
-        inflation: finite.map(|f| f.honest.inflation),
+        // The bound's own: where it carries the arm's kinematic error, the widening beyond it.
+        inflation: honest.as_ref().map(|h| h.inflation),
         orientation_groups: figures.map_or(0, |f| f.honest.orientation_groups),
-        group_widening: finite.map(|f| f.honest.group_widening),
+        group_widening: honest.as_ref().map(|h| h.group_widening),
         // Where the bound carries the arm's kinematic error, nothing to warn of; where it
         // could not (a variant without a problem to move), the warning stays.
         few_scans: scans.filter(|_| kinematic.is_none()),
@@ -1282,6 +1283,38 @@ fn precision_reasons(q: &Quality) -> Vec<String> {
                          that move it"
                     )
                 }
+                _ if let Some(k) = &q.kinematic
+                    && kinematic_share(q, k) >= 0.5 =>
+                {
+                    why += &format!(
+                        "; most of it is the arm's kinematic error ({}): through the poses' \
+                         joint configurations it moves the result by about {:.4} deg / {:.4} mm \
+                         (one sd), and more poses of the same arm do not average it away: {}",
+                        if k.assumed {
+                            format!(
+                                "none is stated for {}, so an uncalibrated arm's of the stated \
+                                 accuracy is assumed",
+                                k.robot
+                            )
+                        } else {
+                            format!(
+                                "{}: joint origins {:.3} mm per axis, joint zeros {:.4} deg, one \
+                                 sd",
+                                k.robot, k.link_error_mm, k.joint_offset_error_deg
+                            )
+                        },
+                        k.sd_deg,
+                        k.sd_mm,
+                        if k.assumed {
+                            "state the arm's own (link_error_mm, joint_offset_error_deg; \
+                             --link-error-mm, --joint-offset-error-deg), or a smaller accuracy \
+                             if its kinematics are calibrated"
+                        } else {
+                            "calibrate the arm's kinematics, or state its error if it is \
+                             smaller (link_error_mm, joint_offset_error_deg)"
+                        }
+                    )
+                }
                 _ if q.judging.robot_accuracy * 1e3 > 0.5 * q.judging.tolerance_mm => {
                     why += &format!(
                         "; the robot's stated accuracy ({:.3} mm) is in it: a robot error common \
@@ -1294,8 +1327,13 @@ fn precision_reasons(q: &Quality) -> Vec<String> {
                     Some(f) if f > 2.0 => {
                         why += &format!(
                             "; the scatter between poses is {f:.1} times what the sensor's noise \
-                             explains (robot pose error, vibration or the specimen's form): more \
-                             poses, spread over more orientations, tighten it"
+                             {}explains (robot pose error, vibration or the specimen's form): \
+                             more poses, spread over more orientations, tighten it",
+                            if q.kinematic.is_some() {
+                                "and the arm's kinematic error "
+                            } else {
+                                ""
+                            }
                         )
                     }
                     _ => why += "; more poses, spread over more orientations, tighten it",
@@ -1304,6 +1342,24 @@ fn precision_reasons(q: &Quality) -> Vec<String> {
         }
     }
     vec![why]
+}
+
+/// The largest share of the bound's variance (rotation or translation, whichever exceeds the
+/// tolerance) the carried kinematic error `k` makes.
+fn kinematic_share(q: &Quality, k: &KinematicPart) -> f64 {
+    let Some((c, _)) = q.bound_covariance else {
+        return 0.0;
+    };
+    let trace = |i: usize| (i..i + 3).map(|a| c[(a, a)]).sum::<f64>();
+    let (br, bt) = q.error_bound();
+    let mut share: f64 = 0.0;
+    if br > q.judging.tolerance_deg {
+        share = share.max(k.sd_deg.to_radians().powi(2) / trace(0));
+    }
+    if bt > q.judging.tolerance_mm {
+        share = share.max((k.sd_mm * 1e-3).powi(2) / trace(3));
+    }
+    if share.is_finite() { share } else { 0.0 }
 }
 
 /// One variant's result on a capture set, judged.

@@ -313,8 +313,9 @@ fn print_verdict(
                 0 => String::new(),
                 g => format!(" in {g} orientations"),
             },
+            // Printed from 1.05 (a factor that rounds to 1.0 widened nothing a user sees).
             q.inflation
-                .filter(|f| *f > 1.0)
+                .filter(|f| *f >= 1.05)
                 .map_or(String::new(), |f| format!(
                     ", widened {f:.1} times by the scatter between poses{}",
                     q.group_widening

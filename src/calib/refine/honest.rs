@@ -347,7 +347,13 @@ impl Honest {
                 self.unexplained(&self.steps, &[], &shown, self.carrying, None)
             })
             .flatten();
-        if let Some((excess, dof_excess, measured)) = weighed {
+        if let Some(Unexplained {
+            excess,
+            dof: dof_excess,
+            share: measured,
+            ..
+        }) = weighed
+        {
             // The scatter shrunk toward the floor's shape, not the residuals': the larger of
             // the scatter's noisy estimate and the floor had widened every direction (the kit's
             // random rigs with the repeatability stated: 96.6-99.0 % of every answer covered;
@@ -545,13 +551,19 @@ impl Honest {
             let shown = self.residual + self.shift_scatter() * per_pose;
             self.unexplained(steps, p, &shown, steps.len() as f64, groups)
         });
+        // What the scatter widened: beyond the model where it is weighed against it (the arm's
+        // patterns are the model's, not scatter), the fit's own figures otherwise.
+        let mut widened = (self.inflation, self.group_widening);
         let (mut c, dof) = match weighed {
-            Some((excess, dof_excess, _)) => {
-                let c = model + excess;
+            Some(u) => {
+                let c = model + u.excess;
+                if let Some((_, e)) = whitened(&model, &c) {
+                    widened = (e.eigenvalues.max().max(1.0).sqrt(), u.group_widening);
+                }
                 // The share of the bound the scatter sets (its degrees of freedom).
                 (
                     c,
-                    effective_dof(share_of(&c, &excess), dof_excess, self.residual_dof),
+                    effective_dof(share_of(&c, &u.excess), u.dof, self.residual_dof),
                 )
             }
             None if finite(&model) => {
@@ -570,6 +582,8 @@ impl Honest {
         Honest {
             covariance: c,
             dof,
+            inflation: widened.0,
+            group_widening: widened.1,
             ..self.clone()
         }
     }
@@ -591,7 +605,7 @@ impl Honest {
         independent: &Matrix6<f64>,
         poses: f64,
         groups: Option<&[u32]>,
-    ) -> Option<(Matrix6<f64>, usize, f64)> {
+    ) -> Option<Unexplained> {
         let g = steps.len();
         if g < 2 || pattern.iter().any(|p| p.len() != g) {
             return None;
@@ -640,24 +654,35 @@ impl Honest {
                 .map(|s| s * s.transpose())
                 .sum::<Matrix6<f64>>()
                 * (big_g as f64 / (big_g - 1) as f64);
-            let w = design_map(&raised, &between, big_g)?;
+            let (w, factor) = design_map(&raised, &between, big_g)?;
             let dof_g = (((big_g - 1) as f64 - k as f64 / 6.0) as usize).max(1);
-            Some((w * raised * w.transpose() - independent, dof.min(dof_g)))
+            Some((
+                w * raised * w.transpose() - independent,
+                dof.min(dof_g),
+                factor,
+            ))
         });
         // Widened as the groups widened the pose-level covariance, direction by direction (not
         // every direction by the most widened one's factor).
-        let (excess, dof) = match (by_groups, &self.group_map) {
+        let (excess, dof, by) = match (by_groups, &self.group_map) {
             (Some(e), _) => e,
-            (None, Some(w)) => (w * (raised - independent) * w.transpose(), dof),
+            (None, Some(w)) => (
+                w * (raised - independent) * w.transpose(),
+                dof,
+                self.group_widening,
+            ),
             (None, None) => (
                 (raised - independent) * (self.group_widening * self.group_widening),
                 dof,
+                self.group_widening,
             ),
         };
-        excess
-            .iter()
-            .all(|v| v.is_finite())
-            .then_some((excess, dof, share))
+        excess.iter().all(|v| v.is_finite()).then_some(Unexplained {
+            excess,
+            dof,
+            share,
+            group_widening: by,
+        })
     }
 
     /// What each pose's points shifted by its own independent error of unit sd per axis make
@@ -1375,6 +1400,16 @@ fn runs(clusters: &[u32]) -> Vec<(usize, usize, usize)> {
     runs
 }
 
+/// What the poses' steps show beyond a stated model (`Honest::unexplained`): the excess
+/// covariance, its degrees of freedom, the share of the raised covariance the scatter sets, and
+/// the orientation groups' factor on the sd it was widened by (1: not widened).
+struct Unexplained {
+    excess: Matrix6<f64>,
+    dof: usize,
+    share: f64,
+    group_widening: f64,
+}
+
 /// The covariance the orientation groups' scatter widens (`group_widening`).
 struct GroupWidened {
     covariance: Matrix6<f64>,
@@ -1487,9 +1522,14 @@ fn groups_map(
 }
 
 /// The groups' design-effect map (`groups_map`) of the `between` groups' scatter (6 x 6) over
-/// the pose-level covariance `cov`, every direction measured by `big_g` groups; None where `cov`
-/// has no factor or the groups are too few.
-fn design_map(cov: &Matrix6<f64>, between: &Matrix6<f64>, big_g: usize) -> Option<Matrix6<f64>> {
+/// the pose-level covariance `cov`, every direction measured by `big_g` groups, and its factor
+/// on the sd in the most widened direction; None where `cov` has no factor or the groups are
+/// too few.
+fn design_map(
+    cov: &Matrix6<f64>,
+    between: &Matrix6<f64>,
+    big_g: usize,
+) -> Option<(Matrix6<f64>, f64)> {
     if big_g < 7 {
         return None;
     }
@@ -1498,7 +1538,8 @@ fn design_map(cov: &Matrix6<f64>, between: &Matrix6<f64>, big_g: usize) -> Optio
     if !mean.is_finite() {
         return None;
     }
-    groups_map(&l, &em, &groups_raised(&em, mean, big_g))
+    let raised = groups_raised(&em, mean, big_g);
+    Some((groups_map(&l, &em, &raised)?, raised.max().sqrt()))
 }
 
 /// Poses whose orientations agree to within this angle (rad) share a group
@@ -2852,6 +2893,13 @@ mod tests {
             );
         }
         assert!((0..6).any(|i| without.covariance[(i, i)] > 4.0 * model[(i, i)]));
+        // The widening reported is the scatter's beyond the model, not the patterns'.
+        assert!(
+            with.inflation < 1.5 && h.inflation > 2.0 * with.inflation,
+            "{} against the fit's {}",
+            with.inflation,
+            h.inflation
+        );
         // An error of its own at each pose, 10 times the noise over a pose's rows.
         let tau = 10.0 * sigma;
         let own: Vec<Vector6<f64>> = (0..poses)
@@ -2862,6 +2910,7 @@ mod tests {
         let own_steps = at_fit(&(&drawn + &moved));
         let fit = Some((own_steps.as_slice(), &[] as &[u32]));
         let with = h.with_kinematic(&shifts, Some(&pattern), fit, 0.0, 0.0, 0.0);
+        assert!(with.inflation > 1.5, "{}", with.inflation);
         // What independent per-pose shifts of tau through J cause: sum_c A^-1 A_c A_c A^-1.
         let caused: DMatrix<f64> = (0..poses)
             .map(|c| {
