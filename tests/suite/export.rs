@@ -831,18 +831,7 @@ fn import_takes_a_declared_sensor() {
         + "\n[sensor.geometry]\nname = \"fan-295\"\ncolumns = 1280\nspacing = \"equal-angle\"\n\
            z_axis = \"toward\"\napex_z_mm = 295.0\nhalf_angle_deg = 14.0\n\
            range_z_mm = [-105.0, 105.0]\ncamera_mm = [0.0, 120.0, 295.0]\n";
-    let scenario = dir.path().join("fan.toml");
-    std::fs::write(&scenario, text).unwrap();
-    let caps = dir.path().join("sim.json");
-    let (code, _, err) = common::lasercal(&[
-        "simulate",
-        scenario.to_str().unwrap(),
-        "--out",
-        caps.to_str().unwrap(),
-    ]);
-    assert_eq!(code, 0, "{err}");
-    let doc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&caps).unwrap()).unwrap();
+    let (caps, doc) = common::simulated_from_text(dir.path(), &text, "sim.json");
     assert!(doc["sensor"].is_object(), "the file declares its fan");
     let want = calibrated(caps.to_str().unwrap(), dir.path(), "sim");
     let sensor = dir.path().join("fan-295.json");

@@ -1148,16 +1148,7 @@ fn an_imprecise_bound_the_arms_kinematic_error_makes_names_it() {
     let text = text
         .replace("only = \"all\"", "only = \"kinematic\"")
         .replace("scale = 1.0", "scale = 4.0");
-    let scenario = dir.path().join("edge-kinematic.toml");
-    std::fs::write(&scenario, text).unwrap();
-    let caps = dir.path().join("caps.json");
-    let (code, _, err) = common::lasercal(&[
-        "simulate",
-        scenario.to_str().unwrap(),
-        "--out",
-        caps.to_str().unwrap(),
-    ]);
-    assert_eq!(code, 0, "{err}");
+    let (caps, _) = common::simulated_from_text(dir.path(), &text, "caps.json");
     let json = dir.path().join("result.json");
     let calibrate = |extra: &[&str]| {
         let mut args = vec![

@@ -89,8 +89,28 @@ pub fn simulated_capture(
     scenario: &str,
     name: &str,
 ) -> (std::path::PathBuf, serde_json::Value) {
+    simulated_at(dir, &scen(scenario), name)
+}
+
+/// `lasercal simulate` of a scenario given as TOML text (a scenario of scenarios/ with a field
+/// changed), written beside the capture file `name` in `dir`: its path and its JSON.
+pub fn simulated_from_text(
+    dir: &std::path::Path,
+    toml: &str,
+    name: &str,
+) -> (std::path::PathBuf, serde_json::Value) {
+    let scenario = dir.join(format!("{name}.toml"));
+    std::fs::write(&scenario, toml).unwrap();
+    simulated_at(dir, scenario.to_str().unwrap(), name)
+}
+
+fn simulated_at(
+    dir: &std::path::Path,
+    scenario: &str,
+    name: &str,
+) -> (std::path::PathBuf, serde_json::Value) {
     let caps = dir.join(name);
-    let (code, _, err) = lasercal(&["simulate", &scen(scenario), "--out", caps.to_str().unwrap()]);
+    let (code, _, err) = lasercal(&["simulate", scenario, "--out", caps.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     let doc = serde_json::from_str(&std::fs::read_to_string(&caps).unwrap()).unwrap();
     (caps, doc)
