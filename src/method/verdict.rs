@@ -104,7 +104,20 @@ pub struct KinematicPart {
 /// assumed ones before the note says so: a factor on the sd.
 const OTHER_CONFIGURATIONS_FACTOR: f64 = 1.25;
 
+/// What to do where the arm's kinematic error is assumed (`KinematicPart::assumed`).
+const ASSUMED_ADVICE: &str = "state the arm's own (link_error_mm, joint_offset_error_deg; \
+                              --link-error-mm, --joint-offset-error-deg) or a smaller accuracy \
+                              if it is calibrated";
+
 impl KinematicPart {
+    /// The errors as the note and the reasons give them.
+    fn errors(&self) -> String {
+        format!(
+            "joint origins {:.3} mm per axis, joint zeros {:.4} deg, one sd",
+            self.link_error_mm, self.joint_offset_error_deg
+        )
+    }
+
     /// The part the biases `shifts` (per unit error, with each error's sd) of the stated `k`
     /// make.
     fn of(shifts: &KinematicShifts, k: &crate::captures::Kinematic, few_scans: bool) -> Self {
@@ -159,23 +172,23 @@ impl KinematicPart {
             };
             return format!(
                 "no kinematic error is stated for {}, {why}; the bounds carry an \
-                 uncalibrated arm's of the stated accuracy (joint origins {:.3} mm per axis, \
-                 joint zeros {:.4} deg, one sd{split}), which moves the result by about {:.4} \
-                 deg / {:.4} mm (one sd) through each pose's joint configuration; state the \
-                 arm's own (link_error_mm, joint_offset_error_deg; --link-error-mm, \
-                 --joint-offset-error-deg) or a smaller accuracy if it is calibrated",
+                 uncalibrated arm's of the stated accuracy ({}{split}), which moves the result \
+                 by about {:.4} deg / {:.4} mm (one sd) through each pose's joint configuration; \
+                 {ASSUMED_ADVICE}",
                 self.robot,
-                self.link_error_mm,
-                self.joint_offset_error_deg,
+                self.errors(),
                 self.sd_deg,
                 self.sd_mm
             );
         }
         let mut note = format!(
-            "the arm's stated kinematic error ({}: joint origins {:.3} mm per axis, joint zeros \
-             {:.4} deg, one sd) is in the bounds: through each pose's joint configuration it \
-             moves the result by about {:.4} deg / {:.4} mm (one sd), which no residual shows",
-            self.robot, self.link_error_mm, self.joint_offset_error_deg, self.sd_deg, self.sd_mm
+            "the arm's stated kinematic error ({}: {}) is in the bounds: through each pose's \
+             joint configuration it moves the result by about {:.4} deg / {:.4} mm (one sd), \
+             which no residual shows",
+            self.robot,
+            self.errors(),
+            self.sd_deg,
+            self.sd_mm
         );
         if let Some((deg, mm)) = self.configuration_matters() {
             note.push_str(&format!(
@@ -1297,18 +1310,12 @@ fn precision_reasons(q: &Quality) -> Vec<String> {
                                 k.robot
                             )
                         } else {
-                            format!(
-                                "{}: joint origins {:.3} mm per axis, joint zeros {:.4} deg, one \
-                                 sd",
-                                k.robot, k.link_error_mm, k.joint_offset_error_deg
-                            )
+                            format!("{}: {}", k.robot, k.errors())
                         },
                         k.sd_deg,
                         k.sd_mm,
                         if k.assumed {
-                            "state the arm's own (link_error_mm, joint_offset_error_deg; \
-                             --link-error-mm, --joint-offset-error-deg), or a smaller accuracy \
-                             if its kinematics are calibrated"
+                            ASSUMED_ADVICE
                         } else {
                             "calibrate the arm's kinematics, or state its error if it is \
                              smaller (link_error_mm, joint_offset_error_deg)"
