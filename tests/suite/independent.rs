@@ -1345,8 +1345,10 @@ fn uncalibrated(
 /// One line per variant of a decided trial (`LASERCAL_INDEPENDENT_DIAG`): the true error's
 /// squared Mahalanobis distance under the bound's covariance (`d2`, 6 on average where the
 /// covariance is honest) and its degrees of freedom, the rotation and translation errors over
-/// their bounds (`r`, `t`), the noise ratio, the scatter's and the groups' widening, and the
-/// carried kinematic part's sds (deg, mm). What the coverage counts cannot say: whether a
+/// their bounds (`r`, `t`), the noise ratio, the scatter's and the groups' widening, the
+/// carried kinematic part's sds (deg, mm), the rotation error and its bound (deg: `er`, `br`)
+/// and the squared whitened error along each of the covariance's eigenvectors, the widest
+/// first (`z2`: 1 on average in a direction where the covariance is honest). What the coverage counts cannot say: whether a
 /// bound that over-covers is too wide in its covariance or in its quantile.
 fn diagnose(name: &str, t: u64, d: &lasercal::method::verdict::Decision, truth: &Isometry3<f64>) {
     use lasercal::calib::PoseError;
@@ -1362,6 +1364,20 @@ fn diagnose(name: &str, t: u64, d: &lasercal::method::verdict::Decision, truth: 
             .bound_covariance
             .and_then(|(c, dof)| c.try_inverse().map(|ci| ((x.transpose() * ci * x)[0], dof)))
             .unwrap_or((f64::NAN, 0));
+        // The whitened error along the covariance's eigenvectors, the widest first (each 1 on
+        // average where the covariance is honest in that direction).
+        let z2: Vec<f64> = q
+            .bound_covariance
+            .map(|(c, _)| {
+                let e = c.symmetric_eigen();
+                let mut order: Vec<usize> = (0..6).collect();
+                order.sort_by(|&a, &b| e.eigenvalues[b].total_cmp(&e.eigenvalues[a]));
+                order
+                    .iter()
+                    .map(|&i| e.eigenvectors.column(i).dot(&x).powi(2) / e.eigenvalues[i])
+                    .collect()
+            })
+            .unwrap_or_default();
         let (br, bt) = q.own_error_bound();
         let e = PoseError::between(f, truth);
         let (kd, km) = q
@@ -1370,12 +1386,18 @@ fn diagnose(name: &str, t: u64, d: &lasercal::method::verdict::Decision, truth: 
             .map_or((0.0, 0.0), |k| (k.sd_deg, k.sd_mm));
         println!(
             "diag {name} {t} {id} nr {:.3} d2 {d2:.3} dof {dof} r {:.3} t {:.3} inf {:.3} gw {:.3} \
-             ksd {kd:.5} {km:.5}",
+             ksd {kd:.5} {km:.5} er {:.6} br {:.6} z2 {}",
             q.noise_ratio.unwrap_or(f64::NAN),
             e.rotation_error_deg / br,
             e.translation_error_mm / bt,
             q.inflation.unwrap_or(f64::NAN),
             q.group_widening.unwrap_or(f64::NAN),
+            e.rotation_error_deg,
+            br,
+            z2.iter()
+                .map(|v| format!("{v:.3}"))
+                .collect::<Vec<_>>()
+                .join(" "),
         );
     }
 }
