@@ -231,7 +231,7 @@ fn kinematic_shifts(
         .iter()
         .map(|l| l as &dyn Fn(&Isometry3<f64>) -> Option<Vec<nalgebra::Vector6<f64>>>)
         .collect();
-    let moved = problem.pose_shift(&cal.flange_to_sensor, &|f| k.twists_at(f), &sets)?;
+    let moved = problem.pose_shift(&cal.flange_to_sensor, &|f| k.twists_at(f), &sets, true)?;
     let sds = k.sds();
     let pattern = moved.steps.map(|s| {
         s.into_iter()
@@ -879,7 +879,7 @@ fn pose_responses(
         )
     };
     let fit = problem
-        .pose_shift(&cal.flange_to_sensor, &twists, &[])?
+        .pose_shift(&cal.flange_to_sensor, &twists, &[], false)?
         .shifts;
     // A millimetre's thousandth: far above the rounding of coordinates near a metre, far below
     // a lever arm (the solves' curvature).

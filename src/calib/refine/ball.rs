@@ -583,7 +583,7 @@ mod tests {
             model: m.clone(),
             specimen: c,
         }
-        .pose_shift(&x, &twists, &[&twists])
+        .pose_shift(&x, &twists, &[&twists], false)
         .unwrap();
         let shifts = moved.shifts;
         // The same twists as another configuration: the per-pose sums give the same moves.
@@ -633,7 +633,7 @@ mod tests {
             model: m,
             specimen: c,
         }
-        .pose_shift(&x, &|_| None, &[]);
+        .pose_shift(&x, &|_| None, &[], false);
         assert!(none.is_none());
     }
 
@@ -658,7 +658,7 @@ mod tests {
                 model: m.clone(),
                 specimen: c,
             }
-            .pose_shift(&x, &twists, &[])
+            .pose_shift(&x, &twists, &[], false)
             .unwrap();
             let t = Transform::from_isometry(&x);
             let labels = m.labels(&t, &c);

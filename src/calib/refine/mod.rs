@@ -573,12 +573,15 @@ pub trait Refinable: Send + Sync + fmt::Debug {
     /// (`robot::Robot::error_twists`). Rotation rad in the sensor frame, translation m, as the
     /// covariance. None: a pose `twists` has no answer for, or the problem is singular. The
     /// same moves for each of `others` (the errors through other joint configurations), from the
-    /// same evaluations: empty where a pose has no answer in one of them.
+    /// same evaluations: empty where a pose has no answer in one of them. With `misfit`, the
+    /// residual level less what the errors explain too (`PoseShift::residual_without`: k^2
+    /// products a row for k errors, asked where they are an arm's few, not three a pose).
     fn pose_shift(
         &self,
         x: &Isometry3<f64>,
         twists: &dyn Fn(&Isometry3<f64>) -> Option<Vec<Vector6<f64>>>,
         others: &[&dyn Fn(&Isometry3<f64>) -> Option<Vec<Vector6<f64>>>],
+        misfit: bool,
     ) -> Option<PoseShift>;
     /// The same problem without the features seen from the flange poses `drop` picks.
     fn without_poses(&self, drop: &dyn Fn(&Isometry3<f64>) -> bool) -> Box<dyn Refinable>;
@@ -610,8 +613,8 @@ pub struct PoseShift {
     /// (`Refinable::orientation_groups`; empty: none).
     pub pose_groups: Vec<u32>,
     /// The residual-level covariance (as the fit's, `covariance_from`) of the fit's residuals
-    /// less what the errors can explain (`residual_without_errors`); None where the model's
-    /// covariance has rows of its own or the errors leave no dimensions.
+    /// less what the errors can explain (`residual_without_errors`); None where not asked for,
+    /// where the model's covariance has rows of its own or the errors leave no dimensions.
     pub residual_without: Option<Matrix6<f64>>,
 }
 
@@ -852,6 +855,7 @@ impl<M: Model + 'static> Refinable for Problem<M> {
         x: &Isometry3<f64>,
         twists: &dyn Fn(&Isometry3<f64>) -> Option<Vec<Vector6<f64>>>,
         others: &[&dyn Fn(&Isometry3<f64>) -> Option<Vec<Vector6<f64>>>],
+        misfit: bool,
     ) -> Option<PoseShift> {
         // Each residual depends on its own pose only, so moving every pose by one unit twist
         // at a time gives each row's derivative along it; an error's residual change is then
@@ -954,7 +958,7 @@ impl<M: Model + 'static> Refinable for Problem<M> {
             }
             None => Vec::new(),
         };
-        let residual_without = (!m.has_covariance_rows())
+        let residual_without = (misfit && !m.has_covariance_rows())
             .then(|| {
                 let errors = Errors {
                     along: &along,
