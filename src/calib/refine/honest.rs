@@ -2413,6 +2413,26 @@ mod tests {
         (j, cl, inv)
     }
 
+    /// The figures of the fit to residuals `drawn` of design `j` (clusters `cl`, `poses` of
+    /// them; residual-level covariance `cov`) and its poses' steps, as a fit's bound takes them.
+    fn fit_and_steps(
+        j: &DMatrix<f64>,
+        cl: &[u32],
+        inv: &DMatrix<f64>,
+        clustering: &Clustering,
+        drawn: &DVector<f64>,
+        cov: &Matrix6<f64>,
+        poses: usize,
+    ) -> (Honest, Vec<nalgebra::Vector6<f64>>) {
+        let used: Vec<usize> = (0..6).collect();
+        let step = -inv * j.tr_mul(drawn);
+        let sums = super::super::Sums::of(&(drawn + j * &step), j, cl, poses);
+        (
+            Honest::of(Some(inv), &sums, &[], &used, cov),
+            clustering.steps(j, drawn, &step).unwrap(),
+        )
+    }
+
     /// `shift_scatter` is the poses' steps' expected sum of squares under independent per-pose
     /// shifts, by Monte Carlo on a design whose poses have three rows each, one of them
     /// weighing four times the others (it carries a direction nearly alone, as one of a
@@ -2818,11 +2838,8 @@ mod tests {
         let drawn = DVector::from_fn(n, |i, _| {
             change[i] * 4.0 + sigma * dr.gauss() + (j.row(i) * shared[i / per / size])[0]
         });
-        let refitted = &drawn + &j * fit_step(&drawn);
-        let sums = super::super::Sums::of(&refitted, &j, &cl, poses);
         let cov = (&inv * sigma * sigma).fixed_view::<6, 6>(0, 0).into_owned();
-        let h = Honest::of(Some(&inv), &sums, &[], &used, &cov);
-        let steps = clustering.steps(&j, &drawn, &fit_step(&drawn)).unwrap();
+        let (h, steps) = fit_and_steps(&j, &cl, &inv, &clustering, &drawn, &cov, poses);
         let model = h.residual + shifts_covariance(&shifts);
         let grouped = h.with_kinematic(
             &shifts,
@@ -2891,7 +2908,6 @@ mod tests {
         let clustering =
             Clustering::of(&j, cl.clone(), &(j.transpose() * &j), &inv, &used).unwrap();
         let labels: Vec<u32> = (0..poses).map(|c| (c / size) as u32).collect();
-        let fit_step = |r: &DVector<f64>| -&inv * j.tr_mul(r);
         let sigma = 1e-3;
         let cov = (&inv * sigma * sigma).fixed_view::<6, 6>(0, 0).into_owned();
         // Twelve patterns smooth in the pose, twenty times the noise's steps in the small
@@ -2917,10 +2933,7 @@ mod tests {
         let mut mean = 0.0;
         for _ in 0..draws {
             let drawn = DVector::from_fn(n, |_, _| sigma * dr.gauss());
-            let refitted = &drawn + &j * fit_step(&drawn);
-            let sums = super::super::Sums::of(&refitted, &j, &cl, poses);
-            let h = Honest::of(Some(&inv), &sums, &[], &used, &cov);
-            let steps = clustering.steps(&j, &drawn, &fit_step(&drawn)).unwrap();
+            let (h, steps) = fit_and_steps(&j, &cl, &inv, &clustering, &drawn, &cov, poses);
             let k = h.with_kinematic(
                 &shifts,
                 Some(&pattern),
