@@ -620,10 +620,10 @@ impl Honest {
         }
         // The fit in the steps whitened by the independent covariance: the steps mix radians
         // and metres, and a projection that is least squares in their raw numbers moves the
-        // small ones by what it fits to the large ones (with no arm error drawn, the edge
-        // paper's 25 groups' scatter came out up to 3.6 times the independent covariance's
-        // after the raw fit, 1.5 before it, and widened its bound by 1.5: docs/verdict.md,
-        // "Fifty-fifth session").
+        // small ones by what it fits to the large ones (with the arm stated and none drawn, the
+        // edge paper's 25 groups' scatter reached 1.3-3.6 times the independent covariance in
+        // its largest direction after the raw fit, 1.2-1.8 before it, and the groups widened
+        // the refined fit's bound 1.55 times: docs/verdict.md, "Fifty-fifth session").
         let l = independent.cholesky().map(|c| c.l());
         let whiten = |v: &nalgebra::Vector6<f64>| match &l {
             Some(l) => l.solve_lower_triangular(v).unwrap_or(*v),
@@ -2889,10 +2889,9 @@ mod tests {
     /// With no error shared by a group, the patterns' fit leaves the groups' scatter at the
     /// noise's in every direction when the parameters' units differ by a thousand (radians and
     /// metres): fitted in the raw numbers, the fit follows the large numbers' noise and moves
-    /// the small ones by the patterns' size there, and the groups widened the bound (as on the
-    /// edge paper's 25 groups;
-    /// docs/verdict.md, "Fifty-fifth session"; here a mean widening of 1.96 before). 50 draws
-    /// of 100 poses in 20 groups.
+    /// the small ones by the patterns' size there, and the groups widened the bound (here 1.96
+    /// times on average; the edge paper's 25 groups: docs/verdict.md, "Fifty-fifth session").
+    /// 50 draws of 100 poses in 20 groups.
     #[test]
     fn the_patterns_fit_in_mixed_units_widens_no_group() {
         use nalgebra::Vector6;
